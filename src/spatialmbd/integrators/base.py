@@ -1,0 +1,168 @@
+"""The contract between the dynamics and the time integrators (text ch. 13).
+
+An integrator advances a first-order system y' = f(t, y) (13.1)-(13.3) and knows nothing about
+multibody systems: the dynamics hand it an :class:`ODEProblem` whose ``rhs`` solves the equations
+of motion once per call (one *function evaluation*, as counted in Table 15.3) and whose optional
+``project`` hook maps an accepted state back onto its manifold (unit Euler parameters, or the
+constraint manifold for the projection method).
+
+Adding an integrator (numbered contract, after scipy.integrate._ivp):
+
+1. subclass :class:`Integrator`, set ``name``, ``order`` and ``adaptive``;
+2. implement ``_integrate(problem, t0, y0, t_eval, counters, progress)`` returning the outputs at
+   ``t_eval`` as a list (it may stop early by raising; see below);
+3. register the class with :func:`register`.
+
+Failures: the right-hand side raises :class:`spatialmbd.errors.SpatialMBDError` (singular matrix,
+Newton failure), or produces NaN, or the step size underflows. ``Integrator.integrate`` catches
+these and returns an :class:`IntegrationResult` with ``status == "failed"``, a message giving the
+time and the cause, and every output computed before the failure.
+"""
+from __future__ import annotations
+
+import abc
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..errors import SimulationError, SpatialMBDError
+
+RHS = Callable[[float, np.ndarray], np.ndarray]
+Projection = Callable[[float, np.ndarray], np.ndarray]
+
+
+@dataclass
+class ODEProblem:
+    """y' = rhs(t, y).
+
+    rhs: (t, y (n,)) -> y' (n,). One call is one function evaluation.
+    project: optional (t, y) -> y applied to every accepted step (and to the initial state);
+        it must be idempotent on states that already lie on the manifold.
+    jac: optional (t, y) -> (n, n) Jacobian dy'/dy; implicit integrators fall back to finite
+        differences of ``rhs`` when it is None.
+    """
+
+    rhs: RHS
+    project: Optional[Projection] = None
+    jac: Optional[Callable[[float, np.ndarray], np.ndarray]] = None
+
+
+@dataclass
+class Counters:
+    """Work done by one integration run."""
+
+    steps: int = 0            # accepted steps
+    rejected: int = 0         # rejected steps (error test or Newton failure)
+    nfev: int = 0             # right-hand-side evaluations = solves of the equations of motion
+    njev: int = 0             # Jacobian evaluations (implicit integrators)
+    nlu: int = 0              # LU factorisations (implicit integrators)
+    wall_time: float = 0.0    # seconds
+
+    def as_dict(self) -> dict:
+        return dict(steps=self.steps, rejected=self.rejected, nfev=self.nfev, njev=self.njev,
+                    nlu=self.nlu, wall_time=self.wall_time)
+
+
+@dataclass
+class IntegrationResult:
+    """Outputs of an integration at the requested times.
+
+    t: (n_out,) the output times actually reached (a prefix of t_eval when failed).
+    y: (n_out, n) the state at those times (dense output, not the internal steps).
+    status: "success" or "failed"; message says why it failed (time and cause).
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    status: str
+    message: str
+    counters: Counters = field(default_factory=Counters)
+    t_fail: Optional[float] = None
+
+    @property
+    def success(self) -> bool:
+        return self.status == "success"
+
+
+class Integrator(abc.ABC):
+    """Base class: a time-stepping strategy. Subclasses implement ``_integrate``."""
+
+    name: str = ""
+    order: int = 0
+    adaptive: bool = False
+
+    def integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
+                  progress: Optional[Callable[[float], None]] = None) -> IntegrationResult:
+        """Integrate from (t0, y0) and return the state at each time of ``t_eval``.
+
+        t_eval: (n_out,) increasing, t_eval[0] >= t0. progress: called with the current time
+        after accepted steps (for progress bars).
+        """
+        t_eval = np.asarray(t_eval, dtype=float)
+        if t_eval.ndim != 1 or t_eval.size == 0:
+            raise ValueError("t_eval must be a non-empty 1-D array of output times")
+        if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t0:
+            raise ValueError("t_eval must be strictly increasing and start at or after t0")
+        counters = Counters()
+        outputs: list[np.ndarray] = []
+        y0 = np.array(y0, dtype=float)
+        if problem.project is not None:
+            y0 = problem.project(t0, y0)
+        start = time.perf_counter()
+        status, message, t_fail = "success", "", None
+        try:
+            with np.errstate(all="ignore"):
+                self._integrate(problem, float(t0), y0, t_eval, counters, outputs, progress)
+        except (SpatialMBDError, FloatingPointError, np.linalg.LinAlgError) as exc:
+            status = "failed"
+            t_fail = getattr(exc, "t", None)
+            message = str(exc)
+        counters.wall_time = time.perf_counter() - start
+        n_out = len(outputs)
+        y = np.array(outputs) if n_out else np.empty((0, y0.size))
+        if status == "failed" and t_fail is None:
+            t_fail = float(t_eval[n_out]) if n_out < t_eval.size else float(t_eval[-1])
+        if status == "failed" and not message.startswith("t ="):
+            message = f"t = {t_fail:.6g} s: {message}"
+        return IntegrationResult(t=t_eval[:n_out].copy(), y=y, status=status, message=message,
+                                 counters=counters, t_fail=t_fail)
+
+    @abc.abstractmethod
+    def _integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
+                   counters: Counters, outputs: list, progress) -> None:
+        """Append y(t_eval[k]) to ``outputs`` in order; raise on failure (see module doc)."""
+
+
+def check_finite(t: float, y: np.ndarray, what: str = "state") -> None:
+    """Raise SimulationError naming the time if ``y`` holds NaN or inf."""
+    if not np.all(np.isfinite(y)):
+        err = SimulationError(f"t = {t:.6g} s: non-finite {what} (NaN or inf); the motion "
+                              "became unbounded or a force law returned NaN")
+        err.t = t
+        raise err
+
+
+INTEGRATORS: dict[str, type[Integrator]] = {}
+
+
+def register(cls: type[Integrator]) -> type[Integrator]:
+    """Class decorator: make an integrator available by name (files, CLI, ``simulate``)."""
+    INTEGRATORS[cls.name] = cls
+    return cls
+
+
+def get_integrator(spec, **options) -> Integrator:
+    """An integrator from a name (with options) or an Integrator instance."""
+    if isinstance(spec, Integrator):
+        if options:
+            raise ValueError("options can only be given with an integrator name")
+        return spec
+    if isinstance(spec, str):
+        key = spec.lower()
+        if key not in INTEGRATORS:
+            raise ValueError(f"unknown integrator {spec!r}; valid names: "
+                             + ", ".join(sorted(INTEGRATORS)))
+        return INTEGRATORS[key](**options)
+    raise TypeError(f"integrator must be a name or an Integrator, not {type(spec).__name__}")
