@@ -1,0 +1,91 @@
+"""Force elements (text ch. 11): the contract every force module implements.
+
+A force group evaluates all of its instances at once and returns their contribution to the
+generalized force vector g (10.6) of every body: (nb+1, 6) rows [f (3), n (3)] in global axes,
+n about the centre of mass, the ground row last (discarded). Sign convention: the returned
+forces act ON the bodies.
+
+For the energy balance each group also reports its potential energy (conservative parts) and
+the power of its non-conservative parts (damping, actuators, external loads).
+"""
+from __future__ import annotations
+
+import abc
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import ModelError
+from ..state import BodyState
+
+
+class ForceType(abc.ABC):
+    name: ClassVar[str] = ""
+
+    def __init__(self, names):
+        self.names = tuple(names)
+        self.n = len(self.names)
+
+    @classmethod
+    @abc.abstractmethod
+    def validate(cls, spec, builder) -> None:
+        """Check a ForceSpec against the builder; raise ModelError naming the problem."""
+
+    @classmethod
+    @abc.abstractmethod
+    def build(cls, specs, context) -> "ForceType":
+        """The group of all specs of this type (context: body index, joint geometry)."""
+
+    @abc.abstractmethod
+    def evaluate(self, state: BodyState, t: float, g: np.ndarray) -> None:
+        """Add the generalized forces of every instance to g (nb+1, 6)."""
+
+    def potential_energy(self, state: BodyState, t: float) -> float:
+        """Potential energy stored in the elements (J)."""
+        return 0.0
+
+    def nonconservative_power(self, state: BodyState, t: float) -> float:
+        """Power delivered to the bodies by non-conservative parts (W)."""
+        return 0.0
+
+
+def add_to_bodies(g: np.ndarray, body: np.ndarray, f: np.ndarray, n: np.ndarray) -> None:
+    """g[body] += [f, n] with repeated bodies accumulated (np.add.at)."""
+    np.add.at(g, (body, slice(0, 3)), f)
+    np.add.at(g, (body, slice(3, 6)), n)
+
+
+def check_body(spec, builder, key="body", ground_ok=False) -> str:
+    body = spec.params.get(key)
+    if body == "ground" and ground_ok:
+        return body
+    if body not in builder.bodies:
+        raise ModelError(f"forces[{spec.name!r}].{key}: unknown body {body!r} (bodies: "
+                         f"{', '.join(builder.bodies)})")
+    return body
+
+
+def local_point(spec, builder, body, key, default=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """A point on ``body`` in body axes, from a name, a local vector or None (default)."""
+    value = spec.params.get(key, default)
+    if body == "ground":
+        pts = {}
+    else:
+        pts = builder.bodies[body].points
+    if isinstance(value, str):
+        if value not in pts:
+            raise ModelError(f"forces[{spec.name!r}].{key}: body {body!r} has no point named "
+                             f"{value!r}")
+        return np.array(pts[value], dtype=float)
+    arr = np.array(value, dtype=float).reshape(-1)
+    if arr.size != 3 or not np.all(np.isfinite(arr)):
+        raise ModelError(f"forces[{spec.name!r}].{key}: expected 3 numbers or a point name, "
+                         f"got {value!r}")
+    return arr
+
+
+def check_unknown(spec, allowed) -> None:
+    extra = set(spec.params) - set(allowed)
+    if extra:
+        raise ModelError(f"forces[{spec.name!r}]: unknown parameter(s) {sorted(extra)} for a "
+                         f"{spec.type}; allowed: {sorted(allowed)}")
