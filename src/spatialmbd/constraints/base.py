@@ -95,6 +95,9 @@ class ConstraintType(abc.ABC):
 
     @staticmethod
     def _scleronomic(phi, D, gamma) -> ConstraintEval:
+        """A time-independent evaluation (nu = 0); scalar parts get their equation axis."""
+        if phi.ndim == 1:
+            phi, D, gamma = phi[:, None], D[:, None, :], gamma[:, None]
         return ConstraintEval(phi, D, np.zeros_like(phi), gamma)
 
 
