@@ -1,0 +1,283 @@
+"""Self-contained offline HTML animation of a multibody motion.
+
+The page is one HTML file: the scene is embedded as JSON and drawn by our own small Canvas-2D
+software renderer (``viewer.js``, painter's algorithm with flat Lambert shading and outlines).
+It loads nothing from the network and uses no third-party JavaScript.
+
+This module only knows plain dictionaries and arrays; it does not depend on the model classes.
+
+Scene dictionary
+----------------
+``t``        (n_frames,) times in s, non-decreasing.
+``bodies``   list of ``{"name", "r": (n_frames, 3), "p": (n_frames, 4), "shapes": [...],
+             "color": "#rrggbb" (optional)}``; r is the centre of mass in global axes, p the Euler
+             parameters [e0, e1, e2, e3] with A = (2 e0^2 - 1) I + 2 (e e^T + e0 e~) mapping body to
+             global components.  A static body may give r as (3,) and p as (4,).
+shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x, y, z],
+             "p": [e0, e1, e2, e3] (optional)}``, ``{"type": "cylinder", "radius", "length",
+             "center", "axis"}``, ``{"type": "sphere", "radius", "center"}``; each may carry its own
+             ``"color"``.
+``joints``   optional list of ``{"name", "type", "body": index or -1 (ground), "point_local"}``.
+``ground``   optional list of shapes fixed in global axes.
+``gravity``  optional [gx, gy, gz]; the initial camera uses up = -gravity (default up = +z).
+
+The page exposes ``window.spatialmbdViewer`` (``setTime(t)``, ``getTime()``, ``nFrames``,
+``ready``, ``play()``, ``pause()``, ``isPlaying()``, ``fit()``) and honours a URL hash
+``#t=1.25`` (show that time, paused), ``#speed=2``, ``#play=1``.
+"""
+from __future__ import annotations
+
+import html
+import json
+import math
+import pathlib
+import re
+from importlib import resources
+from typing import Any
+
+import numpy as np
+
+__all__ = ["animation_html", "write_animation_html", "default_shapes"]
+
+#: significant digits of every number embedded in the page
+SIGNIFICANT_DIGITS = 6
+
+_COLOR_RE = re.compile(r"^#[0-9a-fA-F]{6}$")
+_PLACEHOLDER_RE = re.compile(r"\{\{(TITLE|SCENE_JSON|VIEWER_JS)\}\}")
+_DEGENERATE_SIDE = 1e-3
+_PALETTE = ("#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948", "#b07aa1",
+            "#ff9da7", "#9c755f", "#bab0ac")
+
+
+# ----------------------------------------------------------------------------------------------
+# number formatting
+# ----------------------------------------------------------------------------------------------
+def _rounded(values: Any, what: str, sig: int = SIGNIFICANT_DIGITS) -> list:
+    """Flatten to a list of floats rounded to ``sig`` significant digits (ints where exact)."""
+    a = np.asarray(values, dtype=float).ravel()
+    if not np.all(np.isfinite(a)):
+        bad = int(np.flatnonzero(~np.isfinite(a))[0])
+        raise ValueError(f"{what}: non-finite value {a[bad]!r} at flat index {bad}")
+    out = []
+    for s in np.char.mod(f"%.{sig - 1}e", a):
+        x = float(s) + 0.0  # + 0.0 turns -0.0 into 0.0
+        out.append(int(x) if x.is_integer() and abs(x) < 1e15 else x)
+    return out
+
+
+def _vec(value: Any, n: int, what: str) -> list:
+    a = np.asarray(value, dtype=float)
+    if a.shape != (n,):
+        raise ValueError(f"{what}: expected {n} numbers, got shape {a.shape}")
+    return _rounded(a, what)
+
+
+def _positive(value: Any, what: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: expected a positive number, got {value!r}") from None
+    if not (math.isfinite(x) and x > 0.0):
+        raise ValueError(f"{what}: expected a positive number, got {value!r}")
+    return _rounded([x], what)[0]
+
+
+def _unit(value: Any, n: int, what: str) -> list:
+    a = np.asarray(value, dtype=float)
+    if a.shape != (n,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{what}: expected {n} finite numbers, got {value!r}")
+    norm = float(np.linalg.norm(a))
+    if norm < 1e-12:
+        raise ValueError(f"{what}: zero-length vector {value!r}")
+    return _rounded(a / norm, what)
+
+
+def _color(value: Any, what: str) -> str:
+    if not isinstance(value, str) or not _COLOR_RE.match(value):
+        raise ValueError(f"{what}: expected a colour '#rrggbb', got {value!r}")
+    return value.lower()
+
+
+# ----------------------------------------------------------------------------------------------
+# scene normalisation
+# ----------------------------------------------------------------------------------------------
+def _shape(shape: Any, what: str) -> dict:
+    if not isinstance(shape, dict):
+        raise ValueError(f"{what}: a shape must be a dict, got {type(shape).__name__}")
+    kind = shape.get("type")
+    out: dict = {"type": kind}
+    if kind == "box":
+        size = np.asarray(shape.get("size"), dtype=float)
+        if size.shape != (3,) or not np.all(np.isfinite(size)) or np.any(size <= 0):
+            raise ValueError(f"{what}: box 'size' must be 3 positive numbers, got "
+                             f"{shape.get('size')!r}")
+        out["size"] = _rounded(size, what + ".size")
+        if shape.get("p") is not None:
+            out["p"] = _unit(shape["p"], 4, what + ".p")
+    elif kind == "cylinder":
+        out["radius"] = _positive(shape.get("radius"), what + ".radius")
+        out["length"] = _positive(shape.get("length"), what + ".length")
+        out["axis"] = _unit(shape.get("axis", (0.0, 0.0, 1.0)), 3, what + ".axis")
+    elif kind == "sphere":
+        out["radius"] = _positive(shape.get("radius"), what + ".radius")
+    else:
+        raise ValueError(f"{what}: unknown shape type {kind!r} (use 'box', 'cylinder' or "
+                         "'sphere')")
+    out["center"] = _vec(shape.get("center", (0.0, 0.0, 0.0)), 3, what + ".center")
+    if shape.get("color") is not None:
+        out["color"] = _color(shape["color"], what + ".color")
+    return out
+
+
+def _shapes(shapes: Any, what: str) -> list:
+    if shapes is None:
+        return []
+    if isinstance(shapes, dict):
+        shapes = [shapes]
+    return [_shape(s, f"{what}[{i}]") for i, s in enumerate(shapes)]
+
+
+def _trajectory(value: Any, n_frames: int, width: int, what: str) -> list:
+    a = np.asarray(value, dtype=float)
+    if a.shape == (width,):
+        a = a[None, :]
+    elif a.shape != (n_frames, width):
+        raise ValueError(f"{what}: expected shape ({n_frames}, {width}) (or ({width},) for a "
+                         f"static body), got {a.shape}")
+    return _rounded(a, what)
+
+
+def _prepare_scene(scene: dict, title: str) -> dict:
+    """Validate the scene and convert it to the compact JSON-ready form read by viewer.js."""
+    if not isinstance(scene, dict):
+        raise ValueError(f"scene must be a dict, got {type(scene).__name__}")
+    t = np.asarray(scene.get("t"), dtype=float)
+    if t.ndim != 1 or t.size < 1:
+        raise ValueError(f"scene['t'] must be a 1-D array with at least one time, got shape "
+                         f"{t.shape}")
+    if np.any(np.diff(t) < 0):
+        raise ValueError("scene['t'] must be non-decreasing")
+    n = int(t.size)
+    out: dict = {"title": str(title), "t": _rounded(t, "scene['t']"), "bodies": [],
+                 "joints": [], "ground": []}
+
+    bodies = scene.get("bodies") or []
+    for i, body in enumerate(bodies):
+        what = f"scene['bodies'][{i}]"
+        if not isinstance(body, dict):
+            raise ValueError(f"{what}: a body must be a dict")
+        b = {"name": str(body.get("name", f"body{i}")),
+             "color": _color(body["color"], what + ".color") if body.get("color") is not None
+             else _PALETTE[i % len(_PALETTE)],
+             "r": _trajectory(body.get("r"), n, 3, what + "['r']"),
+             "p": _trajectory(body.get("p"), n, 4, what + "['p']"),
+             "shapes": _shapes(body.get("shapes"), what + "['shapes']")}
+        if len(b["r"]) // 3 != len(b["p"]) // 4:
+            raise ValueError(f"{what}: 'r' and 'p' must both be static or both have "
+                             f"{n} frames")
+        out["bodies"].append(b)
+
+    for j, joint in enumerate(scene.get("joints") or []):
+        what = f"scene['joints'][{j}]"
+        if not isinstance(joint, dict):
+            raise ValueError(f"{what}: a joint must be a dict")
+        body = joint.get("body", -1)
+        if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not (
+                -1 <= int(body) < len(bodies)):
+            raise ValueError(f"{what}: 'body' must be -1 (ground) or an index < {len(bodies)}, "
+                             f"got {body!r}")
+        out["joints"].append({"name": str(joint.get("name", f"joint{j}")),
+                              "type": str(joint.get("type", "")),
+                              "body": int(body),
+                              "point": _vec(joint.get("point_local", (0.0, 0.0, 0.0)), 3,
+                                            what + "['point_local']")})
+
+    out["ground"] = _shapes(scene.get("ground"), "scene['ground']")
+    gravity = scene.get("gravity")
+    if gravity is not None:
+        g = np.asarray(gravity, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"scene['gravity'] must be 3 finite numbers, got {gravity!r}")
+        if np.linalg.norm(g) > 0:
+            out["up"] = _unit(-g, 3, "scene['gravity']")
+    out.setdefault("up", [0, 0, 1])
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# page assembly
+# ----------------------------------------------------------------------------------------------
+def _resource(name: str) -> str:
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+
+
+def _scene_json(data: dict) -> str:
+    text = json.dumps(data, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    # safe inside <script type="application/json">: no "</script>", no "<!--"
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+
+
+def animation_html(scene: dict, *, title: str = "spatialmbd animation") -> str:
+    """Return the complete offline HTML page animating ``scene`` (see the module docstring)."""
+    data = _prepare_scene(scene, title)
+    js = _resource("viewer.js")
+    if "</script" in js.lower():
+        raise RuntimeError("viewer.js must not contain '</script'")
+    values = {"TITLE": html.escape(str(title)), "SCENE_JSON": _scene_json(data),
+              "VIEWER_JS": js}
+    # one pass, so user text that looks like a placeholder is never expanded
+    return _PLACEHOLDER_RE.sub(lambda m: values[m.group(1)], _resource("template.html"))
+
+
+def write_animation_html(path, scene: dict, *, title: str = "spatialmbd animation"
+                         ) -> pathlib.Path:
+    """Write the offline HTML animation of ``scene`` to ``path``; return the path."""
+    path = pathlib.Path(path)
+    text = animation_html(scene, title=title)
+    if path.parent != pathlib.Path(""):
+        path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+# ----------------------------------------------------------------------------------------------
+# default display geometry
+# ----------------------------------------------------------------------------------------------
+def default_shapes(mass, inertia_principal, *, min_fraction: float = 0.05,
+                   fallback_size: float = 0.1) -> list[dict]:
+    """Display geometry for a body without any: one box with the body's inertia.
+
+    A uniform box of mass m and sides (lx, ly, lz) has principal moments
+    Ix = m (ly^2 + lz^2) / 12 etc., so lx^2 = 6 (Iy + Iz - Ix) / m and cyclically.  When the
+    moments violate the triangle inequality (Iy + Iz <= Ix, e.g. a thin rod or a point mass) the
+    side would be imaginary or zero: it is clamped to ``min_fraction`` times the largest side
+    (so is a side below 1e-3 times the largest one, i.e. zero up to round-off); otherwise the
+    box reproduces the moments exactly.
+    When every side is zero (zero inertia) a cube of side ``fallback_size`` is returned.
+
+    ``inertia_principal`` is the 3 principal moments (a 3x3 inertia matrix is accepted too: its
+    eigenvalues are used).  Returns a list with one box shape dict, centred at the body origin,
+    ready for ``body["shapes"]``.
+    """
+    m = float(mass)
+    if not (math.isfinite(m) and m > 0.0):
+        raise ValueError(f"default_shapes: mass must be a positive number, got {mass!r}")
+    inertia = np.asarray(inertia_principal, dtype=float)
+    if inertia.shape == (3, 3):
+        inertia = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
+    if inertia.shape != (3,) or not np.all(np.isfinite(inertia)):
+        raise ValueError("default_shapes: inertia_principal must be 3 principal moments, got "
+                         f"{inertia_principal!r}")
+    if np.any(inertia < -1e-12 * max(1.0, float(np.max(np.abs(inertia))))):
+        raise ValueError(f"default_shapes: negative principal moment in {inertia.tolist()}")
+    ix, iy, iz = np.maximum(inertia, 0.0)
+    sq = 6.0 / m * np.array([iy + iz - ix, iz + ix - iy, ix + iy - iz])
+    sides = np.sqrt(np.maximum(sq, 0.0))
+    largest = float(np.max(sides))
+    if largest <= 0.0:
+        sides = np.full(3, float(fallback_size))
+    else:
+        # imaginary, zero or numerically-zero sides only: real thin sides are kept exact
+        degenerate = sides <= _DEGENERATE_SIDE * largest
+        sides = np.where(degenerate, float(min_fraction) * largest, sides)
+    return [{"type": "box", "size": [float(s) for s in sides], "center": [0.0, 0.0, 0.0]}]
