@@ -504,3 +504,14 @@ def pddot_from_omegadot_local(p: np.ndarray, pdot: np.ndarray,
     wd = np.asarray(omegadot_local, dtype=float)
     return (0.5 * np.einsum("...ji,...j->...i", L_matrix(p), wd)
             - np.sum(pdot * pdot, axis=-1, keepdims=True) * p)
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b for (..., 3) arrays; much cheaper than np.cross on small batches."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..state import BodyState
+from ..rotations import cross
 
 
 @dataclass
@@ -59,21 +60,21 @@ def body_vector(state: BodyState, body: np.ndarray, local: np.ndarray, side: int
     """
     a = np.einsum("nij,nj->ni", state.A[body], local)
     w = state.omega[body]
-    ad = np.cross(w, a)
+    ad = cross(w, a)
     jac = np.zeros((a.shape[0], 3, 12))
     jac[:, :, 6 * side + 3:6 * side + 6] = _cross_matrix_columns(a)
-    return Kin(a, ad, jac, np.cross(w, ad))
+    return Kin(a, ad, jac, cross(w, ad))
 
 
 def body_point(state: BodyState, body: np.ndarray, local: np.ndarray, side: int) -> Kin:
     """Global position of a point fixed on ``body``, r^P = r + A s'^P, Eq. (8.1)."""
     s = np.einsum("nij,nj->ni", state.A[body], local)
     w = state.omega[body]
-    sd = np.cross(w, s)
+    sd = cross(w, s)
     jac = np.zeros((s.shape[0], 3, 12))
     jac[:, :, 6 * side:6 * side + 3] = np.eye(3)
     jac[:, :, 6 * side + 3:6 * side + 6] = _cross_matrix_columns(s)
-    return Kin(state.r[body] + s, state.rdot[body] + sd, jac, np.cross(w, sd))
+    return Kin(state.r[body] + s, state.rdot[body] + sd, jac, cross(w, sd))
 
 
 def dot(x: Kin, y: Kin):

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..motion import MotionLawSet, make_law
+from ..rotations import cross
 from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point
 
 FRAMES = ("global", "body")
@@ -74,12 +75,12 @@ class PointForce(_Directed):
     def evaluate(self, state, t, g):
         f = self._vectors(state, t)
         s = np.einsum("nij,nj->ni", state.A[self.body], self.point)
-        add_to_bodies(g, self.body, f, np.cross(s, f))            # Eq. (11.2)
+        add_to_bodies(g, self.body, f, cross(s, f))            # Eq. (11.2)
 
     def nonconservative_power(self, state, t):
         f = self._vectors(state, t)
         s = np.einsum("nij,nj->ni", state.A[self.body], self.point)
-        vP = state.rdot[self.body] + np.cross(state.omega[self.body], s)
+        vP = state.rdot[self.body] + cross(state.omega[self.body], s)
         return float(np.sum(f * vP))
 
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..motion import MotionLawSet, make_law
+from ..rotations import cross
 from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point
 
 
@@ -72,8 +73,8 @@ class SpringDamper(ForceType):
         si = np.einsum("nij,nj->ni", state.A[self.bi], self.s_i)
         sj = np.einsum("nij,nj->ni", state.A[self.bj], self.s_j)
         lvec = state.r[self.bj] + sj - state.r[self.bi] - si                     # Eq. (11.5)
-        ldot_vec = (state.rdot[self.bj] + np.cross(state.omega[self.bj], sj)
-                    - state.rdot[self.bi] - np.cross(state.omega[self.bi], si))    # Eq. (11.9)
+        ldot_vec = (state.rdot[self.bj] + cross(state.omega[self.bj], sj)
+                    - state.rdot[self.bi] - cross(state.omega[self.bi], si))    # Eq. (11.9)
         length = np.linalg.norm(lvec, axis=1)                                     # Eq. (11.6)
         if np.any(length < 1e-12):
             from ..errors import SimulationError
@@ -93,8 +94,8 @@ class SpringDamper(ForceType):
     def evaluate(self, state, t, g):
         si, sj, f, u, _, _ = self.forces(state, t)
         fi = f[:, None] * u                                                       # Eq. (11.11)
-        add_to_bodies(g, self.bi, fi, np.cross(si, fi))                           # Eq. (11.12)
-        add_to_bodies(g, self.bj, -fi, np.cross(sj, -fi))
+        add_to_bodies(g, self.bi, fi, cross(si, fi))                           # Eq. (11.12)
+        add_to_bodies(g, self.bj, -fi, cross(sj, -fi))
 
     def potential_energy(self, state, t):
         _, _, length, _, _ = self._kinematics(state)

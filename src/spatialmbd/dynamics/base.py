@@ -1,0 +1,80 @@
+"""Methods to solve the equations of motion (text ch. 12): the strategy contract.
+
+A method turns an :class:`~spatialmbd.dynamics.eom.Evaluation` (M, g, Phi, D, nu, gamma at one
+instant) into accelerations vdot and multipliers lam (convention of eom.py: D^T lam are the
+reaction forces on the bodies). It never knows which integrator drives it. A method may also
+offer ``project(eom, t, q, v)``, applied by the integrator after every accepted step.
+
+Adding a method: subclass :class:`Method`, set ``name``, implement ``accelerations`` and
+register it with :func:`register`.
+"""
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from ..errors import ModelError
+
+
+@dataclass
+class MethodOutput:
+    vdot: np.ndarray            # (6 nb,)
+    lam: np.ndarray             # (m,)
+    iterations: int = 0         # inner iterations (augmented Lagrangian)
+
+
+class Method(abc.ABC):
+    name: ClassVar[str] = ""
+    #: whether the method projects the state onto the constraint manifold after each step
+    projects: ClassVar[bool] = False
+
+    def setup(self, eom, redundant_rows: Optional[np.ndarray] = None) -> None:
+        """Called once per simulation before the first evaluation."""
+        self.redundant_rows = redundant_rows
+
+    @abc.abstractmethod
+    def accelerations(self, ev, t: float) -> MethodOutput:
+        """vdot and lam at the evaluated instant."""
+
+    def parameters(self) -> dict:
+        return {}
+
+
+METHODS: dict[str, type[Method]] = {}
+
+
+def register(cls):
+    METHODS[cls.name] = cls
+    return cls
+
+
+ALIASES = {"lagrange": "standard", "al": "augmented_lagrangian", "augmented": "augmented_lagrangian",
+           "augmented-lagrangian": "augmented_lagrangian"}
+
+
+def get_method(spec, **options) -> Method:
+    """A method from a name (with options) or a Method instance."""
+    if isinstance(spec, Method):
+        if options:
+            raise ValueError("options can only be given with a method name")
+        return spec
+    if isinstance(spec, str):
+        key = ALIASES.get(spec.lower(), spec.lower())
+        if key not in METHODS:
+            raise ValueError(f"unknown method {spec!r}; valid names: " + ", ".join(sorted(METHODS)))
+        return METHODS[key](**options)
+    raise TypeError(f"method must be a name or a Method, not {type(spec).__name__}")
+
+
+def check_positive(name: str, value, allow_zero: bool = False) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{name}: expected a number, got {value!r}") from None
+    ok = value >= 0 if allow_zero else value > 0
+    if not (np.isfinite(value) and ok):
+        raise ModelError(f"{name}: must be {'>= 0' if allow_zero else '> 0'}, got {value}")
+    return value

@@ -1,0 +1,163 @@
+"""Correction of positions and velocities onto the constraint manifold (text ch. 14).
+
+Positions (14.3)-(14.12): Newton-Raphson with the Moore-Penrose inverse,
+    dx = -D^T (D D^T)^-1 Phi(q)                                                 (14.12)
+where dx = [dr, dpi] lives in the 6-per-body velocity space (ERRATA for (14.6)); the rotation
+part is applied exactly to the Euler parameters (p <- quat(dpi) (x) p), keeping them unit length.
+Velocities (14.13)-(14.19): v_c = v_0 - D^T (D D^T)^-1 (D v_0 - nu)              (14.19)
+(ERRATA: (14.16) has the sign of delta Phidot wrong; (14.18) is right.)
+
+Coordinates listed in ``hold`` (a boolean mask over the 6 nb velocity-space coordinates) are not
+changed; the correction is then the minimum-norm one over the free coordinates.
+Rank-deficient D (redundant constraints) is handled by the least-squares pseudo-inverse.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import ConvergenceError
+from ..kinematics import apply_correction, describe_residual
+
+
+def pinv_solve(D, b: np.ndarray, hold: Optional[np.ndarray] = None) -> np.ndarray:
+    """x = D^+ b (minimum norm), with the columns in ``hold`` kept at zero."""
+    n = D.shape[1]
+    if hold is not None and np.any(hold):
+        Dd = D.toarray() if sp.issparse(D) else D
+        x = np.zeros(n)
+        x[~hold] = np.linalg.lstsq(Dd[:, ~hold], b, rcond=None)[0]
+        return x
+    if sp.issparse(D):
+        DDT = (D @ D.T).tocsc()
+        try:
+            y = spla.splu(DDT, permc_spec="MMD_AT_PLUS_A").solve(b)
+            if np.all(np.isfinite(y)):
+                return D.T @ y
+        except RuntimeError:
+            pass
+        return spla.lsqr(D, b, atol=1e-15, btol=1e-15, iter_lim=20 * n)[0]
+    try:
+        c = la.cho_factor(D @ D.T, check_finite=False)
+        return D.T @ la.cho_solve(c, b, check_finite=False)
+    except la.LinAlgError:
+        return np.linalg.lstsq(D, b, rcond=None)[0]
+
+
+@dataclass
+class CorrectionReport:
+    """What the correction changed: per body the position shift (m), rotation (rad), and the
+    velocity change; residuals before and after."""
+
+    dr: np.ndarray           # (nb, 3)
+    dtheta: np.ndarray       # (nb, 3) accumulated small rotations (global rotation vector)
+    dv: np.ndarray           # (nb, 6)
+    phi_before: float
+    phi_after: float
+    phidot_before: float
+    phidot_after: float
+    iterations: int
+
+    @property
+    def max_position_change(self) -> float:
+        return float(np.abs(self.dr).max()) if self.dr.size else 0.0
+
+    @property
+    def max_rotation_change(self) -> float:
+        return float(np.linalg.norm(self.dtheta, axis=1).max()) if self.dtheta.size else 0.0
+
+    @property
+    def max_velocity_change(self) -> float:
+        return float(np.abs(self.dv).max()) if self.dv.size else 0.0
+
+    def summary(self) -> str:
+        return (f"initial conditions corrected in {self.iterations} Newton iteration(s): "
+                f"max |Phi| {self.phi_before:.3g} -> {self.phi_after:.3g}, max |D v - nu| "
+                f"{self.phidot_before:.3g} -> {self.phidot_after:.3g}; largest changes: "
+                f"position {self.max_position_change:.3g} m, rotation "
+                f"{self.max_rotation_change:.3g} rad, velocity {self.max_velocity_change:.3g}")
+
+
+def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assembler=None):
+    """Positions satisfying Phi(q, t) = 0 by (14.12); returns (q, dx_total, iterations, phi0)."""
+    asm = assembler or model.assembler
+    q = np.array(q, dtype=float).reshape(model.nb, 7)
+    total = np.zeros(6 * model.nb)
+    phi0 = None
+    for it in range(max_iter + 1):
+        cv = asm.evaluate(q, None, t)
+        err = float(np.abs(cv.phi).max()) if cv.phi.size else 0.0
+        if phi0 is None:
+            phi0 = err
+        if err <= tol:
+            return q, total, it, phi0
+        if it == max_iter or not np.isfinite(err):
+            break
+        dx = -pinv_solve(cv.D, cv.phi, hold)                                    # Eq. (14.12)
+        q = apply_correction(q, dx)
+        total += dx
+    raise ConvergenceError(
+        f"t = {t:.6g} s: position correction did not converge in {max_iter} iterations "
+        f"(max |Phi| = {err:.3g}); largest residuals: {describe_residual(model, cv.phi)}. The "
+        "initial positions are too far from an assembled configuration, or the joints are "
+        "inconsistent.")
+
+
+def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None):
+    """Velocities satisfying D v = nu by (14.19); returns (v, phidot_before, phidot_after)."""
+    asm = assembler or model.assembler
+    v = np.array(v, dtype=float).reshape(-1)
+    cv = asm.evaluate(q, v, t)
+    resid = cv.D @ v - cv.nu
+    before = float(np.abs(resid).max()) if resid.size else 0.0
+    v = v - pinv_solve(cv.D, resid, hold)                                         # Eq. (14.19)
+    resid = cv.D @ v - cv.nu
+    after = float(np.abs(resid).max()) if resid.size else 0.0
+    return v, before, after
+
+
+def correct_initial_conditions(model, q, v, t=0.0, hold=None, tol=1e-12, max_iter=30):
+    """Both corrections of chapter 14; returns (q, v, CorrectionReport)."""
+    nb = model.nb
+    v0 = np.array(v, dtype=float).reshape(-1)
+    qc, dx, iters, phi0 = correct_positions(model, q, t, tol, max_iter, hold)
+    vc, pd0, pd1 = correct_velocities(model, qc, v0, t, hold)
+    phi1 = model.assembler.phi(qc, t)
+    report = CorrectionReport(dr=dx.reshape(nb, 6)[:, :3], dtheta=dx.reshape(nb, 6)[:, 3:],
+                              dv=(vc - v0).reshape(nb, 6), phi_before=phi0,
+                              phi_after=float(np.abs(phi1).max()) if phi1.size else 0.0,
+                              phidot_before=pd0, phidot_after=pd1, iterations=iters)
+    return qc, vc.reshape(nb, 6), report
+
+
+HOLD_NAMES = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def hold_mask(model, hold) -> Optional[np.ndarray]:
+    """A boolean mask (6 nb,) from {"body": ["x", "rz", ...]} or a list of "body.coord"."""
+    if hold is None:
+        return None
+    from ..errors import ModelError
+    mask = np.zeros(6 * model.nb, dtype=bool)
+    items = hold.items() if isinstance(hold, dict) else []
+    pairs = []
+    for body, coords in items:
+        pairs.extend((body, c) for c in ([coords] if isinstance(coords, str) else coords))
+    if not isinstance(hold, dict):
+        for entry in hold:
+            body, _, coord = str(entry).rpartition(".")
+            pairs.append((body, coord))
+    for body, coord in pairs:
+        k = model.body_index(body)
+        if k == model.nb:
+            raise ModelError("hold: the ground cannot be held (it never moves)")
+        if coord not in HOLD_NAMES:
+            raise ModelError(f"hold: coordinate {coord!r} of body {body!r} is not one of "
+                             f"{HOLD_NAMES} (translations x, y, z; small rotations rx, ry, rz)")
+        mask[6 * k + HOLD_NAMES.index(coord)] = True
+    return mask

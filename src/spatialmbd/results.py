@@ -1,0 +1,231 @@
+"""Results of a dynamic analysis, and what is computed from them outside the time loop:
+joint reactions, energies, constraint violation and tables.
+
+Arrays (nt output times, nb bodies, m constraint equations):
+    t (nt,), q (nt, nb, 7), v (nt, nb, 6), vdot (nt, nb, 6), lam (nt, m), work (nt,)
+lam follows the convention of dynamics/eom.py: D^T lam are the reaction forces on the bodies.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from .state import BodyState
+
+
+@dataclass
+class JointReaction:
+    """Reaction of one joint over time, on each of its two bodies, at the joint point.
+
+    force_i, moment_i: (nt, 3) on body i, global axes, moment about the joint point P_i;
+    force_j, moment_j: the same on body j (about P_j). *_joint: the same in the joint frame
+    [u, a, b] of body i (u = joint axis). body_i / body_j: body names ("ground" allowed).
+    unique: False if the joint has redundant equations (the split is then not unique).
+    """
+
+    name: str
+    type: str
+    body_i: str
+    body_j: str
+    force_i: np.ndarray
+    moment_i: np.ndarray
+    force_j: np.ndarray
+    moment_j: np.ndarray
+    force_i_joint: np.ndarray
+    moment_i_joint: np.ndarray
+    force_j_joint: np.ndarray
+    moment_j_joint: np.ndarray
+    unique: bool = True
+
+
+@dataclass
+class Results:
+    model: object
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    vdot: np.ndarray
+    lam: np.ndarray
+    work: np.ndarray
+    status: str
+    message: str
+    counters: dict
+    wall_time: float
+    correction: object = None
+    redundant_joints: list = field(default_factory=list)
+    messages: list = field(default_factory=list)
+    settings: dict = field(default_factory=dict)
+
+    # ----------------------------------------------------------------------------------------
+    @classmethod
+    def from_integration(cls, model, eom, method, integrator, t, y, status, message, counters,
+                         wall_time, correction, redundant_joints, messages, settings):
+        """Split the integrator's states and recompute vdot, lam at the output times (these
+        evaluations are not counted as function evaluations)."""
+        nb = model.nb
+        nt = len(t)
+        n_q, n_v = 7 * nb, 6 * nb
+        q = y[:, :n_q].reshape(nt, nb, 7).copy() if nt else np.zeros((0, nb, 7))
+        q[:, :, 3:] /= np.linalg.norm(q[:, :, 3:], axis=2, keepdims=True)
+        v = y[:, n_q:n_q + n_v].reshape(nt, nb, 6) if nt else np.zeros((0, nb, 6))
+        work = y[:, -1].copy() if nt else np.zeros(0)
+        vdot = np.zeros((nt, nb, 6))
+        lam = np.zeros((nt, model.n_eq))
+        from .errors import SpatialMBDError
+        for k in range(nt):
+            try:
+                ev = eom.evaluate(t[k], q[k], v[k].reshape(-1))
+                out = method.accelerations(ev, t[k])
+            except SpatialMBDError:
+                vdot[k] = np.nan
+                lam[k] = np.nan
+                continue
+            vdot[k] = out.vdot.reshape(nb, 6)
+            lam[k] = out.lam
+        return cls(model=model, t=np.asarray(t), q=q, v=v, vdot=vdot, lam=lam, work=work,
+                   status=status, message=message, counters=counters, wall_time=wall_time,
+                   correction=correction, redundant_joints=list(redundant_joints),
+                   messages=list(messages), settings=settings)
+
+    @property
+    def success(self) -> bool:
+        return self.status == "success"
+
+    def body(self, name: str) -> dict:
+        """Time series of one body: r, p, rdot, omega, rddot, omegadot (each (nt, 3|4))."""
+        k = self.model.body_index(name)
+        return dict(r=self.q[:, k, :3], p=self.q[:, k, 3:], rdot=self.v[:, k, :3],
+                    omega=self.v[:, k, 3:], rddot=self.vdot[:, k, :3],
+                    omegadot=self.vdot[:, k, 3:])
+
+    def states(self):
+        for k in range(len(self.t)):
+            yield BodyState.from_qv(self.q[k], self.v[k], self.t[k])
+
+    def point(self, name: str) -> dict:
+        """Position and velocity (nt, 3) of a named point "body.point"."""
+        body, local = self.model.points[name]
+        A = _rotations(self.q[:, body, 3:])
+        s = np.einsum("nij,j->ni", A, local)
+        return dict(r=self.q[:, body, :3] + s,
+                    rdot=self.v[:, body, :3] + np.cross(self.v[:, body, 3:], s))
+
+    # ---------------------------------------------------------------------------- reactions
+    def reactions(self) -> dict:
+        """JointReaction of every joint and driver, by name (from D^T lam, Eq. 10.10)."""
+        model = self.model
+        names = list(model.body_names) + ["ground"]
+        nt = len(self.t)
+        out = {}
+        for gi, (g, off) in enumerate(zip(model.constraint_groups, model.group_offsets)):
+            Fi = np.zeros((nt, g.n, 6))
+            Fj = np.zeros((nt, g.n, 6))
+            Pi = np.zeros((nt, g.n, 3))
+            Pj = np.zeros((nt, g.n, 3))
+            Ti = np.zeros((nt, g.n, 3, 3))
+            for k, state in enumerate(self.states()):
+                ev = g.evaluate(state, self.t[k])
+                lam = self.lam[k, off:off + g.size].reshape(g.n, g.n_eq)
+                gen = np.einsum("nmc,nm->nc", ev.D, lam)        # D^T lam per instance (n, 12)
+                Fi[k], Fj[k] = gen[:, :6], gen[:, 6:]
+                Pi[k] = np.einsum("nij,nj->ni", state.A[g.body_i], g.geometry.s_i)
+                Pj[k] = np.einsum("nij,nj->ni", state.A[g.body_j], g.geometry.s_j)
+                Ti[k] = state.A[g.body_i] @ g.geometry.R_i
+            for n, name in enumerate(g.names):
+                fi, fj = Fi[:, n, :3], Fj[:, n, :3]
+                mi = Fi[:, n, 3:] - np.cross(Pi[:, n], fi)      # moment about the joint point
+                mj = Fj[:, n, 3:] - np.cross(Pj[:, n], fj)
+                T = Ti[:, n]
+                to_joint = lambda x: np.einsum("nji,nj->ni", T, x)  # noqa: E731
+                out[name] = JointReaction(
+                    name=name, type=g.name, body_i=names[g.body_i[n]], body_j=names[g.body_j[n]],
+                    force_i=fi, moment_i=mi, force_j=fj, moment_j=mj,
+                    force_i_joint=to_joint(fi), moment_i_joint=to_joint(mi),
+                    force_j_joint=to_joint(fj), moment_j_joint=to_joint(mj),
+                    unique=name not in self.redundant_joints)
+        return out
+
+    # ---------------------------------------------------------------------------- violation
+    def constraint_violation(self) -> dict:
+        """|Phi| (2-norm), Phi^T Phi (as in Fig. 15.2) and |D v - nu| at every output (nt,)."""
+        asm = self.model.assembler
+        nt = len(self.t)
+        pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
+        for k in range(nt):
+            cv = asm.evaluate(self.q[k], self.v[k], self.t[k])
+            sq[k] = float(cv.phi @ cv.phi)
+            pos[k] = np.sqrt(sq[k])
+            vel[k] = float(np.linalg.norm(cv.D @ self.v[k].reshape(-1) - cv.nu))
+        return dict(position=pos, phi_squared=sq, velocity=vel)
+
+    # ---------------------------------------------------------------------------- energy
+    def energy(self) -> dict:
+        """Kinetic, gravitational and elastic energy, work of non-conservative forces and
+        drivers, total mechanical energy and the energy-balance error, each (nt,), in J.
+
+        error = (T + V_g + V_e)(t) - (T + V_g + V_e)(0) - W_nc(t): zero up to integration
+        error for any model; for a conservative one simply the change of the total energy.
+        """
+        model = self.model
+        m = model.mass
+        A = _rotations(self.q[:, :, 3:])
+        J = A @ model.inertia[None] @ np.swapaxes(A, 2, 3)
+        w = self.v[:, :, 3:]
+        kinetic = 0.5 * np.sum(m * np.sum(self.v[:, :, :3] ** 2, axis=2), axis=1) \
+            + 0.5 * np.einsum("tni,tnij,tnj->t", w, J, w)
+        gravity = -np.einsum("n,tni,i->t", m, self.q[:, :, :3], model.gravity)
+        elastic = np.zeros(len(self.t))
+        if model.force_groups:
+            for k, state in enumerate(self.states()):
+                elastic[k] = sum(g.potential_energy(state, self.t[k]) for g in model.force_groups)
+        total = kinetic + gravity + elastic
+        error = total - (total[0] if total.size else 0.0) - self.work
+        return dict(kinetic=kinetic, gravitational=gravity, elastic=elastic,
+                    work_nonconservative=self.work, total=total, error=error)
+
+    # ---------------------------------------------------------------------------- tables
+    def to_dataframe(self):
+        """A pandas DataFrame with one row per output time and self-explaining columns."""
+        import pandas as pd
+        cols = {"t": self.t}
+        for k, name in enumerate(self.model.body_names):
+            for j, c in enumerate(("x", "y", "z", "e0", "e1", "e2", "e3")):
+                cols[f"{name}.{c}"] = self.q[:, k, j]
+            for j, c in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
+                cols[f"{name}.{c}"] = self.v[:, k, j]
+            for j, c in enumerate(("ax", "ay", "az", "alphax", "alphay", "alphaz")):
+                cols[f"{name}.{c}"] = self.vdot[:, k, j]
+        for name, r in self.reactions().items():
+            for body, f, mom in ((r.body_i, r.force_i, r.moment_i),
+                                 (r.body_j, r.force_j, r.moment_j)):
+                for j, c in enumerate("xyz"):
+                    cols[f"{name}.{body}.f{c}"] = f[:, j]
+                for j, c in enumerate("xyz"):
+                    cols[f"{name}.{body}.m{c}"] = mom[:, j]
+        viol = self.constraint_violation()
+        cols["violation.position"] = viol["position"]
+        cols["violation.velocity"] = viol["velocity"]
+        en = self.energy()
+        for key in ("kinetic", "gravitational", "elastic", "work_nonconservative", "total",
+                    "error"):
+            cols[f"energy.{key}"] = en[key]
+        return pd.DataFrame(cols)
+
+    def summary(self) -> str:
+        c = self.counters
+        lines = [f"status: {self.status}" + (f" ({self.message})" if self.message else ""),
+                 f"method {self.settings.get('method')}, integrator "
+                 f"{self.settings.get('integrator')}: {c.get('steps')} steps, "
+                 f"{c.get('rejected')} rejected, {c.get('nfev')} function evaluations, "
+                 f"wall time {self.wall_time:.3g} s"]
+        if self.correction is not None:
+            lines.append(self.correction.summary())
+        lines.extend(m for m in self.messages if m != self.message)
+        return "\n".join(lines)
+
+
+def _rotations(p: np.ndarray) -> np.ndarray:
+    from .rotations import A_from_p
+    return A_from_p(p)

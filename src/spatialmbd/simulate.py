@@ -1,0 +1,208 @@
+"""Forward dynamics driver: initial-condition correction, the time loop, saving and counters.
+
+Data flows one way (STYLE.md): model -> state (t, q, v) -> assembly -> method (vdot, lam) ->
+integrator -> results. The integrator advances y = [q (7 nb), v (6 nb), W] with
+    qdot = T(q) v (rdot as is, pdot = 1/2 G^T omega, Eq. 5.12),  vdot from the method,
+    Wdot = power of non-conservative forces and drivers (for the energy balance).
+Euler parameters: the right-hand side uses p / |p| (so A(p) is always a rotation) and every
+accepted step renormalises p; since p^T pdot = 0 exactly, this only removes integration error
+(a projection onto the unit sphere, which does not lower the integrator's order).
+"""
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .dynamics import EquationsOfMotion, get_method
+from .dynamics.correction import correct_initial_conditions, hold_mask
+from .errors import ModelError, SimulationError, SpatialMBDError
+from .integrators import get_integrator
+from .integrators.base import ODEProblem, check_finite
+from .kinematics import mobility
+from .results import Results
+from .state import normalize_q, qdot_from_v
+
+
+class RedundantConstraintsWarning(UserWarning):
+    """The model has redundant constraint equations (reactions not uniquely determined)."""
+
+
+def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float = 0.0):
+    if t_eval is not None:
+        t_eval = np.asarray(t_eval, dtype=float)
+        if t_eval.ndim != 1 or t_eval.size == 0 or np.any(np.diff(t_eval) <= 0):
+            raise ModelError("t_eval must be a strictly increasing 1-D array of times")
+        return t_eval
+    if not (np.isfinite(t_end) and t_end > t0):
+        raise ModelError(f"t_end must be greater than the start time {t0}, got {t_end}")
+    if output_step is None:
+        output_step = (t_end - t0) / 500.0
+    if not output_step > 0:
+        raise ModelError(f"output_step must be positive, got {output_step}")
+    n = int(np.floor((t_end - t0) / output_step + 1e-9))
+    t = t0 + output_step * np.arange(n + 1)
+    if t[-1] < t_end - 1e-12 * max(1.0, t_end):
+        t = np.append(t, t_end)
+    return t
+
+
+def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
+             output_step: Optional[float] = None, t_eval: Optional[Sequence[float]] = None,
+             step: Optional[float] = None, rtol: Optional[float] = None,
+             atol: Optional[float] = None, method_options: Optional[dict] = None,
+             integrator_options: Optional[dict] = None, q0=None, v0=None,
+             correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
+             progress=False, t0: float = 0.0) -> Results:
+    """Forward dynamics of ``model`` from t0 to t_end.
+
+    method: "standard", "baumgarte", "penalty", "augmented_lagrangian", "projection" or a
+        Method instance (method_options: its parameters, e.g. alpha, beta).
+    integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "scipy-..." or an Integrator
+        (step: fixed step size in s; rtol/atol for adaptive ones; integrator_options: others).
+    output_step / t_eval: the output times (dense output; default 500 intervals).
+    q0, v0: initial state (nb, 7) and (nb, 6); default the model's. correct_initial: apply the
+        chapter 14 corrections first (hold: coordinates kept fixed, {"body": ["x", ...]}).
+    progress: True for a progress bar on runs longer than about a second, or a callable(t).
+
+    Returns Results (status "success" or "failed" with everything computed up to the failure).
+    """
+    nb = model.nb
+    t_out = output_times(t_end, output_step, t_eval, t0)
+    meth = get_method(method, **(method_options or {}))
+    integ_opts = dict(integrator_options or {})
+    for key, value in (("step", step), ("rtol", rtol), ("atol", atol)):
+        if value is not None:
+            integ_opts[key] = value
+    integ = get_integrator(integrator, **integ_opts)
+    eom = EquationsOfMotion(model, sparse=sparse)
+
+    q = np.array(model.q0 if q0 is None else q0, dtype=float).reshape(nb, 7)
+    v = np.array(model.v0 if v0 is None else v0, dtype=float).reshape(nb, 6)
+    q = normalize_q(q)
+    correction = None
+    if correct_initial and model.n_eq:
+        q, v, correction = correct_initial_conditions(model, q, v, t0, hold_mask(model, hold))
+
+    mob = mobility(model, q, t0) if model.n_eq else None
+    redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
+    redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
+    messages = []
+    if redundant_joints:
+        text = (f"{len(redundant_rows)} redundant constraint equation(s) in joint(s) "
+                f"{', '.join(redundant_joints)} (Gruebler DoF {mob.grubler}, actual DoF "
+                f"{mob.dof}); they are left out of the multiplier solve, so the reactions of "
+                "these joints are not uniquely determined")
+        warnings.warn(text, RedundantConstraintsWarning, stacklevel=2)
+        messages.append(text)
+    meth.setup(eom, redundant_rows)
+
+    n_q, n_v = 7 * nb, 6 * nb
+    driver_rows = _driver_rows(model)
+    track_work = bool(model.force_groups) or driver_rows.size > 0
+
+    def rhs(t, y):
+        qq = normalize_q(y[:n_q]).reshape(nb, 7)
+        vv = y[n_q:n_q + n_v]
+        ev = eom.evaluate(t, qq, vv)
+        out = meth.accelerations(ev, t)
+        ydot = np.empty_like(y)
+        ydot[:n_q] = qdot_from_v(qq, vv.reshape(nb, 6)).reshape(-1)
+        ydot[n_q:n_q + n_v] = out.vdot
+        if track_work:
+            ydot[-1] = _nonconservative_power(model, ev, out.lam, driver_rows, t)
+        else:
+            ydot[-1] = 0.0
+        check_finite(t, ydot, "accelerations")
+        return ydot
+
+    def project(t, y):
+        y = y.copy()
+        qq = normalize_q(y[:n_q]).reshape(nb, 7)
+        if meth.projects:
+            qq, vv = meth.project(eom, t, qq, y[n_q:n_q + n_v])
+            y[n_q:n_q + n_v] = vv
+        y[:n_q] = qq.reshape(-1)
+        return y
+
+    y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
+    callback = _progress(progress, t0, t_out[-1])
+    start = time.perf_counter()
+    try:
+        res = integ.integrate(ODEProblem(rhs=rhs, project=project), t0, y0, t_out,
+                              progress=callback)
+    finally:
+        if hasattr(callback, "close"):
+            callback.close()
+    wall = time.perf_counter() - start
+    if res.status != "success":
+        messages.append(res.message)
+    return Results.from_integration(
+        model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
+        message=res.message, counters=res.counters.as_dict(), wall_time=wall,
+        correction=correction, redundant_joints=redundant_joints, messages=messages,
+        settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
+                      method=meth.name, method_options=meth.parameters(),
+                      integrator=integ.name, integrator_options=_integrator_options(integ),
+                      correct_initial=correct_initial))
+
+
+def _driver_rows(model) -> np.ndarray:
+    rows = []
+    for g, off in zip(model.constraint_groups, model.group_offsets):
+        if g.rheonomic:
+            rows.extend(range(off, off + g.size))
+    return np.array(rows, dtype=int)
+
+
+def _nonconservative_power(model, ev, lam, driver_rows, t) -> float:
+    """Power of the non-conservative force elements and of the drivers' reactions (lam^T nu)."""
+    p = sum(g.nonconservative_power(ev.state, t) for g in model.force_groups)
+    if driver_rows.size:
+        p += float(lam[driver_rows] @ ev.cv.nu[driver_rows])
+    return p
+
+
+def _integrator_options(integ) -> dict:
+    out = {}
+    for key in ("step", "rtol", "atol", "max_step", "adaptive"):
+        if hasattr(integ, key):
+            value = getattr(integ, key)
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            out[key] = value
+    return out
+
+
+class _Progress:
+    """A tqdm bar that appears only when the run has taken more than about a second."""
+
+    def __init__(self, t0, t1):
+        self.t0, self.t1 = t0, t1
+        self.start = time.perf_counter()
+        self.bar = None
+        self.last = t0
+
+    def __call__(self, t):
+        if self.bar is None:
+            if time.perf_counter() - self.start < 1.0:
+                return
+            from tqdm import tqdm
+            self.bar = tqdm(total=self.t1 - self.t0, unit="s(sim)", leave=False,
+                            bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
+        self.bar.update(t - self.last)
+        self.last = t
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _progress(progress, t0, t1):
+    if callable(progress):
+        return progress
+    if progress:
+        return _Progress(t0, t1)
+    return None
