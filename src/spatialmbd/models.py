@@ -197,3 +197,21 @@ def bricard() -> ModelBuilder:
         b.add_joint("revolute", name, chain_bodies[k], chain_bodies[k + 1], point=pts[name],
                     axis=axes[name])
     return b
+
+
+#: Example models by name: name -> (builder function, keyword arguments, suggested analysis).
+#: The analysis dict uses the keys of a model file's ``analysis`` section.
+EXAMPLES = {
+    "pendulum_ch15": (pendulum_ch15, {}, dict(type="dynamic", t_end=10.0, output_step=0.02,
+                                              method={"name": "standard"},
+                                              integrator={"name": "rk45", "rtol": 1e-6,
+                                                          "atol": 1e-9})),
+    "slider_crank": (slider_crank, {"driven": True},
+                     dict(type="kinematic", t_end=2 * np.pi / 6.0, output_step=0.01)),
+    "four_bar": (four_bar, {}, dict(type="dynamic", t_end=3.0, output_step=0.01,
+                                    method={"name": "projection"},
+                                    integrator={"name": "rk45", "rtol": 1e-8, "atol": 1e-10})),
+    "bricard": (bricard, {}, dict(type="dynamic", t_end=10.0, output_step=0.01,
+                                  method={"name": "projection"},
+                                  integrator={"name": "rk45", "rtol": 1e-8, "atol": 1e-10})),
+}
