@@ -1,0 +1,23 @@
+"""Time integrators of text ch. 13 behind one contract (see :mod:`.base`).
+
+Registered names: ``euler``, ``heun``, ``rk4`` (fixed step), ``abm4`` (Adams-Bashforth-Moulton
+PECE), ``bdf4`` (Gear), ``rk45`` (Dormand-Prince 5(4)) and the SciPy methods ``scipy-rk45``,
+``scipy-dop853``, ``scipy-radau``, ``scipy-bdf``, ``scipy-lsoda``. Get one with
+``get_integrator(name, **options)``.
+"""
+from .base import (INTEGRATORS, Counters, IntegrationResult, Integrator, ODEProblem,
+                   check_finite, get_integrator, register)
+from .controller import StepController
+from .fixed_step import FixedStepIntegrator, ForwardEuler, Heun, RungeKutta4
+from .adams import AdamsBashforthMoulton4
+from .gear import GearBDF4
+from .runge_kutta_adaptive import DormandPrince45
+from .scipy_ivp import (ScipyBDF, ScipyDOP853, ScipyIntegrator, ScipyLSODA, ScipyRadau,
+                        ScipyRK45)
+
+__all__ = [
+    "INTEGRATORS", "Counters", "IntegrationResult", "Integrator", "ODEProblem", "check_finite",
+    "get_integrator", "register", "StepController", "FixedStepIntegrator", "ForwardEuler",
+    "Heun", "RungeKutta4", "AdamsBashforthMoulton4", "GearBDF4", "DormandPrince45",
+    "ScipyIntegrator", "ScipyRK45", "ScipyDOP853", "ScipyRadau", "ScipyBDF", "ScipyLSODA",
+]

@@ -9,8 +9,9 @@ constraint manifold for the projection method).
 Adding an integrator (numbered contract, after scipy.integrate._ivp):
 
 1. subclass :class:`Integrator`, set ``name``, ``order`` and ``adaptive``;
-2. implement ``_integrate(problem, t0, y0, t_eval, counters, progress)`` returning the outputs at
-   ``t_eval`` as a list (it may stop early by raising; see below);
+2. implement ``_integrate(problem, t0, y0, t_eval, counters, outputs, progress)``, appending the
+   state at each time of ``t_eval`` to the list ``outputs`` in order, updating ``counters`` and
+   calling ``progress(t)`` after accepted steps (it may stop early by raising; see below);
 3. register the class with :func:`register`.
 
 Failures: the right-hand side raises :class:`spatialmbd.errors.SpatialMBDError` (singular matrix,
