@@ -76,7 +76,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     for key, value in (("step", step), ("rtol", rtol), ("atol", atol)):
         if value is not None:
             integ_opts[key] = value
-    integ = get_integrator(integrator, **integ_opts)
+    integ = _make_integrator(integrator, integ_opts)
     eom = EquationsOfMotion(model, sparse=sparse)
 
     q = np.array(model.q0 if q0 is None else q0, dtype=float).reshape(nb, 7)
@@ -147,6 +147,24 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
                       method=meth.name, method_options=meth.parameters(),
                       integrator=integ.name, integrator_options=_integrator_options(integ),
                       correct_initial=correct_initial))
+
+
+def _make_integrator(integrator, options: dict):
+    """get_integrator with a clear error for options the integrator does not take."""
+    import inspect
+    from .integrators import INTEGRATORS, Integrator
+    if isinstance(integrator, str) and integrator.lower() in INTEGRATORS and options:
+        cls = INTEGRATORS[integrator.lower()]
+        accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
+        wrong = sorted(set(options) - accepted)
+        if wrong:
+            raise ModelError(f"integrator {integrator!r} takes no {', '.join(wrong)}; its "
+                             f"options are {', '.join(sorted(accepted)) or 'none'} (fixed-step "
+                             "integrators take step, adaptive ones rtol and atol)")
+    if isinstance(integrator, Integrator) and options:
+        raise ModelError("step/rtol/atol cannot be combined with an Integrator instance; set "
+                         "them on the instance")
+    return get_integrator(integrator, **options)
 
 
 def _driver_rows(model) -> np.ndarray:
