@@ -11,6 +11,7 @@ factorisation of D at the converged positions (Nikravesh 1988).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
@@ -38,7 +39,9 @@ class JacobianFactor:
             if self.square and self.sparse:
                 self._lu = spla.splu(sp.csc_matrix(D))
             elif self.square:
-                self._lu = la.lu_factor(D, check_finite=False)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", la.LinAlgWarning)
+                    self._lu = la.lu_factor(D, check_finite=False)
                 diag = np.abs(np.diag(self._lu[0]))
                 if diag.min() <= 1e-13 * max(diag.max(), 1.0):
                     raise np.linalg.LinAlgError("singular")
