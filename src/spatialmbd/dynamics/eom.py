@@ -123,7 +123,24 @@ class EquationsOfMotion:
         g[:nb, 3:] = -cross(w, np.einsum("nij,nj->ni", M.J, w))         # Eq. (10.4)
         for group in self.model.force_groups:
             group.evaluate(state, t, g)
+        if not np.all(np.isfinite(g[:nb])):
+            self._raise_non_finite(state, t, M)
         return g[:nb].reshape(-1)
+
+    def _raise_non_finite(self, state, t, M):
+        """Name the force element (or the state) that made g non-finite."""
+        from ..errors import SimulationError
+        culprit = "the state itself (positions or velocities are not finite)"
+        for group in self.model.force_groups:
+            g = np.zeros((self.nb + 1, 6))
+            group.evaluate(state, t, g)
+            if not np.all(np.isfinite(g)):
+                culprit = f"force element(s) of type {group.name}: {', '.join(group.names)}"
+                break
+        err = SimulationError(f"t = {t:.6g} s: non-finite (NaN or inf) applied forces from "
+                              f"{culprit}")
+        err.t = t
+        raise err
 
     def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> Evaluation:
         state = BodyState.from_qv(q, v, t)

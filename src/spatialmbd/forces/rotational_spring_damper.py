@@ -1,9 +1,11 @@
 """Rotational spring-damper-actuator about a revolute (or cylindrical) joint.
 
 With theta the joint angle (body j relative to body i about the joint axis u, as measured by the
-angle driver: atan2(b_i.a_j, a_i.a_j)), the element applies the moment
-    tau = -(k (theta - theta0) + c thetadot + tau_a(t))
-to body j about u and -tau to body i. theta - theta0 is wrapped to (-pi, pi], so the spring
+angle driver: atan2(b_i.a_j, a_i.a_j)), the element applies the generalized force
+    g_ij = tau D_theta^T,   tau = -(k (theta - theta0) + c thetadot + tau_a(t)),
+with D_theta the Jacobian of theta with respect to v_ij. When the joint holds this is the moment
+tau u on body j and -tau u on body i; when it is violated it is still the exact gradient of the
+potential k (theta - theta0)^2 / 2, so energy is balanced in every state. theta - theta0 is wrapped to (-pi, pi], so the spring
 acts on the shortest angle (use it for oscillations, not for windings of several turns).
 """
 from __future__ import annotations
@@ -59,19 +61,17 @@ class RotationalSpringDamper(ForceType):
                    [make_law(s.params.get("actuator", 0.0)) for s in specs])
 
     def _torque(self, state, t):
-        theta, _, thetad, _ = prim.relative_angle(state, self.bi, self.bj, self.R_i, self.R_j)
+        theta, D, thetad, _ = prim.relative_angle(state, self.bi, self.bj, self.R_i, self.R_j)
         dtheta = np.remainder(theta - self.theta0 + np.pi, 2 * np.pi) - np.pi
         ta = self.laws(t)[0]
         tau = -(self.k * dtheta + self.c * thetad + ta)
-        u = np.einsum("nij,nj->ni", state.A[self.bi], self.R_i[:, :, 0])
-        return tau, u, dtheta, thetad, ta
+        return tau, D, dtheta, thetad, ta
 
     def evaluate(self, state, t, g):
-        tau, u, _, _, _ = self._torque(state, t)
-        n = tau[:, None] * u
-        zero = np.zeros_like(n)
-        add_to_bodies(g, self.bj, zero, n)
-        add_to_bodies(g, self.bi, zero, -n)
+        tau, D, _, _, _ = self._torque(state, t)
+        gen = tau[:, None] * D                                   # (n, 12) over v_i, v_j
+        add_to_bodies(g, self.bi, gen[:, 0:3], gen[:, 3:6])
+        add_to_bodies(g, self.bj, gen[:, 6:9], gen[:, 9:12])
 
     def potential_energy(self, state, t):
         _, _, dtheta, _, _ = self._torque(state, t)

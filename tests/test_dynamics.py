@@ -1,0 +1,197 @@
+"""Forward dynamics (ch. 10-14): Newton-Euler residuals, energy, methods and integrators agree,
+reactions against exact relations, redundant constraints, failures and bad input."""
+import warnings
+
+import numpy as np
+import pytest
+
+from spatialmbd import ModelBuilder, models
+from spatialmbd.dynamics import EquationsOfMotion, get_method
+from spatialmbd.errors import ModelError
+from spatialmbd.kinematics import kinematic_analysis
+from spatialmbd.simulate import RedundantConstraintsWarning, simulate
+
+TIGHT = dict(integrator="rk45", rtol=1e-10, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def crank():
+    return models.slider_crank(driven=False).compile()
+
+
+def test_newton_euler_residual_vanishes_for_each_body(crank):
+    res = simulate(crank, 0.3, output_step=0.05, **TIGHT)
+    assert res.success
+    eom = EquationsOfMotion(crank)
+    for k in range(len(res.t)):
+        ev = eom.evaluate(res.t[k], res.q[k], res.v[k].reshape(-1))
+        resid = ev.M.dot(res.vdot[k].reshape(-1)) - ev.g - ev.cv.D.T @ res.lam[k]
+        assert np.abs(resid).max() < 1e-9 * max(1.0, np.abs(ev.g).max())
+
+
+def test_energy_is_conserved_for_a_conservative_system():
+    model = models.chain(3, "spherical").compile()
+    res = simulate(model, 1.0, output_step=0.01, method="projection", **TIGHT)
+    en = res.energy()
+    scale = np.abs(en["gravitational"]).max() + 1.0
+    assert np.abs(en["error"]).max() < 1e-8 * scale
+    assert np.abs(en["kinetic"]).max() > 1.0          # it really moved
+
+
+@pytest.mark.parametrize("method", ["standard", "baumgarte", "penalty", "augmented_lagrangian",
+                                    "projection"])
+def test_all_methods_agree_on_a_closed_loop(crank, method):
+    ref = simulate(crank, 0.4, output_step=0.1, method="projection", **TIGHT)
+    res = simulate(crank, 0.4, output_step=0.1, method=method, integrator="rk45", rtol=1e-9,
+                   atol=1e-11)
+    assert res.success
+    tol = 1e-6 if method in ("penalty",) else 1e-7
+    assert np.abs(res.q - ref.q).max() < tol
+    assert np.abs(res.lam - ref.lam).max() < 1e3 * tol * max(1, np.abs(ref.lam).max())
+
+
+@pytest.mark.parametrize("integrator,options,tol", [
+    ("euler", dict(step=2e-5), 2e-3), ("heun", dict(step=1e-3), 1e-5),
+    ("rk4", dict(step=2e-3), 1e-7), ("abm4", dict(rtol=1e-9, atol=1e-11), 1e-7),
+    ("bdf4", dict(step=1e-3), 1e-6), ("rk45", dict(rtol=1e-9, atol=1e-11), 1e-7),
+    ("scipy-dop853", dict(rtol=1e-10, atol=1e-12), 1e-7),
+    ("scipy-radau", dict(rtol=1e-8, atol=1e-10), 1e-6),
+    ("scipy-lsoda", dict(rtol=1e-9, atol=1e-11), 1e-6),
+])
+def test_all_integrators_agree(integrator, options, tol):
+    model = models.pendulum_ch15().compile()
+    ref = simulate(model, 0.2, output_step=0.05, **TIGHT)
+    res = simulate(model, 0.2, output_step=0.05, method="projection", integrator=integrator,
+                   integrator_options=options)
+    assert res.success, res.message
+    assert np.allclose(res.t, ref.t)
+    assert np.abs(res.q - ref.q).max() < tol
+
+
+def test_rk4_shows_fourth_order_on_the_pendulum():
+    model = models.pendulum_ch15().compile()
+    ref = simulate(model, 0.5, output_step=0.5, **TIGHT).q[-1]
+    hs = np.array([0.04, 0.02, 0.01])
+    errs = [np.abs(simulate(model, 0.5, output_step=0.5, integrator="rk4", step=h).q[-1]
+                   - ref).max() for h in hs]
+    slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    assert abs(slope - 4.0) < 0.3
+
+
+def test_pendulum_reaction_matches_energy_solution():
+    """Pivot reaction of the chapter 15 pendulum against the exact relations of the physical
+    pendulum: omega^2 = 2 m g d sin(phi) / I_O, alpha = m g d cos(phi) / I_O (phi below the
+    horizontal), R = m a_c - m g."""
+    model = models.pendulum_ch15().compile()
+    res = simulate(model, 2.0, output_step=0.01, **TIGHT)
+    m, g, d = 7.02, 9.81, 0.5
+    I_O = 0.5855265 + m * d * d
+    r = res.body("pendulum")["r"]
+    phi = np.arctan2(-r[:, 2], r[:, 1])
+    w2 = 2 * m * g * d * np.sin(phi) / I_O
+    alpha = m * g * d * np.cos(phi) / I_O
+    e_r = np.stack([np.zeros_like(phi), np.cos(phi), -np.sin(phi)], axis=1)   # pivot -> com
+    e_t = np.stack([np.zeros_like(phi), -np.sin(phi), -np.cos(phi)], axis=1)  # direction of motion
+    a_c = -w2[:, None] * d * e_r + alpha[:, None] * d * e_t
+    exact = m * a_c - m * np.array([0, 0, -g])
+    R = res.reactions()["pivot"]
+    assert R.body_j == "pendulum" and R.body_i == "ground"
+    assert np.abs(R.force_j - exact).max() < 1e-6 * m * g
+    assert np.allclose(R.force_i, -R.force_j, atol=1e-9)
+    # no moment about the axis x; the moment normal to it is the inertia coupling (zero here)
+    assert np.abs(R.moment_j[:, 0]).max() < 1e-8
+
+
+def test_driven_dynamics_agrees_with_kinematics():
+    model = models.slider_crank(crank_speed=6.0).compile()
+    t = np.linspace(0, 0.5, 11)
+    kin = kinematic_analysis(model, t, tol=1e-12)
+    dyn = simulate(model, 0.5, t_eval=t, method="projection", **TIGHT)
+    assert np.abs(dyn.q - kin.q).max() < 1e-9
+    assert np.abs(dyn.vdot - kin.vdot).max() < 1e-6
+    # the driver torque does work: the energy balance includes it
+    assert np.abs(dyn.energy()["error"]).max() < 1e-7
+
+
+def test_redundant_bricard_runs_with_named_warning():
+    model = models.bricard().compile()
+    with pytest.warns(RedundantConstraintsWarning, match="P5|P4|P3|P2|P1|O"):
+        res = simulate(model, 0.5, output_step=0.05, method="standard", **TIGHT)
+    assert res.success and res.redundant_joints
+    reactions = res.reactions()
+    assert not reactions[res.redundant_joints[0]].unique
+    assert np.abs(res.energy()["error"]).max() < 1e-7
+    assert np.abs(res.q[-1, 0, :3] - res.q[0, 0, :3]).max() > 1e-3   # it moved
+
+
+def test_penalty_and_augmented_lagrangian_handle_redundancy_without_warning_needed():
+    model = models.bricard().compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RedundantConstraintsWarning)
+        a = simulate(model, 0.2, output_step=0.1, method="augmented_lagrangian", **TIGHT)
+        b = simulate(model, 0.2, output_step=0.1, method="projection", **TIGHT)
+    assert a.success and np.abs(a.q - b.q).max() < 1e-6
+
+
+def test_failure_midway_returns_partial_results():
+    def bad(t, q, v):
+        f = np.zeros((1, 3))
+        if t > 0.2:
+            f[0, 0] = np.nan
+        return f, np.zeros((1, 3))
+    b = models.pendulum_ch15()
+    b.add_force("user", "bad", function=bad)
+    res = simulate(b.compile(), 1.0, output_step=0.05)
+    assert res.status == "failed"
+    assert "t =" in res.message and ("NaN" in res.message or "finite" in res.message)
+    assert 0.1 < res.t[-1] <= 0.25 and len(res.q) == len(res.t)
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(method="lagrangian-magic"), "valid names"),
+    (dict(integrator="rk99"), "valid names"),
+    (dict(method="baumgarte", method_options=dict(alpha=-1)), "alpha: must be >= 0"),
+    (dict(method="penalty", method_options=dict(alpha=0)), "alpha: must be > 0"),
+    (dict(integrator="rk4", step=-0.1), "step"),
+    (dict(integrator="rk45", rtol=0.0), "rtol"),
+    (dict(integrator="rk4", rtol=1e-3), "takes no rtol"),
+])
+def test_bad_settings_rejected_before_running(kwargs, match):
+    model = models.pendulum_ch15().compile()
+    with pytest.raises((ValueError, ModelError), match=match):
+        simulate(model, 1.0, **kwargs)
+
+
+def test_initial_conditions_are_corrected_and_reported(crank):
+    q0 = crank.q0.copy()
+    q0[1, :3] += (0.003, -0.002, 0.001)
+    v0 = crank.v0.copy()
+    v0[2, 0] += 0.5
+    res = simulate(crank, 0.05, q0=q0, v0=v0, output_step=0.05, **TIGHT)
+    rep = res.correction
+    assert rep.phi_before > 1e-3 and rep.phi_after < 1e-12 and rep.phidot_after < 1e-10
+    assert rep.max_position_change > 1e-3 and rep.max_velocity_change > 0.1
+    assert res.constraint_violation()["position"][0] < 1e-12
+    # holding coordinates fixed
+    res2 = simulate(crank, 0.05, q0=q0, v0=v0, output_step=0.05, hold={"rod": ["x"]}, **TIGHT)
+    assert res2.q[0, 1, 0] == pytest.approx(q0[1, 0], abs=1e-14)
+
+
+def test_outputs_are_at_the_requested_times():
+    model = models.pendulum_ch15().compile()
+    t_eval = np.array([0.0, 0.013, 0.1, 0.25, 0.4])
+    res = simulate(model, t_eval=t_eval, **TIGHT)
+    assert np.array_equal(res.t, t_eval)
+    ref = simulate(model, 0.4, output_step=0.001, **TIGHT)
+    k = int(round(0.25 / 0.001))
+    assert np.abs(res.q[3] - ref.q[k]).max() < 1e-9
+
+
+def test_results_table_columns():
+    model = models.pendulum_ch15().compile()
+    df = simulate(model, 0.1, output_step=0.05, **TIGHT).to_dataframe()
+    for col in ("t", "pendulum.x", "pendulum.e0", "pendulum.wx", "pivot.pendulum.fz",
+                "pivot.ground.mx", "violation.position", "violation.velocity", "energy.total",
+                "energy.error"):
+        assert col in df.columns
+    assert len(df) == 3

@@ -1,0 +1,120 @@
+"""Force kernels against finite differences: the power of each element equals minus the rate
+of its potential energy (conservative parts) or the stated non-conservative power."""
+import numpy as np
+import pytest
+
+from spatialmbd import ModelBuilder
+from spatialmbd.motion import Harmonic
+from spatialmbd.state import BodyState
+
+from fd_check import q_along, random_state
+
+
+def two_bodies():
+    b = ModelBuilder(gravity=(0, 0, 0))
+    b.add_body("a", 2.0, (1, 2, 2.5), r=(0.1, 0.2, 0.3))
+    b.add_body("b", 1.0, (0.5, 0.6, 0.7), r=(1.0, -0.5, 0.8))
+    b.add_joint("revolute", "hinge", "a", "b", point=(0.5, 0, 0.5), axis=(0.3, 0.4, 1.0))
+    return b
+
+
+def generalized(model, state, t):
+    g = np.zeros((model.nb + 1, 6))
+    for group in model.force_groups:
+        group.evaluate(state, t, g)
+    return g[:model.nb]
+
+
+def power(model, q, v, t):
+    state = BodyState.from_qv(q, v, t)
+    return float(np.sum(generalized(model, state, t) * v.reshape(model.nb, 6)))
+
+
+def potential(model, q, t):
+    state = BodyState.from_qv(q, None, t)
+    return sum(g.potential_energy(state, t) for g in model.force_groups)
+
+
+@pytest.mark.parametrize("kind", ["spring_damper", "rotational_spring_damper"])
+def test_conservative_part_is_minus_gradient_of_potential(kind):
+    b = two_bodies()
+    if kind == "spring_damper":
+        b.add_force("spring_damper", "s", body_i="a", body_j="b", point_i=(0.2, 0.1, 0),
+                    point_j=(-0.1, 0.3, 0.2), stiffness=50.0, natural_length=0.4)
+    else:
+        b.add_force("rotational_spring_damper", "s", joint="hinge", stiffness=7.0,
+                    rest_angle=0.1)
+    model = b.compile()
+    rng = np.random.default_rng(1)
+    for _ in range(10):
+        q0, v = random_state(rng, 2)
+        q0[1, :3] = q0[0, :3] + rng.uniform(0.5, 1.0) * rng.normal(size=3)
+        h = 1e-5
+        dV = (potential(model, q_along(q0, v, h), 0.0)
+              - potential(model, q_along(q0, v, -h), 0.0)) / (2 * h)
+        assert power(model, q0, v, 0.0) == pytest.approx(-dV, rel=1e-6, abs=1e-7)
+
+
+@pytest.mark.parametrize("kind", ["spring_damper", "rotational_spring_damper", "point_force",
+                                  "torque"])
+def test_nonconservative_power_is_the_power_of_the_forces(kind):
+    b = two_bodies()
+    if kind == "spring_damper":
+        b.add_force("spring_damper", "s", body_i="a", body_j="b", point_i=(0.2, 0.1, 0),
+                    point_j=(-0.1, 0.3, 0.2), damping=3.0, actuator=Harmonic(2.0, 1.0))
+    elif kind == "rotational_spring_damper":
+        b.add_force("rotational_spring_damper", "s", joint="hinge", damping=2.0,
+                    actuator=Harmonic(1.5, 2.0, 0.3))
+    elif kind == "point_force":
+        b.add_force("point_force", "f", body="b", point=(0.3, -0.2, 0.1), direction=(0, 1, 2),
+                    frame="body", magnitude=Harmonic(3.0, 1.0, 0.2))
+    else:
+        b.add_force("torque", "n", body="a", direction=(1, 0, 1), magnitude=2.5)
+    model = b.compile()
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        q0, v = random_state(rng, 2)
+        q0[1, :3] = q0[0, :3] + rng.uniform(0.5, 1.0) * rng.normal(size=3)
+        t = rng.uniform(0, 2)
+        state = BodyState.from_qv(q0, v, t)
+        p_nc = sum(g.nonconservative_power(state, t) for g in model.force_groups)
+        assert power(model, q0, v, t) == pytest.approx(p_nc, rel=1e-12, abs=1e-12)
+
+
+def test_spring_damper_signs_and_rate():
+    """A stretched spring pulls the points together; ldot (11.8) is the FD rate of the length."""
+    b = ModelBuilder(gravity=(0, 0, 0))
+    b.add_body("a", 1.0, (1, 1, 1), r=(0, 0, 0))
+    b.add_body("b", 1.0, (1, 1, 1), r=(2, 0, 0))
+    b.add_force("spring_damper", "s", body_i="a", body_j="b", stiffness=10.0, natural_length=1.0)
+    model = b.compile()
+    state = BodyState.from_qv(model.q0, None, 0.0)
+    g = generalized(model, state, 0.0)
+    assert np.allclose(g[0, :3], [10.0, 0, 0]) and np.allclose(g[1, :3], [-10.0, 0, 0])
+    group = model.force_groups[0]
+    rng = np.random.default_rng(3)
+    q0, v = random_state(rng, 2)
+    h = 1e-6
+    length = lambda q: group._kinematics(BodyState.from_qv(q, None, 0.0))[2][0]  # noqa: E731
+    rate = (length(q_along(q0, v, h)) - length(q_along(q0, v, -h))) / (2 * h)
+    assert group._kinematics(BodyState.from_qv(q0, v, 0.0))[4][0] == pytest.approx(rate, rel=1e-7)
+
+
+def test_user_force_and_gravity_enter_g():
+    from spatialmbd.dynamics import EquationsOfMotion
+
+    def push(t, q, v):
+        f = np.zeros((1, 3))
+        f[0, 0] = 2.0 * t
+        return f, np.zeros((1, 3))
+
+    b = ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_body("a", 3.0, (1, 2, 2.5), omega=(0.3, -0.2, 0.5))
+    b.add_force("user", "push", function=push)
+    model = b.compile()
+    eom = EquationsOfMotion(model)
+    ev = eom.evaluate(1.5, model.q0, model.v0.reshape(-1))
+    assert np.allclose(ev.g[:3], [3.0, 0, -3.0 * 9.81])
+    J = np.diag([1.0, 2.0, 2.5])
+    w = np.array([0.3, -0.2, 0.5])
+    assert np.allclose(ev.g[3:], -np.cross(w, J @ w))                 # gyroscopic (10.4)
