@@ -1,0 +1,1362 @@
+"""Model files: one versioned schema, written as YAML or JSON (see docs/model-file.md).
+
+A model file holds everything the Python API can express except Python callables (user motion
+laws and user forces): the bodies, joints, drivers, force elements and display shapes of a
+:class:`~spatialmbd.model.ModelBuilder`, and an optional ``analysis`` section saying what to run.
+
+Loading checks the whole file before anything is computed and reports every problem at once,
+each with its place in the file (``bodies[2].inertia: ...``); the checks on values are the
+builder's own (its methods are called inside ``try``), this module adds the checks that only
+make sense for files: unknown keys, wrong types, missing keys, references to undeclared names.
+
+Writing is exact: floats are written with ``repr`` precision, so model -> file -> model gives
+bit-identical specs, initial state and constraint values.
+"""
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import inspect
+import json
+import math
+import os
+import re
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional, Union
+
+import numpy as np
+import yaml
+
+from ..errors import ModelError
+from ..model import Model, ModelBuilder
+from ..model.builder import GLOBAL_KEYS, GROUND, LOCAL_KEYS
+
+SCHEMA_VERSION = 1
+
+__all__ = ["SCHEMA_VERSION", "ModelFileError", "Analysis", "load_model", "load_builder",
+           "model_to_dict", "save_model", "write_examples"]
+
+YAML_SUFFIXES = (".yaml", ".yml")
+JSON_SUFFIXES = (".json",)
+
+TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
+            "ground_shapes", "analysis")
+BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
+             "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color")
+ORIENTATION_KEYS = ("euler_parameters", "euler_zxz", "euler_zxz_deg", "bryant", "bryant_deg",
+                    "matrix")
+_GEOMETRY_ORDER = ("point", "axis", "reference", "point2", "axis2",
+                   "point_i", "point_j", "axis_i", "axis_j", "ref_i", "ref_j")
+GEOMETRY_KEYS = tuple(k for k in _GEOMETRY_ORDER if k in GLOBAL_KEYS | LOCAL_KEYS) + tuple(
+    sorted((GLOBAL_KEYS | LOCAL_KEYS) - set(_GEOMETRY_ORDER)))
+JOINT_KEYS = ("name", "type", "body_i", "body_j") + GEOMETRY_KEYS + ("length",)
+DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
+SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
+              "cylinder": ("type", "radius", "length", "center", "axis", "color"),
+              "sphere": ("type", "radius", "center", "color")}
+SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
+                 "correct_initial", "hold")
+DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
+ANALYSIS_TYPES = ("dynamic", "kinematic")
+
+#: how each force parameter is written; parameters of force types added later default to "any"
+FORCE_PARAM_KINDS = {"body": "body", "body_i": "body", "body_j": "body", "joint": "joint",
+                     "point": "point", "point_i": "point", "point_j": "point",
+                     "direction": "vector", "frame": "string", "magnitude": "law",
+                     "actuator": "law", "stiffness": "number", "damping": "number",
+                     "natural_length": "number", "rest_angle": "number"}
+FORCE_REQUIRED = {"point_force": ("body", "direction"), "torque": ("body", "direction"),
+                  "spring_damper": ("body_i", "body_j"), "rotational_spring_damper": ("joint",)}
+
+# builder keyword -> place in the file, for relabelling the builder's messages
+_BODY_FIELDS = {"r": ("position",), "rdot": ("velocity",), "omega": ("angular_velocity",),
+                "omega_local": ("angular_velocity_local",),
+                "p": ("orientation", "euler_parameters"), "A": ("orientation", "matrix"),
+                "euler_zxz": ("orientation", "euler_zxz"), "bryant": ("orientation", "bryant")}
+_COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_EPS = np.finfo(float).eps
+
+
+# ============================================================================ errors
+class ModelFileError(ModelError):
+    """A model file (or model dict) with problems, or a model that cannot be written.
+
+    ``problems``: every problem found, each ``"<place in the file>: <what is wrong>"``, e.g.
+    ``"bodies[2].inertia: inertia is not positive definite (...)"``. ``lines``: the YAML line
+    of each problem where known (else None). ``source``: the file, if any.
+    """
+
+    def __init__(self, problems, source=None, lines=None, heading: Optional[str] = None):
+        self.problems = [str(p) for p in problems]
+        self.source = None if source is None else str(source)
+        self.lines = list(lines) if lines is not None else [None] * len(self.problems)
+        self.heading = heading
+        super().__init__(self._text())
+
+    def _text(self) -> str:
+        n = len(self.problems)
+        if self.heading:
+            head = self.heading
+        elif self.source:
+            head = f"model file {self.source!r}"
+        else:
+            head = "model description"
+        head = f"{head}: {n} problem{'s' if n != 1 else ''}"
+        rows = [f"  - {p}" + (f"  (line {ln})" if ln else "")
+                for p, ln in zip(self.problems, self.lines)]
+        return "\n".join([head] + rows)
+
+    def __reduce__(self):
+        return (type(self), (self.problems, self.source, self.lines, self.heading))
+
+
+def _render(path) -> str:
+    out = ""
+    for part in path:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif _IDENT.match(str(part)):
+            out += ("." if out else "") + str(part)
+        else:
+            out += f"[{str(part)!r}]"
+    return out or "(top level)"
+
+
+class _Problems:
+    """Collects (path, message) pairs; knows the YAML line of each path when available."""
+
+    def __init__(self, lines: Optional[dict] = None):
+        self.items: list = []
+        self.lines = lines or {}
+
+    def __len__(self):
+        return len(self.items)
+
+    def add(self, path, message: str, line: Optional[int] = None) -> None:
+        self.items.append((tuple(path), str(message), line))
+
+    def line_of(self, path):
+        path = tuple(str(p) if not isinstance(p, int) else p for p in path)
+        while path:
+            if path in self.lines:
+                return self.lines[path]
+            path = path[:-1]
+        return None
+
+    def error(self, source=None, heading=None) -> ModelFileError:
+        return ModelFileError([f"{_render(p)}: {m}" for p, m, _ in self.items], source,
+                              [line or self.line_of(p) for p, _, line in self.items], heading)
+
+
+# ============================================================================ value checks
+def _describe(value) -> str:
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"the boolean {value!r}".replace("True", "true").replace("False", "false")
+    if isinstance(value, str):
+        try:
+            float(value)
+            hint = " (write numbers without quotes)"
+        except ValueError:
+            hint = ""
+        text = value if len(value) <= 40 else value[:37] + "..."
+        return f"the string {text!r}{hint}"
+    if isinstance(value, (int, float)):
+        return f"the number {value!r}"
+    if isinstance(value, dict):
+        return f"a mapping with keys {sorted(map(str, value))}"
+    if isinstance(value, list):
+        return f"a list of {len(value)} item{'s' if len(value) != 1 else ''}"
+    return f"a {type(value).__name__}"
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _number(P, path, value, positive=False, nonneg=False, integer=False) -> bool:
+    if not _is_number(value):
+        P.add(path, f"expected {'an integer' if integer else 'a number'}, got "
+                    f"{_describe(value)}")
+        return False
+    if not math.isfinite(value):
+        P.add(path, f"expected a finite number, got {value!r}")
+        return False
+    if integer and value != int(value):
+        P.add(path, f"expected an integer, got {value!r}")
+        return False
+    if positive and not value > 0:
+        P.add(path, f"must be > 0, got {value!r}")
+        return False
+    if nonneg and not value >= 0:
+        P.add(path, f"must be >= 0, got {value!r}")
+        return False
+    return True
+
+
+def _string(P, path, value, what="a string") -> bool:
+    if not isinstance(value, str) or not value:
+        P.add(path, f"expected {what}, got {_describe(value)}")
+        return False
+    return True
+
+
+def _vector(P, path, value, n=3, or_name=False) -> bool:
+    if or_name and isinstance(value, str):
+        return True
+    if not isinstance(value, list) or len(value) != n:
+        P.add(path, f"expected a list of {n} numbers{' or a point name' if or_name else ''}, "
+                    f"got {_describe(value)}")
+        return False
+    ok = True
+    for k, x in enumerate(value):
+        ok = _number(P, tuple(path) + (k,), x) and ok
+    return ok
+
+
+def _matrix(P, path, value) -> bool:
+    if not (isinstance(value, list) and len(value) == 3
+            and all(isinstance(row, list) and len(row) == 3 for row in value)):
+        P.add(path, f"expected a 3x3 matrix (3 lists of 3 numbers), got {_describe(value)}")
+        return False
+    ok = True
+    for i, row in enumerate(value):
+        for j, x in enumerate(row):
+            ok = _number(P, tuple(path) + (i, j), x) and ok
+    return ok
+
+
+def _suggest(word, choices) -> str:
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _name(value) -> str:
+    """A value as quoted in messages about names: 'name' for strings, else described."""
+    return repr(value) if isinstance(value, str) else _describe(value)
+
+
+_PLURAL = {"body": "bodies"}
+
+
+def _mapping(P, path, value, allowed, required=(), what="a mapping") -> bool:
+    """True if ``value`` is a dict; records unknown and missing keys."""
+    if not isinstance(value, dict):
+        P.add(path, f"expected {what}, got {_describe(value)}")
+        return False
+    for key in value:
+        if key not in allowed:
+            P.add(tuple(path) + (key,), f"unknown key {key!r}{_suggest(key, allowed)}; "
+                                        f"valid keys: {', '.join(allowed)}")
+    for key in required:
+        if key not in value:
+            P.add(path, f"missing required key {key!r}")
+    return True
+
+
+def _list(P, path, value, what) -> bool:
+    if not isinstance(value, list):
+        P.add(path, f"expected a list of {what}, got {_describe(value)}")
+        return False
+    return True
+
+
+def _reference(P, path, value, declared, kind, extra=()) -> bool:
+    """A name that must refer to a declared element (``extra``: e.g. 'ground')."""
+    if not _string(P, path, value, f"the name of a {kind}"):
+        return False
+    if value in declared or value in extra:
+        return True
+    names = list(dict.fromkeys(list(declared) + list(extra)))
+    P.add(path, f"unknown {kind} {value!r}{_suggest(value, names)}; "
+                f"{_PLURAL.get(kind, kind + 's')}: {', '.join(names) or 'none'}")
+    return False
+
+
+def _relabel(P, path, prefix: str, message: str, fields: Optional[dict] = None) -> None:
+    """Record a builder ModelError, replacing its element prefix (``bodies['x']``) by the place
+    in the file and builder keywords by file keys."""
+    if message.startswith(prefix):
+        rest = message[len(prefix):]
+        m = re.match(r"\.([A-Za-z_]\w*)(?:\[(['\"])(.*?)\2\])?: (.*)$", rest, re.S)
+        if m:
+            key, sub, text = m.group(1), m.group(3), m.group(4)
+            where = (fields or {}).get(key, (key,))
+            P.add(tuple(path) + tuple(where) + ((sub,) if sub is not None else ()), text)
+            return
+        if rest.startswith(": "):
+            P.add(path, rest[2:])
+            return
+    if "name" in message.split(":")[0]:
+        P.add(tuple(path) + ("name",), message)
+        return
+    P.add(path, message)
+
+
+# ============================================================================ shapes and laws
+def _shape(P, path, value) -> bool:
+    n0 = len(P)
+    if not _mapping(P, path, value, ("type",) + tuple(sorted({k for v in SHAPE_KEYS.values()
+                                                             for k in v} - {"type"})),
+                    ("type",), "a shape mapping {type: box|cylinder|sphere, ...}"):
+        return False
+    kind = value.get("type")
+    if "type" not in value:
+        return False
+    if kind not in SHAPE_KEYS:
+        P.add(tuple(path) + ("type",), f"unknown shape type {_name(kind)}; valid types: "
+                                        + ", ".join(SHAPE_KEYS))
+        return False
+    # unknown keys for this type (the generic check above allowed the union)
+    for key in value:
+        if key not in SHAPE_KEYS[kind] and key in {k for v in SHAPE_KEYS.values() for k in v}:
+            P.add(tuple(path) + (key,), f"a {kind} takes no {key!r} (valid keys: "
+                                        f"{', '.join(SHAPE_KEYS[kind])})")
+    for key in SHAPE_REQUIRED[kind]:
+        if key not in value:
+            P.add(path, f"missing required key {key!r} for a {kind}")
+    for key in ("radius", "length"):
+        if key in value:
+            _number(P, tuple(path) + (key,), value[key], positive=True)
+    if "size" in value and _vector(P, tuple(path) + ("size",), value["size"]):
+        for k, x in enumerate(value["size"]):
+            if not x > 0:
+                P.add(tuple(path) + ("size", k), f"must be > 0, got {x!r}")
+    if "center" in value:
+        _vector(P, tuple(path) + ("center",), value["center"])
+    for key, n in (("axis", 3), ("p", 4)):
+        if key in value and _vector(P, tuple(path) + (key,), value[key], n):
+            if not any(value[key]):
+                P.add(tuple(path) + (key,), "zero-length vector; give a direction")
+    if "color" in value:
+        _color(P, tuple(path) + ("color",), value["color"])
+    return len(P) == n0
+
+
+def _color(P, path, value) -> bool:
+    if not isinstance(value, str) or not _COLOR.match(value):
+        P.add(path, f"expected a colour '#rrggbb', got {_describe(value)}")
+        return False
+    return True
+
+
+def _law(P, path, value):
+    """A MotionLaw from a number or a law mapping; None (recorded) if invalid."""
+    from ..motion import LAWS, make_law
+    if _is_number(value):
+        return make_law(float(value)) if _number(P, path, value) else None
+    valid = [k for k in LAWS if k != "user"]
+    if not isinstance(value, dict):
+        P.add(path, f"expected a number or a motion law mapping {{type: "
+                    f"{'|'.join(valid)}, ...}}, got {_describe(value)}")
+        return None
+    kind = value.get("type")
+    if "type" not in value:
+        P.add(path, f"missing required key 'type' (motion law types: {', '.join(valid)})")
+        return None
+    if kind == "user":
+        P.add(tuple(path) + ("type",), "user-function motion laws are Python callables and "
+                                        "cannot be described in a model file; use one of "
+                                        + ", ".join(valid) + " or add the driver in Python")
+        return None
+    if kind not in valid:
+        P.add(tuple(path) + ("type",), f"unknown motion law type {_name(kind)}"
+                                        f"{_suggest(kind, valid)}; valid: {', '.join(valid)}")
+        return None
+    n0 = len(P)
+    fields = {f.name: f for f in dataclasses.fields(LAWS[kind])}
+    _mapping(P, path, value, ("type",) + tuple(fields))
+    for key, val in value.items():
+        if key not in fields:
+            continue
+        f = fields[key]
+        if f.default is dataclasses.MISSING and f.default_factory is not dataclasses.MISSING:
+            if _list(P, tuple(path) + (key,), val, "numbers"):
+                if not val:
+                    P.add(tuple(path) + (key,), "expected at least one number")
+                for k, x in enumerate(val):
+                    _number(P, tuple(path) + (key, k), x)
+        else:
+            _number(P, tuple(path) + (key,), val)
+    if len(P) != n0:
+        return None
+    try:
+        return make_law(dict(value))
+    except ModelError as exc:
+        P.add(path, str(exc))
+        return None
+
+
+# ============================================================================ analysis
+@dataclass
+class Analysis:
+    """What to run on a model: a forward-dynamics simulation or a kinematic analysis.
+
+    type: "dynamic" (:func:`spatialmbd.simulate.simulate`) or "kinematic"
+    (:func:`spatialmbd.kinematics.kinematic_analysis`). t_end (s); output_step (s, None = 500
+    intervals) or t_eval (explicit output times). Dynamic only: method and method_options,
+    integrator with step (s), rtol, atol (None = the integrator's default) and
+    integrator_options, correct_initial, hold ({"body": ["x", ...]}).
+    """
+
+    type: str = "dynamic"
+    t_end: float = 1.0
+    output_step: Optional[float] = None
+    t_eval: Optional[list] = None
+    method: str = "standard"
+    method_options: dict = field(default_factory=dict)
+    integrator: str = "rk45"
+    step: Optional[float] = None
+    rtol: Optional[float] = None
+    atol: Optional[float] = None
+    integrator_options: dict = field(default_factory=dict)
+    correct_initial: bool = True
+    hold: Optional[dict] = None
+
+    def run(self, model, progress=False):
+        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``."""
+        if self.type == "kinematic":
+            from ..kinematics import kinematic_analysis
+            from ..simulate import output_times
+            return kinematic_analysis(model, output_times(self.t_end, self.output_step,
+                                                          self.t_eval))
+        if self.type != "dynamic":
+            raise ModelError(f"analysis type {self.type!r} is not one of {ANALYSIS_TYPES}")
+        from ..simulate import simulate
+        return simulate(model, self.t_end, method=self.method, integrator=self.integrator,
+                        output_step=self.output_step, t_eval=self.t_eval, step=self.step,
+                        rtol=self.rtol, atol=self.atol,
+                        method_options=dict(self.method_options),
+                        integrator_options=dict(self.integrator_options),
+                        correct_initial=self.correct_initial, hold=self.hold,
+                        progress=progress)
+
+    def to_dict(self) -> dict:
+        """The ``analysis`` section of a model file (plain Python types)."""
+        out: dict = {"type": self.type}
+        if self.t_eval is not None:
+            out["t_eval"] = [float(t) for t in self.t_eval]
+        else:
+            out["t_end"] = float(self.t_end)
+            if self.output_step is not None:
+                out["output_step"] = float(self.output_step)
+        if self.type == "dynamic":
+            out["method"] = {"name": self.method, **_plain(self.method_options)}
+            integ = {"name": self.integrator}
+            for key in ("step", "rtol", "atol"):
+                if getattr(self, key) is not None:
+                    integ[key] = _plain(getattr(self, key))
+            integ.update(_plain(self.integrator_options))
+            out["integrator"] = integ
+            out["correct_initial"] = bool(self.correct_initial)
+            if self.hold is not None:
+                out["hold"] = {str(b): ([c] if isinstance(c, str) else list(c))
+                               for b, c in self.hold.items()}
+        return out
+
+    @classmethod
+    def from_dict(cls, data, body_names=None) -> "Analysis":
+        """An Analysis from an ``analysis`` section; raises ModelFileError listing problems.
+        body_names: the model's bodies, to check ``hold`` (None: not checked)."""
+        P = _Problems()
+        out = _parse_analysis(P, ("analysis",), _plain_input(data), body_names)
+        if len(P):
+            raise P.error(heading="analysis")
+        return out
+
+
+def _options(P, path, cls, options: dict, skip=()) -> bool:
+    """Check option names and types against the signature of cls.__init__."""
+    params = {k: p for k, p in inspect.signature(cls.__init__).parameters.items()
+              if k != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+    n0 = len(P)
+    valid = ["name"] + list(params)
+    for key, value in options.items():
+        if key in skip:
+            continue
+        where = tuple(path) + (key,)
+        if key not in params:
+            P.add(where, f"{cls.name!r} takes no option {key!r}{_suggest(key, params)}; "
+                         f"valid keys: {', '.join(valid)}")
+            continue
+        default = params[key].default
+        if isinstance(default, bool):
+            if not isinstance(value, bool):
+                P.add(where, f"expected true or false, got {_describe(value)}")
+        elif isinstance(default, str):
+            _string(P, where, value)
+        elif isinstance(default, int) and not isinstance(default, float):
+            _number(P, where, value, integer=True)
+        else:
+            _number(P, where, value)
+    return len(P) == n0
+
+
+def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
+    from ..dynamics import METHODS
+    from ..dynamics.base import ALIASES
+    from ..dynamics.correction import HOLD_NAMES
+    from ..integrators import INTEGRATORS
+
+    if not _mapping(P, path, d, ANALYSIS_KEYS):
+        return None
+    a = Analysis()
+    kind = d.get("type", "dynamic")
+    if kind not in ANALYSIS_TYPES:
+        P.add(tuple(path) + ("type",), f"unknown analysis type {_name(kind)}; valid: "
+                                        + ", ".join(ANALYSIS_TYPES))
+        kind = "dynamic"
+    a.type = kind
+    if "t_eval" in d:
+        te = d["t_eval"]
+        if _list(P, tuple(path) + ("t_eval",), te, "times (s)"):
+            if not te:
+                P.add(tuple(path) + ("t_eval",), "expected at least one time")
+            elif all(_number(P, tuple(path) + ("t_eval", k), x) for k, x in enumerate(te)):
+                if te[0] < 0 or any(b <= a_ for a_, b in zip(te, te[1:])):
+                    P.add(tuple(path) + ("t_eval",), "output times must be >= 0 and strictly "
+                                                     "increasing")
+                else:
+                    a.t_eval = [float(x) for x in te]
+                    a.t_end = a.t_eval[-1]
+        if "output_step" in d:
+            P.add(tuple(path) + ("output_step",), "give output_step or t_eval, not both")
+        if "t_end" in d and _number(P, tuple(path) + ("t_end",), d["t_end"]) \
+                and a.t_eval is not None and float(d["t_end"]) != a.t_eval[-1]:
+            P.add(tuple(path) + ("t_end",), f"t_end ({d['t_end']!r}) differs from the last "
+                                            f"time of t_eval ({a.t_eval[-1]!r}); leave it out")
+    elif "t_end" not in d:
+        P.add(path, "missing required key 't_end' (end time, s), or give t_eval")
+    elif _number(P, tuple(path) + ("t_end",), d["t_end"], positive=True):
+        a.t_end = float(d["t_end"])
+    if "output_step" in d and "t_eval" not in d:
+        if _number(P, tuple(path) + ("output_step",), d["output_step"], positive=True):
+            a.output_step = float(d["output_step"])
+
+    if kind == "kinematic":
+        for key in DYNAMIC_ONLY:
+            if key in d:
+                P.add(tuple(path) + (key,), "applies to dynamic analyses only (this analysis "
+                                            "is kinematic)")
+        return a
+
+    if "method" in d:
+        m = d["method"]
+        mpath = tuple(path) + ("method",)
+        name, opts = (m, {}) if isinstance(m, str) else (None, None)
+        if isinstance(m, dict):
+            if "name" not in m:
+                P.add(mpath, "missing required key 'name' (methods: "
+                             + ", ".join(sorted(METHODS)) + ")")
+            else:
+                name = m["name"]
+                opts = {k: v for k, v in m.items() if k != "name"}
+                mpath = mpath + ("name",)
+        elif not isinstance(m, str):
+            P.add(mpath, f"expected a method name or a mapping {{name: ..., options}}, got "
+                         f"{_describe(m)}")
+        if name is not None:
+            key = ALIASES.get(name.lower(), name.lower()) if isinstance(name, str) else None
+            if key not in METHODS:
+                P.add(mpath, f"unknown method {_name(name)}{_suggest(name, METHODS)}; "
+                             "valid names: " + ", ".join(sorted(METHODS)))
+            else:
+                a.method = key
+                if _options(P, tuple(path) + ("method",), METHODS[key], opts):
+                    try:
+                        METHODS[key](**opts)
+                        a.method_options = dict(opts)
+                    except (ModelError, ValueError, TypeError) as exc:
+                        P.add(tuple(path) + ("method",), str(exc))
+
+    if "integrator" in d:
+        m = d["integrator"]
+        ipath = tuple(path) + ("integrator",)
+        name, opts = (m, {}) if isinstance(m, str) else (None, None)
+        if isinstance(m, dict):
+            if "name" not in m:
+                P.add(ipath, "missing required key 'name' (integrators: "
+                             + ", ".join(sorted(INTEGRATORS)) + ")")
+            else:
+                name = m["name"]
+                opts = {k: v for k, v in m.items() if k != "name"}
+        elif not isinstance(m, str):
+            P.add(ipath, f"expected an integrator name or a mapping {{name: ..., options}}, "
+                         f"got {_describe(m)}")
+        if name is not None:
+            key = name.lower() if isinstance(name, str) else None
+            if key not in INTEGRATORS:
+                P.add(ipath + (("name",) if isinstance(m, dict) else ()),
+                      f"unknown integrator {_name(name)}{_suggest(name, INTEGRATORS)}; "
+                      "valid names: " + ", ".join(sorted(INTEGRATORS)))
+            else:
+                a.integrator = key
+                n0 = len(P)
+                for opt in ("step", "rtol", "atol"):
+                    if opt in opts:
+                        _number(P, ipath + (opt,), opts[opt], positive=True)
+                if _options(P, ipath, INTEGRATORS[key], opts) and len(P) == n0:
+                    try:
+                        INTEGRATORS[key](**opts)
+                    except (ModelError, ValueError, TypeError) as exc:
+                        P.add(ipath, str(exc))
+                    else:
+                        a.step = opts.get("step")
+                        a.rtol = opts.get("rtol")
+                        a.atol = opts.get("atol")
+                        a.integrator_options = {k: v for k, v in opts.items()
+                                                if k not in ("step", "rtol", "atol")}
+
+    if "correct_initial" in d:
+        if isinstance(d["correct_initial"], bool):
+            a.correct_initial = d["correct_initial"]
+        else:
+            P.add(tuple(path) + ("correct_initial",),
+                  f"expected true or false, got {_describe(d['correct_initial'])}")
+    if "hold" in d and d["hold"] is not None:
+        hold = d["hold"]
+        hpath = tuple(path) + ("hold",)
+        if not isinstance(hold, dict):
+            P.add(hpath, f"expected a mapping {{body: [x, y, z, rx, ry, rz]}}, got "
+                         f"{_describe(hold)}")
+        else:
+            out, n0 = {}, len(P)
+            for body, coords in hold.items():
+                if body_names is not None:
+                    _reference(P, hpath + (body,), body, body_names, "body")
+                coords = [coords] if isinstance(coords, str) else coords
+                if not isinstance(coords, list):
+                    P.add(hpath + (body,), f"expected a list of coordinates "
+                                           f"({', '.join(HOLD_NAMES)}), got {_describe(coords)}")
+                    continue
+                for k, c in enumerate(coords):
+                    if c not in HOLD_NAMES:
+                        P.add(hpath + (body, k), f"{_describe(c)} is not one of "
+                                                 f"{', '.join(HOLD_NAMES)} (translations x, y, "
+                                                 "z; small rotations rx, ry, rz)")
+                out[body] = list(coords)
+            if len(P) == n0:
+                a.hold = out
+    return a
+
+
+# ============================================================================ file -> builder
+def _section(data: dict, key: str):
+    """An optional list section; absent or empty (null, e.g. all entries commented out): []."""
+    value = data.get(key)
+    return [] if value is None else value
+
+
+def _parse(P, data, default_name="model"):
+    """(builder, analysis) from the file's data; problems go to P."""
+    from ..constraints import DRIVER_TYPES, JOINT_TYPES
+    from ..constraints.drivers import COORDINATES
+    from ..forces import FORCE_TYPES
+
+    if data is None:
+        P.add((), f"the file is empty; a model file starts with 'spatialmbd: {SCHEMA_VERSION}'")
+        return None, None
+    if not isinstance(data, dict):
+        P.add((), f"expected a mapping (spatialmbd, name, gravity, bodies, ...), got "
+                  f"{_describe(data)}")
+        return None, None
+    if "spatialmbd" not in data:
+        P.add((), f"missing the schema version: add 'spatialmbd: {SCHEMA_VERSION}' as the "
+                  "first line")
+    else:
+        version = data["spatialmbd"]
+        if not (_is_number(version) and version == int(version)):
+            P.add(("spatialmbd",), f"the schema version must be an integer, got "
+                                   f"{_describe(version)}")
+        elif version != SCHEMA_VERSION:
+            P.add(("spatialmbd",), f"this file uses schema version {int(version)}; this "
+                                   f"spatialmbd reads version {SCHEMA_VERSION}"
+                                   + (" (upgrade spatialmbd)" if version > SCHEMA_VERSION
+                                      else ""))
+            return None, None
+    _mapping(P, (), data, TOP_KEYS)
+
+    name = data.get("name", default_name)
+    if not _string(P, ("name",), name, "a model name (string)"):
+        name = default_name
+    gravity = data.get("gravity", [0.0, 0.0, -9.81])
+    if not _vector(P, ("gravity",), gravity):
+        gravity = [0.0, 0.0, -9.81]
+    b = ModelBuilder(name, gravity)
+
+    # ------------------------------------------------------------------ bodies
+    declared_bodies, ok_bodies = [], set()
+    bodies = data.get("bodies")
+    if "bodies" not in data:
+        P.add((), "missing required key 'bodies' (a list of bodies)")
+        bodies = []
+    elif _list(P, ("bodies",), bodies, "bodies"):
+        if not bodies:
+            P.add(("bodies",), "the model has no bodies; give at least one")
+    else:
+        bodies = []
+    for i, d in enumerate(bodies):
+        path = ("bodies", i)
+        if not _mapping(P, path, d, BODY_KEYS, ("name", "mass", "inertia")):
+            continue
+        n0 = len(P)             # unknown keys (reported) do not stop the builder's checks
+        complete = all(k in d for k in ("name", "mass", "inertia"))
+        if "name" in d and _string(P, path + ("name",), d["name"], "a body name (string)"):
+            declared_bodies.append(d["name"])
+        if "mass" in d:
+            _number(P, path + ("mass",), d["mass"])
+        if "inertia" in d:
+            J = d["inertia"]
+            if isinstance(J, list) and J and isinstance(J[0], list):
+                _matrix(P, path + ("inertia",), J)
+            elif not (isinstance(J, list) and len(J) == 3):
+                P.add(path + ("inertia",), f"expected 3 principal moments [Ixx, Iyy, Izz] or a "
+                                           f"3x3 tensor (kg m^2), got {_describe(J)}")
+            else:
+                _vector(P, path + ("inertia",), J)
+        for key in ("position", "velocity", "angular_velocity", "angular_velocity_local"):
+            if key in d:
+                _vector(P, path + (key,), d[key])
+        if "angular_velocity" in d and "angular_velocity_local" in d:
+            P.add(path, "give angular_velocity (global axes) or angular_velocity_local (body "
+                        "axes), not both")
+        orient = {}
+        if "orientation" in d:
+            o = d["orientation"]
+            opath = path + ("orientation",)
+            if _mapping(P, opath, o, ORIENTATION_KEYS,
+                        what="a mapping with one of " + ", ".join(ORIENTATION_KEYS)):
+                given = [k for k in o if k in ORIENTATION_KEYS]
+                if len(given) != 1:
+                    P.add(opath, f"give exactly one of {', '.join(ORIENTATION_KEYS)}"
+                                 + (f", not {len(given)} ({', '.join(given)})" if given else ""))
+                else:
+                    key = given[0]
+                    val = o[key]
+                    if key == "matrix":
+                        if _matrix(P, opath + (key,), val):
+                            orient["A"] = val
+                    elif _vector(P, opath + (key,), val, 4 if key == "euler_parameters" else 3):
+                        if key == "euler_parameters":
+                            orient["p"] = val
+                        elif key.endswith("_deg"):
+                            orient[key[:-4]] = [math.radians(x) for x in val]
+                        else:
+                            orient[key] = val
+        for key in ("points", "vectors"):
+            if key in d:
+                table = d[key]
+                if not isinstance(table, dict):
+                    P.add(path + (key,), f"expected a mapping name: [x, y, z], got "
+                                         f"{_describe(table)}")
+                    continue
+                for pname, vec in table.items():
+                    if not isinstance(pname, str):
+                        P.add(path + (key, pname), f"{key[:-1]} names must be strings, got "
+                                                   f"{_describe(pname)}")
+                    _vector(P, path + (key, pname), vec)
+        if "shapes" in d and _list(P, path + ("shapes",), d["shapes"], "shapes"):
+            for k, s in enumerate(d["shapes"]):
+                _shape(P, path + ("shapes", k), s)
+        if "color" in d:
+            _color(P, path + ("color",), d["color"])
+        if len(P) != n0 or not complete:
+            continue
+        kwargs = dict(r=d.get("position", (0.0, 0.0, 0.0)),
+                      rdot=d.get("velocity", (0.0, 0.0, 0.0)),
+                      omega=d.get("angular_velocity"),
+                      omega_local=d.get("angular_velocity_local"),
+                      points=d.get("points"), vectors=d.get("vectors"),
+                      shapes=d.get("shapes"), color=d.get("color"), **orient)
+        fields = dict(_BODY_FIELDS)
+        for key in ("euler_zxz", "bryant"):
+            if key + "_deg" in (d.get("orientation") or {}):
+                fields[key] = ("orientation", key + "_deg")
+        try:
+            b.add_body(d["name"], d["mass"], d["inertia"], **kwargs)
+        except ModelError as exc:
+            _relabel(P, path, f"bodies[{d['name']!r}]", str(exc), fields)
+            continue
+        if "p" in orient:
+            # keep Euler parameters that are unit to rounding bit for bit (exact round trips)
+            given = np.array(orient["p"], dtype=float)
+            if abs(float(np.linalg.norm(given)) - 1.0) <= 4 * _EPS:
+                b.bodies[d["name"]].p = given
+        ok_bodies.add(d["name"])
+
+    # ------------------------------------------------------------------ joints
+    declared_joints, ok_joints = [], set()
+    joints = _section(data, "joints")
+    if not _list(P, ("joints",), joints, "joints"):
+        joints = []
+    for i, d in enumerate(joints):
+        path = ("joints", i)
+        if not _mapping(P, path, d, JOINT_KEYS, ("name", "type", "body_i", "body_j")):
+            continue
+        n0 = len(P)
+        complete = all(k in d for k in ("name", "type", "body_i", "body_j"))
+        if "name" in d and _string(P, path + ("name",), d["name"], "a joint name (string)"):
+            declared_joints.append(d["name"])
+        if "type" in d and d["type"] not in JOINT_TYPES:
+            P.add(path + ("type",), f"unknown joint type {_name(d['type'])}"
+                                    f"{_suggest(d['type'], JOINT_TYPES)}; valid types: "
+                                    + ", ".join(sorted(JOINT_TYPES)))
+        for key in ("body_i", "body_j"):
+            if key in d:
+                _reference(P, path + (key,), d[key], declared_bodies, "body", (GROUND,))
+        geometry = {k: d[k] for k in GEOMETRY_KEYS if k in d}
+        for key, val in geometry.items():
+            _vector(P, path + (key,), val, or_name=key in ("point_i", "point_j"))
+        if "length" in d:
+            _number(P, path + ("length",), d["length"], positive=True)
+        if len(P) != n0 or not complete or \
+                not {d["body_i"], d["body_j"]} <= ok_bodies | {GROUND}:
+            continue        # problems here, or in a body it joins (reported there)
+        try:
+            b.add_joint(d["type"], d["name"], d["body_i"], d["body_j"], length=d.get("length"),
+                        **geometry)
+        except ModelError as exc:
+            _relabel(P, path, f"joints[{d['name']!r}]", str(exc))
+            continue
+        ok_joints.add(d["name"])
+
+    # ------------------------------------------------------------------ drivers
+    drivers = _section(data, "drivers")
+    if not _list(P, ("drivers",), drivers, "drivers"):
+        drivers = []
+    for i, d in enumerate(drivers):
+        path = ("drivers", i)
+        if not _mapping(P, path, d, DRIVER_KEYS, ("name", "kind", "law")):
+            continue
+        n0 = len(P)
+        complete = all(k in d for k in ("name", "kind", "law"))
+        if "name" in d:
+            _string(P, path + ("name",), d["name"], "a driver name (string)")
+        kind = d.get("kind")
+        if "kind" in d and kind not in DRIVER_TYPES:
+            P.add(path + ("kind",), f"unknown driver kind {_name(kind)}"
+                                    f"{_suggest(kind, DRIVER_TYPES)}; valid: "
+                                    + ", ".join(DRIVER_TYPES))
+        if kind == "coordinate":
+            for key in ("body", "coordinate"):
+                if key not in d:
+                    P.add(path, f"missing required key {key!r} (a coordinate driver acts on a "
+                                "coordinate of a body)")
+            if "joint" in d:
+                P.add(path + ("joint",), "a coordinate driver acts on a body, not a joint")
+            if "body" in d:
+                _reference(P, path + ("body",), d["body"], declared_bodies, "body")
+            if "coordinate" in d and d["coordinate"] not in COORDINATES:
+                P.add(path + ("coordinate",), f"{_describe(d['coordinate'])} is not one of "
+                                              + ", ".join(COORDINATES))
+        elif kind in DRIVER_TYPES:
+            if "joint" not in d:
+                P.add(path, f"missing required key 'joint' (an {kind} driver acts on a joint)")
+            else:
+                _reference(P, path + ("joint",), d["joint"], declared_joints, "joint")
+            for key in ("body", "coordinate"):
+                if key in d:
+                    P.add(path + (key,), "applies to coordinate drivers only")
+        law = _law(P, path + ("law",), d["law"]) if "law" in d else None
+        if len(P) != n0 or not complete:
+            continue
+        if (d.get("joint") is not None and d["joint"] not in ok_joints) or \
+                (d.get("body") is not None and d["body"] not in ok_bodies):
+            continue
+        try:
+            b.add_driver(d["name"], kind, law, joint=d.get("joint"), body=d.get("body"),
+                         coordinate=d.get("coordinate"))
+        except ModelError as exc:
+            _relabel(P, path, f"drivers[{d['name']!r}]", str(exc))
+
+    # ------------------------------------------------------------------ forces
+    forces = _section(data, "forces")
+    if not _list(P, ("forces",), forces, "force elements"):
+        forces = []
+    valid_types = [t for t in FORCE_TYPES if t != "user"]
+    for i, d in enumerate(forces):
+        path = ("forces", i)
+        if not isinstance(d, dict):
+            P.add(path, f"expected a mapping {{name, type, ...}}, got {_describe(d)}")
+            continue
+        ftype = d.get("type")
+        if "type" not in d:
+            P.add(path, "missing required key 'type' (force types: "
+                        + ", ".join(valid_types) + ")")
+            continue
+        if ftype == "user":
+            P.add(path + ("type",), "user forces take a Python callable and cannot be "
+                                    "described in a model file; add them in Python with "
+                                    "ModelBuilder.add_force('user', ...) after load_builder()")
+            continue
+        if ftype not in FORCE_TYPES:
+            P.add(path + ("type",), f"unknown force type {_name(ftype)}"
+                                    f"{_suggest(ftype, valid_types)}; valid types: "
+                                    + ", ".join(valid_types))
+            continue
+        allowed = ("name", "type") + tuple(FORCE_TYPES[ftype].allowed)
+        required = ("name",) + FORCE_REQUIRED.get(ftype, ())
+        _mapping(P, path, d, allowed, required)
+        n0 = len(P)
+        complete = all(k in d for k in required)
+        if "name" in d:
+            _string(P, path + ("name",), d["name"], "a force name (string)")
+        params, refs_ok = {}, True
+        for key, val in d.items():
+            if key in ("name", "type") or key not in allowed:
+                continue
+            kind = FORCE_PARAM_KINDS.get(key, "any")
+            where = path + (key,)
+            if kind == "body":
+                if _reference(P, where, val, declared_bodies, "body", (GROUND,)):
+                    refs_ok = refs_ok and (val in ok_bodies or val == GROUND)
+            elif kind == "joint":
+                if _reference(P, where, val, declared_joints, "joint"):
+                    refs_ok = refs_ok and val in ok_joints
+            elif kind == "point":
+                _vector(P, where, val, or_name=True)
+            elif kind == "vector":
+                _vector(P, where, val)
+            elif kind == "string":
+                _string(P, where, val)
+            elif kind == "number":
+                _number(P, where, val)
+            elif kind == "law":
+                if not _is_number(val):
+                    val = _law(P, where, val)
+                else:
+                    _number(P, where, val)
+            params[key] = val
+        if len(P) != n0 or not complete or not refs_ok:
+            continue
+        try:
+            b.add_force(ftype, d["name"], **params)
+        except ModelError as exc:
+            _relabel(P, path, f"forces[{d['name']!r}]", str(exc))
+
+    # ------------------------------------------------------------------ ground shapes
+    shapes = _section(data, "ground_shapes")
+    if _list(P, ("ground_shapes",), shapes, "shapes"):
+        for k, s in enumerate(shapes):
+            if _shape(P, ("ground_shapes", k), s):
+                b.add_ground_shape(s)
+
+    # ------------------------------------------------------------------ analysis
+    if data.get("analysis") is None:
+        analysis = Analysis()
+    else:
+        analysis = _parse_analysis(P, ("analysis",), data["analysis"], declared_bodies)
+    return b, analysis
+
+
+# ============================================================================ reading files
+class _Loader(yaml.SafeLoader):
+    """SafeLoader reading floats as YAML 1.2 does (``1e-6`` is a number, not a string) and
+    only true/false as booleans (not yes/no/on/off)."""
+
+
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_BOOL_TAG = "tag:yaml.org,2002:bool"
+_FLOAT_RE = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?
+                        |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                        |[-+]?\.(?:inf|Inf|INF)
+                        |\.(?:nan|NaN|NAN))$""", re.X)
+_Loader.yaml_implicit_resolvers = {
+    ch: [(tag, rx) for tag, rx in resolvers if tag not in (_FLOAT_TAG, _BOOL_TAG)]
+    for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_Loader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_RE, list("-+0123456789."))
+_Loader.add_implicit_resolver(_BOOL_TAG, re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"),
+                              list("tTfF"))
+
+
+def _walk(node, path, lines, duplicates, active=()) -> None:
+    """Line of every value (path -> 1-based line) and duplicate keys, from the YAML node tree
+    (``active``: the nodes being walked, so that recursive aliases end)."""
+    if id(node) in active:
+        return
+    active = active + (id(node),)
+    if isinstance(node, yaml.MappingNode):
+        seen = set()
+        for knode, vnode in node.value:
+            if not isinstance(knode, yaml.ScalarNode) or knode.value == "<<":
+                continue
+            key = knode.value
+            where = path + (key,)
+            if key in seen:
+                duplicates.append((where, knode.start_mark.line + 1))
+            seen.add(key)
+            lines.setdefault(where, vnode.start_mark.line + 1)
+            _walk(vnode, where, lines, duplicates, active)
+    elif isinstance(node, yaml.SequenceNode):
+        for k, item in enumerate(node.value):
+            lines.setdefault(path + (k,), item.start_mark.line + 1)
+            _walk(item, path + (k,), lines, duplicates, active)
+
+
+def _read_yaml(text: str, source):
+    loader = _Loader(text)
+    lines, duplicates = {}, []
+    try:
+        node = loader.get_single_node()
+        if node is not None:
+            _walk(node, (), lines, duplicates)
+        data = loader.construct_document(node) if node is not None else None
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        what = exc.problem or exc.context or "invalid YAML"
+        if exc.context and exc.problem:
+            what = f"{exc.problem} ({exc.context})"
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        raise ModelFileError([f"{where}YAML syntax error: {what}"], source) from None
+    except yaml.YAMLError as exc:
+        raise ModelFileError([f"YAML error: {exc}"], source) from None
+    finally:
+        loader.dispose()
+    return data, lines, duplicates
+
+
+def _read_json(text: str, source):
+    duplicates = []
+
+    def pairs(items):
+        out = {}
+        for key, value in items:
+            if key in out:
+                duplicates.append(((key,), None))
+            out[key] = value
+        return out
+
+    try:
+        data = json.loads(text, object_pairs_hook=pairs)
+    except json.JSONDecodeError as exc:
+        raise ModelFileError([f"line {exc.lineno}, column {exc.colno}: JSON syntax error: "
+                              f"{exc.msg}"], source) from None
+    return data, {}, duplicates
+
+
+def _plain_input(value):
+    """Python input (dicts with tuples / NumPy values) as the plain types a file gives."""
+    if isinstance(value, dict):
+        return {k: _plain_input(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain_input(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain_input(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _read(path_or_dict):
+    """(data, source, lines, duplicates, default name) of a path or a dict."""
+    if isinstance(path_or_dict, dict):
+        return _plain_input(path_or_dict), None, {}, [], "model"
+    if not isinstance(path_or_dict, (str, os.PathLike)):
+        raise TypeError(f"expected a path (.yaml, .yml, .json) or a dict, not "
+                        f"{type(path_or_dict).__name__}")
+    path = Path(path_or_dict)
+    suffix = path.suffix.lower()
+    if suffix not in YAML_SUFFIXES + JSON_SUFFIXES:
+        raise ModelFileError([f"unsupported file extension {path.suffix!r}; use .yaml, .yml "
+                              "or .json"], path)
+    text = path.read_text(encoding="utf-8")
+    reader = _read_yaml if suffix in YAML_SUFFIXES else _read_json
+    data, lines, duplicates = reader(text, path)
+    return data, path, lines, duplicates, path.stem
+
+
+def load_builder(path_or_dict) -> tuple[ModelBuilder, Analysis]:
+    """A ModelBuilder and the Analysis of a model file (.yaml/.yml/.json) or a model dict.
+
+    The whole file is checked first; every problem is reported at once in one
+    :class:`ModelFileError` (``problems``: one string per problem, with its place).
+    """
+    data, source, lines, duplicates, default_name = _read(path_or_dict)
+    P = _Problems(lines)
+    for where, line in duplicates:
+        P.add(where, f"duplicate key {where[-1]!r} (each key may appear once per mapping)",
+              line)
+    builder, analysis = _parse(P, data, default_name)
+    if len(P):
+        raise P.error(source)
+    return builder, analysis
+
+
+def load_model(path_or_dict) -> tuple[Model, Analysis]:
+    """The compiled Model and the Analysis of a model file or dict (see :func:`load_builder`)."""
+    builder, analysis = load_builder(path_or_dict)
+    try:
+        model = builder.compile()
+    except ModelFileError:
+        raise
+    except ModelError as exc:
+        source = None if isinstance(path_or_dict, dict) else path_or_dict
+        raise ModelFileError([str(exc)], source) from None
+    return model, analysis
+
+
+# ============================================================================ builder -> file
+def _plain(value, P=None, path=()):
+    """``value`` as plain Python types (dict, list, str, float, int, bool, None)."""
+    from ..motion import MotionLaw
+    if isinstance(value, MotionLaw):
+        try:
+            value = value.to_dict()
+        except ModelError as exc:
+            if P is None:
+                raise
+            P.add(path, f"{exc}; use a law of type constant, constant_velocity, harmonic, "
+                        "smooth_step or polynomial, or add this element in Python after "
+                        "loading")
+            return None
+        return _plain(value, P, path)
+    if isinstance(value, dict):
+        return {str(k): _plain(v, P, tuple(path) + (str(k),)) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, P, tuple(path) + (k,)) for k, v in enumerate(value)]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist(), P, path)
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (str, bool, int, float)):
+        return value
+    what = "a Python callable" if callable(value) else f"a {type(value).__name__}"
+    if P is None:
+        raise ModelFileError([f"{_render(path)}: {what} cannot be written to a model file"])
+    P.add(path, f"{what} cannot be written to a model file")
+    return None
+
+
+def _floats(arr) -> list:
+    return [float(x) for x in np.asarray(arr, dtype=float).reshape(-1)]
+
+
+def _is_default(arr, default) -> bool:
+    arr = np.asarray(arr, dtype=float)
+    return bool(np.array_equal(arr, default) and not np.any(np.signbit(arr) & (arr == 0)))
+
+
+def _state(obj) -> dict:
+    if isinstance(obj, Model):
+        return obj.builder_state
+    if isinstance(obj, ModelBuilder):
+        return dict(name=obj.name, gravity=obj.gravity, bodies=obj.bodies, joints=obj.joints,
+                    drivers=obj.drivers, forces=obj.forces, ground_shapes=obj.ground_shapes)
+    raise TypeError(f"expected a Model or a ModelBuilder, not {type(obj).__name__}")
+
+
+def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None) -> dict:
+    """The model file content of a Model or ModelBuilder (and an analysis) as a plain dict.
+
+    Raises ModelFileError listing everything that cannot be written (user motion laws, user
+    forces, other Python objects).
+    """
+    s = _state(model_or_builder)
+    P = _Problems()
+    out: dict = {"spatialmbd": SCHEMA_VERSION, "name": s["name"],
+                 "gravity": _floats(s["gravity"])}
+    bodies = []
+    for spec in s["bodies"].values():
+        d: dict = {"name": spec.name, "mass": float(spec.mass)}
+        J = np.asarray(spec.inertia, dtype=float)
+        off = J - np.diag(np.diag(J))
+        d["inertia"] = _floats(np.diag(J)) if not np.any(off) else \
+            [_floats(row) for row in J]
+        d["position"] = _floats(spec.r)
+        if not _is_default(spec.p, [1.0, 0.0, 0.0, 0.0]):
+            d["orientation"] = {"euler_parameters": _floats(spec.p)}
+        if not _is_default(spec.rdot, [0.0, 0.0, 0.0]):
+            d["velocity"] = _floats(spec.rdot)
+        if not _is_default(spec.omega, [0.0, 0.0, 0.0]):
+            d["angular_velocity"] = _floats(spec.omega)
+        if spec.points:
+            d["points"] = {str(k): _floats(v) for k, v in spec.points.items()}
+        if spec.vectors:
+            d["vectors"] = {str(k): _floats(v) for k, v in spec.vectors.items()}
+        if spec.shapes:
+            d["shapes"] = _plain(list(spec.shapes), P, ("bodies", len(bodies), "shapes"))
+        if spec.color is not None:
+            d["color"] = spec.color
+        bodies.append(d)
+    out["bodies"] = bodies
+    joints = []
+    for spec in s["joints"].values():
+        d = {"name": spec.name, "type": spec.type, "body_i": spec.body_i,
+             "body_j": spec.body_j}
+        order = list(GEOMETRY_KEYS) + [k for k in spec.geometry if k not in GEOMETRY_KEYS]
+        for key in order:
+            if key in spec.geometry and spec.geometry[key] is not None:
+                val = spec.geometry[key]
+                d[key] = val if isinstance(val, str) else _floats(val)
+        if spec.length is not None:
+            d["length"] = float(spec.length)
+        joints.append(d)
+    if joints:
+        out["joints"] = joints
+    drivers = []
+    for k, spec in enumerate(s["drivers"].values()):
+        d = {"name": spec.name, "kind": spec.kind}
+        for key in ("joint", "body", "coordinate"):
+            if getattr(spec, key) is not None:
+                d[key] = getattr(spec, key)
+        d["law"] = _plain(spec.law, P, ("drivers", k, "law"))
+        drivers.append(d)
+    if drivers:
+        out["drivers"] = drivers
+    forces = []
+    for k, spec in enumerate(s["forces"].values()):
+        if spec.type == "user":
+            P.add(("forces", k), f"force {spec.name!r} is a user force (a Python callable) and "
+                                 "cannot be written to a model file; add it in Python with "
+                                 "ModelBuilder.add_force('user', ...) after load_builder()")
+            continue
+        d = {"name": spec.name, "type": spec.type}
+        d.update({key: _plain(val, P, ("forces", k, key))
+                  for key, val in spec.params.items() if val is not None})
+        forces.append(d)
+    if forces:
+        out["forces"] = forces
+    if s["ground_shapes"]:
+        out["ground_shapes"] = _plain(list(s["ground_shapes"]), P, ("ground_shapes",))
+    if len(P):
+        raise P.error(heading=f"model {s['name']!r} cannot be written to a model file")
+    if analysis is not None:
+        if isinstance(analysis, dict):
+            analysis = Analysis.from_dict(analysis, list(s["bodies"]))
+        elif not isinstance(analysis, Analysis):
+            raise TypeError(f"analysis must be an Analysis, a dict or None, not "
+                            f"{type(analysis).__name__}")
+        else:
+            analysis = Analysis.from_dict(analysis.to_dict(), list(s["bodies"]))
+        out["analysis"] = analysis.to_dict()
+    return out
+
+
+class _Dumper(yaml.SafeDumper):
+    """Indented block sequences; strings that any YAML reader could take for a number are
+    quoted (the resolvers of YAML 1.1 and of our 1.2-style loader)."""
+
+    def increase_indent(self, flow=False, indentless=False):
+        return super().increase_indent(flow, False)
+
+
+_Dumper.yaml_implicit_resolvers = {
+    ch: list(resolvers) for ch, resolvers in yaml.SafeDumper.yaml_implicit_resolvers.items()}
+_Dumper.add_implicit_resolver(_FLOAT_TAG, _FLOAT_RE, list("-+0123456789."))
+
+
+class _Block(dict):
+    """A mapping always written in block style (sections and elements, for readability)."""
+
+
+_Dumper.add_representer(_Block, lambda dumper, data: dumper.represent_mapping(
+    "tag:yaml.org,2002:map", data.items(), flow_style=False))
+
+
+def _yaml_text(data: dict, header: Optional[str] = None) -> str:
+    data = dict(data)
+    for key in ("bodies", "joints", "drivers", "forces"):
+        if key in data:
+            data[key] = [_Block(d) for d in data[key]]
+    if "analysis" in data:
+        data["analysis"] = _Block(data["analysis"])
+    text = yaml.dump(data, Dumper=_Dumper, sort_keys=False, default_flow_style=None,
+                     allow_unicode=True, width=100)
+    lines = text.splitlines()
+    out = []
+    if header:
+        out.extend(("# " + ln).rstrip() for ln in header.strip("\n").splitlines())
+    for k, ln in enumerate(lines):
+        if k and re.match(r"^[A-Za-z_][\w-]*:", ln):
+            out.append("")          # a blank line between top-level sections
+        out.append(ln)
+    return "\n".join(out) + "\n"
+
+
+def _json_value(value, indent: int) -> str:
+    pad = " " * indent
+    if isinstance(value, dict):
+        if not value:
+            return "{}"
+        if all(not isinstance(v, (dict, list)) for v in value.values()) and len(value) <= 6:
+            return "{" + ", ".join(f"{json.dumps(k)}: {json.dumps(v, allow_nan=False)}"
+                                   for k, v in value.items()) + "}"
+        rows = [f"{pad}  {json.dumps(k)}: {_json_value(v, indent + 2)}"
+                for k, v in value.items()]
+        return "{\n" + ",\n".join(rows) + "\n" + pad + "}"
+    if isinstance(value, list):
+        if all(not isinstance(v, (dict, list)) for v in value):
+            return "[" + ", ".join(json.dumps(v, allow_nan=False) for v in value) + "]"
+        rows = [f"{pad}  {_json_value(v, indent + 2)}" for v in value]
+        return "[\n" + ",\n".join(rows) + "\n" + pad + "]"
+    return json.dumps(value, allow_nan=False)
+
+
+def save_model(model_or_builder, path, analysis=None, *, header: Optional[str] = None) -> Path:
+    """Write a Model or ModelBuilder (and an analysis) to ``path``: YAML (.yaml/.yml) or JSON
+    (.json). header: a comment written at the top of YAML files (ignored for JSON).
+
+    The file is written atomically (a temporary file in the same directory, then os.replace).
+    Raises ModelFileError if the model holds Python callables (user laws, user forces).
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in YAML_SUFFIXES + JSON_SUFFIXES:
+        raise ModelFileError([f"unsupported file extension {path.suffix!r}; use .yaml, .yml "
+                              "or .json"], path)
+    data = model_to_dict(model_or_builder, analysis)
+    try:
+        text = _yaml_text(data, header) if suffix in YAML_SUFFIXES else \
+            _json_value(data, 0) + "\n"
+    except ValueError as exc:       # NaN / inf in JSON
+        raise ModelFileError([str(exc)], path,
+                             heading=f"cannot write {str(path)!r}") from None
+    directory = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        try:
+            mode = os.stat(path).st_mode & 0o777 if path.exists() else 0o644
+            os.chmod(tmp, mode)
+        except OSError:
+            pass
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+# ============================================================================ examples
+def write_examples(directory) -> list:
+    """Write examples/<name>.yaml for every entry of spatialmbd.models.EXAMPLES."""
+    import textwrap
+
+    from .. import models
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, (function, kwargs, analysis) in models.EXAMPLES.items():
+        doc = (inspect.getdoc(function) or name).split("\n\n")[0].replace("\n", " ")
+        call = f"spatialmbd.models.{function.__name__}(" + ", ".join(
+            f"{k}={v!r}" for k, v in kwargs.items()) + ")"
+        header = "\n".join(textwrap.wrap(f"{name}: {doc}", 94)) + (
+            f"\nWritten by spatialmbd.io.write_examples() from {call}\n"
+            "with the analysis suggested in models.EXAMPLES. SI units; schema: "
+            "docs/model-file.md.\n"
+            f"Run:  model, analysis = spatialmbd.io.load_model(\"examples/{name}.yaml\")\n"
+            "      results = analysis.run(model)")
+        written.append(save_model(function(**kwargs), directory / f"{name}.yaml", analysis,
+                                  header=header))
+    return written
