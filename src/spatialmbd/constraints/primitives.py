@@ -2,21 +2,23 @@
 
 Every joint of the text is assembled from a few kinematic quantities of its two bodies i and j:
 points fixed on a body (8.1), vectors fixed on a body (8.3) and the vector d between two points
-(8.4). A :class:`Kin` carries, for n joint instances at once, such a 3-vector x together with
-what the constraint kernels need:
+(8.4). A :class:`Kin` carries, for n joint instances at once, such a 3-vector x with
 
     value  x              (n, 3)
     vel    xdot           (n, 3)      time derivative along the motion
-    jac    dxdot/dv_ij    (n, 3, 12)  with v_ij = [rdot_i, omega_i, rdot_j, omega_j]
-    acc    x'' - jac vdot (n, 3)      the velocity-quadratic part of the second derivative
+    acc    x'' - J vdot   (n, 3)      the velocity-quadratic part of the second derivative
+    terms                             how xdot depends on v_ij = [rdot_i, omega_i, rdot_j, omega_j]
 
-For a vector a fixed on body b: adot = omega~ a (5.7), d(adot)/d(omega) = -a~, and with
-omegadot = 0, a'' = omega~ adot. For a point P: r^P = r + s^P (8.1), rdot^P = rdot - s~ omega
-(5.9), r''^P(quadratic) = omega~ omega~ s^P.
+For a vector a fixed on body b: adot = omega~ a (5.7) = -a~ omega and, with omegadot = 0,
+a'' = omega~ adot. For a point P: r^P = r + s^P (8.1), rdot^P = rdot - s~ omega (5.9),
+r''^P(quadratic) = omega~ omega~ s^P. A term (side, lever, translation, sign) stands for
+sign * (translation ? rdot_side : 0) - sign * lever~ omega_side.
 
 Scalar constraints built from two quantities x, y then follow from the product rule:
     Phi = x^T y,  D = y^T J_x + x^T J_y,  gamma = -(acc_x^T y + 2 xdot^T ydot + x^T acc_y),
-which is exactly Eqs. (9.9)-(9.17) and (9.18)-(9.26) with the ERRATA corrections, for every joint.
+which is exactly Eqs. (9.9)-(9.17) and (9.18)-(9.26) with the ERRATA corrections, for every
+joint. The Jacobian row of y^T J_x is written directly: for a term of x, its translation columns
+get sign * y and its rotation columns sign * (lever x y) -- no (n, 3, 12) arrays are formed.
 """
 from __future__ import annotations
 
@@ -24,33 +26,54 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..state import BodyState
 from ..rotations import cross
+from ..state import BodyState
 
 
 @dataclass
 class Kin:
     value: np.ndarray
     vel: np.ndarray
-    jac: np.ndarray
     acc: np.ndarray
+    terms: tuple        # ((side, lever (n, 3), translation: bool, sign), ...)
 
     def __sub__(self, other: "Kin") -> "Kin":
-        return Kin(self.value - other.value, self.vel - other.vel, self.jac - other.jac,
-                   self.acc - other.acc)
+        flipped = tuple((s, lev, tr, -sg) for s, lev, tr, sg in other.terms)
+        return Kin(self.value - other.value, self.vel - other.vel, self.acc - other.acc,
+                   self.terms + flipped)
+
+    def row(self, y: np.ndarray) -> np.ndarray:
+        """y^T J_x: (n, 12) for y (n, 3)."""
+        D = np.zeros((y.shape[0], 12))
+        for side, lever, translation, sign in self.terms:
+            c = 6 * side
+            if translation:
+                D[:, c:c + 3] += sign * y
+            D[:, c + 3:c + 6] += sign * cross(lever, y)
+        return D
+
+    def jacobian(self) -> np.ndarray:
+        """J_x itself: (n, 3, 12) (for vector equations such as the spherical joint)."""
+        n = self.value.shape[0]
+        J = np.zeros((n, 3, 12))
+        for side, lever, translation, sign in self.terms:
+            c = 6 * side
+            if translation:
+                J[:, 0, c], J[:, 1, c + 1], J[:, 2, c + 2] = sign, sign, sign
+            # -lever~ omega: rows of -lever~ = [[0, lz, -ly], [-lz, 0, lx], [ly, -lx, 0]]
+            lx, ly, lz = lever[:, 0] * sign, lever[:, 1] * sign, lever[:, 2] * sign
+            J[:, 0, c + 4] += lz
+            J[:, 0, c + 5] -= ly
+            J[:, 1, c + 3] -= lz
+            J[:, 1, c + 5] += lx
+            J[:, 2, c + 3] += ly
+            J[:, 2, c + 4] -= lx
+        return J
 
 
-def _cross_matrix_columns(a: np.ndarray) -> np.ndarray:
-    """-a~ as (n, 3, 3): the Jacobian of omega x a with respect to omega."""
-    n = a.shape[0]
-    out = np.zeros((n, 3, 3))
-    out[:, 0, 1] = a[:, 2]
-    out[:, 0, 2] = -a[:, 1]
-    out[:, 1, 0] = -a[:, 2]
-    out[:, 1, 2] = a[:, 0]
-    out[:, 2, 0] = a[:, 1]
-    out[:, 2, 1] = -a[:, 0]
-    return out
+def _rotate(state: BodyState, body: np.ndarray, local: np.ndarray) -> np.ndarray:
+    A = state.A[body]
+    return np.einsum("nij,nj->ni", A, local)
 
 
 def body_vector(state: BodyState, body: np.ndarray, local: np.ndarray, side: int) -> Kin:
@@ -58,29 +81,24 @@ def body_vector(state: BodyState, body: np.ndarray, local: np.ndarray, side: int
 
     side: 0 if the body is body i of the joint, 1 if body j (selects the Jacobian columns).
     """
-    a = np.einsum("nij,nj->ni", state.A[body], local)
+    a = _rotate(state, body, local)
     w = state.omega[body]
     ad = cross(w, a)
-    jac = np.zeros((a.shape[0], 3, 12))
-    jac[:, :, 6 * side + 3:6 * side + 6] = _cross_matrix_columns(a)
-    return Kin(a, ad, jac, cross(w, ad))
+    return Kin(a, ad, cross(w, ad), ((side, a, False, 1.0),))
 
 
 def body_point(state: BodyState, body: np.ndarray, local: np.ndarray, side: int) -> Kin:
     """Global position of a point fixed on ``body``, r^P = r + A s'^P, Eq. (8.1)."""
-    s = np.einsum("nij,nj->ni", state.A[body], local)
+    s = _rotate(state, body, local)
     w = state.omega[body]
     sd = cross(w, s)
-    jac = np.zeros((s.shape[0], 3, 12))
-    jac[:, :, 6 * side:6 * side + 3] = np.eye(3)
-    jac[:, :, 6 * side + 3:6 * side + 6] = _cross_matrix_columns(s)
-    return Kin(state.r[body] + s, state.rdot[body] + sd, jac, cross(w, sd))
+    return Kin(state.r[body] + s, state.rdot[body] + sd, cross(w, sd), ((side, s, True, 1.0),))
 
 
 def dot(x: Kin, y: Kin):
     """Scalar constraint x^T y: returns (phi (n,), D (n, 12), gamma (n,))."""
     phi = np.einsum("ni,ni->n", x.value, y.value)
-    D = np.einsum("ni,nik->nk", y.value, x.jac) + np.einsum("ni,nik->nk", x.value, y.jac)
+    D = x.row(y.value) + y.row(x.value)
     gamma = -(np.einsum("ni,ni->n", x.acc, y.value) + 2.0 * np.einsum("ni,ni->n", x.vel, y.vel)
               + np.einsum("ni,ni->n", x.value, y.acc))
     return phi, D, gamma
@@ -88,7 +106,7 @@ def dot(x: Kin, y: Kin):
 
 def vector_equation(x: Kin):
     """Three scalar constraints x = 0: returns (phi (n, 3), D (n, 3, 12), gamma (n, 3))."""
-    return x.value, x.jac, -x.acc
+    return x.value, x.jacobian(), -x.acc
 
 
 def stack(*parts):
