@@ -304,6 +304,13 @@ def test_demo_calls_the_study(tmp_path, monkeypatch, capsys):
     assert seen == {"outdir": tmp_path / "d", "quick": True}
     assert "study report" in capsys.readouterr().out
 
+    def failing(outdir, quick=False):
+        return {"report": "study report", "passed": False}
+
+    monkeypatch.setattr(study, "run_study", failing)
+    assert main(["demo", "--outdir", str(tmp_path / "d"), "--quiet"]) == 1
+    assert "exact solution" in capsys.readouterr().err
+
 
 def test_validate_exit_status(monkeypatch, capsys):
     validation = pytest.importorskip("spatialmbd.validation")

@@ -445,6 +445,10 @@ def cmd_demo(args) -> int:
             _print_mapping(out)
         else:
             print(out)
+    if isinstance(out, dict) and out.get("passed") is False:
+        _err("error: some results of the study disagree with the exact solution beyond "
+             "their tolerance (marked FAILED in the report)")
+        return 1
     return 0
 
 
