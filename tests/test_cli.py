@@ -225,6 +225,11 @@ def test_info_reports_dof_and_redundant_joints(tmp_path, capsys):
     assert "Gruebler-Kutzbach DoF (6 nb - m, Eq. 2.1): 0" in out
     assert "actual DoF (6 nb - rank D): 1" in out
     assert "redundant equations: 1" in out
+    # a run reports the redundant equations as a warning (once)
+    assert main(["run", str(path), "--t-end", "0.02", "--output-step", "0.01",
+                 "-o", str(tmp_path / "b.csv")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("warning: 1 redundant constraint equation(s) in joint(s) P5") == 1
     path = save_model(models.slider_crank(), tmp_path / "crank.yaml")
     assert main(["info", str(path)]) == 0
     out = capsys.readouterr().out

@@ -214,8 +214,9 @@ def _summary(results, wall: float, warning_texts: Sequence[str]) -> str:
                  f"wall time {wall:.3g} s"]
         known = []
     else:
-        lines = [results.summary()]
         known = list(results.messages)
+        lines = [f"warning: {line}" if line in known else line
+                 for line in results.summary().splitlines()]
     lines += [f"warning: {w}" for w in warning_texts if w not in known]
     return "\n".join(lines)
 
