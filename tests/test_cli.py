@@ -322,21 +322,43 @@ def test_demo_calls_the_study(tmp_path, monkeypatch, capsys):
     assert "exact solution" in capsys.readouterr().err
 
 
-def test_validate_exit_status(monkeypatch, capsys):
+def test_validate_exit_status(tmp_path, monkeypatch, capsys):
     validation = pytest.importorskip("spatialmbd.validation")
-    if not hasattr(validation, "run_validation"):
-        pytest.skip("spatialmbd.validation.run_validation not available yet")
-    cases = [{"name": "a", "passed": True}, {"name": "b", "passed": True}]
+    from spatialmbd.validation.core import CaseResult, Check
+
+    def case(name, error):
+        return CaseResult(name, f"case {name}", "made up",
+                          checks=[Check("x", 1.0, 1.0 + error, error, 1e-6)], runtime=0.01)
+
+    cases = [case("a", 0.0), case("b", 1e-9)]
     calls = []
 
-    def fake(full=False, out=None):
-        calls.append(full)
-        return list(cases)
+    def fake(full=False, out=None, cases=None, progress=None):
+        calls.append((full, out, cases))
+        for c in fake_cases:
+            progress(c)
+        return list(fake_cases)
 
+    fake_cases = cases
     monkeypatch.setattr(validation, "run_validation", fake)
     assert main(["validate"]) == 0
-    assert main(["validate", "--full"]) == 0
-    assert calls == [False, True]
-    cases.append({"name": "c", "passed": False})
-    assert main(["validate"]) == 1
-    assert "1 of 3 validation case(s) failed: c" in capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert out.startswith("a: pass (0.0 s)\nb: pass")
+    assert "all 2 validation cases passed" in out
+    assert main(["validate", "--full", "--out", str(tmp_path), "a", "b"]) == 0
+    assert calls == [(False, None, None), (True, str(tmp_path), ["a", "b"])]
+    capsys.readouterr()
+    fake_cases = cases + [case("c", 1.0)]
+    assert main(["validate", "--quiet"]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == "error: 1 of 3 validation case(s) failed: c\n"
+
+
+def test_validate_unknown_case_and_a_real_one(capsys):
+    pytest.importorskip("spatialmbd.validation")
+    assert main(["validate", "no_such_case"]) == 2
+    assert "unknown validation case" in capsys.readouterr().err
+    assert main(["validate", "slider_crank_kinematics"]) == 0
+    out = capsys.readouterr().out
+    assert "Slider-crank kinematics: pass" in out and "all 1 validation cases passed" in out

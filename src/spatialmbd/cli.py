@@ -472,30 +472,27 @@ def _print_mapping(out) -> None:
             print(f"{key}: " + ", ".join(str(v) for v in value))
 
 
-def _case_passed(case) -> bool:
-    for key in ("passed", "ok", "success"):
-        value = case.get(key) if isinstance(case, dict) else getattr(case, key, None)
-        if value is not None and not callable(value):
-            return bool(value)
-    status = case.get("status") if isinstance(case, dict) else getattr(case, "status", None)
-    if status is not None:
-        return str(status).lower() in ("pass", "passed", "ok", "success")
-    raise TypeError(f"cannot tell whether validation case {case!r} passed")
-
-
 def cmd_validate(args) -> int:
     try:
-        from .validation import run_validation
+        from .validation import format_table, run_validation
     except ImportError as exc:
         raise UsageError(f"the validation suite is not available in this installation "
                          f"({exc})") from None
-    cases = run_validation(full=args.full, out=None if args.quiet else sys.stdout)
-    failed = [c for c in cases if not _case_passed(c)]
+
+    def progress(case):
+        if not args.quiet:
+            print(f"{case.name}: {'pass' if case.passed else 'FAIL'} ({case.runtime:.1f} s)",
+                  flush=True)
+
+    cases = run_validation(full=args.full, out=args.out, cases=args.cases or None,
+                           progress=progress)
+    failed = [c for c in cases if not c.passed]
+    if not args.quiet:
+        print()
+        print(format_table(cases))
     if failed:
-        names = [str(c.get("name") if isinstance(c, dict) else getattr(c, "name", c))
-                 for c in failed]
         _err(f"error: {len(failed)} of {len(cases)} validation case(s) failed: "
-             + ", ".join(names))
+             + ", ".join(c.name for c in failed))
         return 1
     if not args.quiet:
         print(f"all {len(cases)} validation cases passed")
@@ -650,9 +647,15 @@ def build_parser() -> argparse.ArgumentParser:
                 "print a table; the exit status is 1 if any case fails.",
                 """
                 spatialmbd validate
-                spatialmbd validate --full
+                spatialmbd validate --full --out validation/
+                spatialmbd validate heavy_top slider_crank_kinematics
                 """)
-    p.add_argument("--full", action="store_true", help="also the long cases")
+    p.add_argument("cases", nargs="*", metavar="CASE",
+                   help="run only these cases (default: all; names in the table)")
+    p.add_argument("--full", action="store_true",
+                   help="the complete version (longer runs, every output instant)")
+    p.add_argument("--out", metavar="PATH",
+                   help="also write the table to PATH (a directory, or a .md/.txt file)")
     p.add_argument("--quiet", action="store_true", help="print only failures")
     p.set_defaults(func=cmd_validate)
     return parser
