@@ -584,3 +584,14 @@ def test_tricky_strings_survive_yaml(tmp_path):
     path = save_model(b, tmp_path / "t.yaml")
     loaded, _ = load_builder(path)
     assert loaded.name == "yes" and list(loaded.bodies) == list(b.bodies)
+
+
+def test_independent_problems_of_one_body_are_all_reported():
+    from spatialmbd.io import ModelFileError, load_model
+    data = {"spatialmbd": 1, "bodies": [{"name": "a", "mass": -1, "inertia": [1, 1, 5],
+                                         "orientation": {"euler_parameters": [1, 0, 0, 0.5]}}]}
+    with pytest.raises(ModelFileError) as info:
+        load_model(data)
+    text = "\n".join(info.value.problems)
+    assert "bodies[0].mass" in text and "bodies[0].inertia" in text
+    assert "far from 1" in text

@@ -31,7 +31,8 @@ import yaml
 
 from ..errors import ModelError
 from ..model import Model, ModelBuilder
-from ..model.builder import GLOBAL_KEYS, GROUND, LOCAL_KEYS
+from ..model.builder import (GLOBAL_KEYS, GROUND, LOCAL_KEYS, check_inertia, check_mass,
+                             orientation_to_p)
 
 SCHEMA_VERSION = 1
 
@@ -777,10 +778,24 @@ def _parse(P, data, default_name="model"):
         for key in ("euler_zxz", "bryant"):
             if key + "_deg" in (d.get("orientation") or {}):
                 fields[key] = ("orientation", key + "_deg")
+        # the physical checks are independent: report each of them, not only the first
+        label = f"bodies[{d['name']!r}]"
+        checks = (lambda: check_mass(d["mass"], f"{label}.mass"),
+                  lambda: check_inertia(d["inertia"], f"{label}.inertia"),
+                  lambda: orientation_to_p(label, **orient))
+        failed = False
+        for check in checks:
+            try:
+                check()
+            except ModelError as exc:
+                _relabel(P, path, label, str(exc), fields)
+                failed = True
+        if failed:
+            continue
         try:
             b.add_body(d["name"], d["mass"], d["inertia"], **kwargs)
         except ModelError as exc:
-            _relabel(P, path, f"bodies[{d['name']!r}]", str(exc), fields)
+            _relabel(P, path, label, str(exc), fields)
             continue
         if "p" in orient:
             # keep Euler parameters that are unit to rounding bit for bit (exact round trips)

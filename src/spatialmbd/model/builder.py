@@ -44,6 +44,17 @@ def _vector(value, what: str, size: int = 3) -> np.ndarray:
     return arr
 
 
+def check_mass(mass, what: str) -> float:
+    """A validated mass (kg): a finite positive number."""
+    try:
+        mass = float(mass)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}: expected a number, got {mass!r}") from None
+    if not (math.isfinite(mass) and mass > 0):
+        raise ModelError(f"{what}: must be positive and finite, got {mass!r} (kg)")
+    return mass
+
+
 def check_inertia(inertia, what: str) -> np.ndarray:
     """A validated (3, 3) inertia tensor from 3 principal moments or a 3x3 matrix (kg m^2)."""
     arr = np.array(inertia, dtype=float)
@@ -139,12 +150,7 @@ class ModelBuilder:
         """
         what = f"bodies[{name!r}]"
         self._check_new_name(name, "body")
-        try:
-            mass = float(mass)
-        except (TypeError, ValueError):
-            raise ModelError(f"{what}.mass: expected a number, got {mass!r}") from None
-        if not (math.isfinite(mass) and mass > 0):
-            raise ModelError(f"{what}.mass: must be positive and finite, got {mass!r} (kg)")
+        mass = check_mass(mass, f"{what}.mass")
         J = check_inertia(inertia, f"{what}.inertia")
         pv = orientation_to_p(what, p=p, euler_zxz=euler_zxz, bryant=bryant, A=A)
         if omega is not None and omega_local is not None:
