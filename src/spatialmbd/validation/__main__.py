@@ -1,0 +1,4 @@
+"""python -m spatialmbd.validation [--full] [--out DIR] [case ...]"""
+from . import main
+
+raise SystemExit(main())

@@ -1,0 +1,200 @@
+"""The validation suite (short version in CI) and the references it relies on."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from spatialmbd.validation import CASE_NAMES, format_table, reference_dir, run_validation
+from spatialmbd.validation.adams import Deck, parse_statements, read_table
+from spatialmbd.validation.core import adams_dir
+from spatialmbd.validation.exact import (EulerFreeBody, PhysicalPendulum, rotating_pendulum,
+                                         symmetric_free_body)
+from spatialmbd.validation.references import derive
+
+
+# ------------------------------------------------------------------------- the short suite
+@pytest.mark.parametrize("name", CASE_NAMES)
+def test_short_validation_case_passes(name):
+    (result,) = run_validation(cases=[name])
+    assert result.error is None, result.error
+    assert result.checks, "a case must compare something"
+    failed = [c for c in result.checks if not c.passed]
+    assert not failed, "\n" + format_table([result], details=True)
+
+
+def test_format_table_lists_every_check_with_its_tolerance(tmp_path):
+    results = run_validation(cases=["slider_crank_kinematics", "iftomm_a04"], out=tmp_path)
+    text = format_table(results)
+    for word in ("reference", "ours", "error", "tolerance", "pass", "Gruebler count",
+                 "slider xddot", "tolerance: cond(D)"):
+        assert word in text
+    md = (tmp_path / "validation.md").read_text()
+    assert md.startswith("| case | quantity | reference | ours |")
+    assert "2/2 cases passed" in md
+
+
+def test_unknown_case_is_rejected():
+    with pytest.raises(ValueError, match="unknown validation case"):
+        run_validation(cases=["nope"])
+
+
+@pytest.mark.slow
+def test_full_validation_suite_passes(tmp_path):
+    results = run_validation(full=True, out=tmp_path)
+    assert all(r.passed for r in results), format_table(results)
+
+
+# ------------------------------------------------------------------------- reference data
+def _same(a, b, path=""):
+    """Equal structures; floats to 12 digits (the derivation uses SciPy's elliptic functions,
+    whose last bits may differ between versions)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and set(a) == set(b), path
+        for k in a:
+            _same(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), path
+        for k, (x, y) in enumerate(zip(a, b)):
+            _same(x, y, f"{path}[{k}]")
+    elif isinstance(a, float) or isinstance(b, float):
+        assert a == pytest.approx(b, rel=1e-12, abs=1e-300), path
+    else:
+        assert a == b, path
+
+
+def test_stored_references_agree_with_their_derivation():
+    stored = json.loads((reference_dir() / "references.json").read_text())
+    fresh = json.loads(json.dumps(derive(adams_dir())))
+    _same(stored, fresh)     # else: python -m spatialmbd.validation.references --write
+
+
+def test_every_reference_states_source_how_and_precision():
+    refs = json.loads((reference_dir() / "references.json").read_text())
+    for key, entry in refs.items():
+        if key.startswith("_"):
+            continue
+        for field in ("source", "how", "precision"):
+            assert entry.get(field), f"{key} lacks {field}"
+    assert (reference_dir() / "adams" / "PROVENANCE.md").is_file()
+
+
+def test_published_values_entered_as_published():
+    refs = json.loads((reference_dir() / "references.json").read_text())
+    assert refs["spatial_slider_crank"]["energy_J"] == 0.76643568
+    assert (refs["iftomm_a04"]["grubler"], refs["iftomm_a04"]["dof"]) == (0, 1)
+    # the ADAMS accuracy matches the benchdata README (about 5e-6 m and 8.4e-4 m)
+    cases = refs["adams"]["cases"]
+    for name in ("Revolute_Case01", "Revolute_Case02", "Spherical_Case02"):
+        assert 4e-6 < cases[name]["quantities"]["Pos"]["adams_error_vs_exact_max"] < 6e-6
+    for name in ("Spherical_Case01", "Universal_Case01", "Universal_Case02"):
+        assert 8e-4 < cases[name]["quantities"]["Pos"]["adams_error_vs_exact_max"] < 9e-4
+
+
+# ------------------------------------------------------------------------- reading the decks
+def test_deck_reading_revolute_case02():
+    deck = Deck.read(adams_dir() / "test_Revolute_Case02.adm")
+    np.testing.assert_allclose(deck.gravity, [0, 0, -9.80665])
+    b = deck.builder()
+    (body,) = b.bodies.values()
+    assert body.mass == 1.0
+    np.testing.assert_allclose(np.diag(body.inertia), [0.04, 0.1, 0.1])
+    np.testing.assert_allclose(body.r, [3, 2, 3])
+    (joint,) = b.joints.values()
+    assert (joint.type, joint.body_i) == ("revolute", "ground")
+    np.testing.assert_allclose(joint.geometry["point"], [1, 2, 3])
+    np.testing.assert_allclose(joint.geometry["axis"], np.array([0, 1, 1]) / np.sqrt(2),
+                               atol=1e-15)
+    # the body frame is the CM marker frame: its Euler parameters are ADAMS's first Quat row
+    t, quat, cols = read_table(adams_dir() / "Revolute_Case02_ADAMS_Quat.txt")
+    assert cols == ["e0", "e1", "e2", "e3"] and len(t) == 501
+    np.testing.assert_allclose(body.p, quat[0], atol=1e-6)
+
+
+def test_deck_reading_hooke_axes():
+    deck = Deck.read(adams_dir() / "test_Universal_Case02.adm")
+    (joint,) = deck.builder().joints.values()
+    assert joint.type == "universal"
+    np.testing.assert_allclose(joint.geometry["axis"], [0, 0, -1], atol=1e-15)   # I marker x
+    np.testing.assert_allclose(joint.geometry["axis2"], [0, 1, 0], atol=1e-15)   # J marker y
+
+
+def test_statement_parser_handles_continuations_comments_and_degrees():
+    (st,) = parse_statements("MARKER/0102, PART = 01 ! comment\n, QP = 1, 2, 3\n"
+                             ", REULER = 180D, 45D, 0\n")
+    assert (st.name, st.id) == ("MARKER", 102)
+    assert st.keys["QP"] == ["1", "2", "3"] and st.keys["REULER"] == ["180D", "45D", "0"]
+
+
+def test_adams_reaction_convention_by_hand():
+    """At release (rest, rod horizontal) I_O theta'' = m g d, so the centre of mass accelerates
+    down by d theta'' and the joint holds the body up with m (g - d theta''); ADAMS reports the
+    reaction on the ground, i.e. the opposite force."""
+    m, g, d, I_O = 1.0, 9.80665, 2.0, 0.1 + 4.0
+    on_body_z = m * (g - d * (m * g * d / I_O))
+    _, force, _ = read_table(adams_dir() / "Revolute_Case01_ADAMS_Rforce.txt")
+    assert force[0, 2] == pytest.approx(-on_body_z, rel=1e-5)
+    np.testing.assert_allclose(force[0, :2], 0, atol=1e-9)
+
+
+# ------------------------------------------------------------------------- the exact solutions
+def _euler_rhs(I):
+    def f(t, w):
+        return [(I[1] - I[2]) * w[1] * w[2] / I[0], (I[2] - I[0]) * w[2] * w[0] / I[1],
+                (I[0] - I[1]) * w[0] * w[1] / I[2]]
+    return f
+
+
+def test_jacobi_solution_solves_eulers_equations():
+    efb = EulerFreeBody((1.0, 2.0, 3.0), 6.0, 0.3)
+    t = np.linspace(0, 5, 201)
+    sol = solve_ivp(_euler_rhs((1.0, 2.0, 3.0)), (0, 5), [0, 6.0, 0.3], t_eval=t, rtol=1e-12,
+                    atol=1e-12)
+    np.testing.assert_allclose(efb.omega_local(t), sol.y.T, atol=1e-8)
+    # w2 changes sign at K / lambda, 3 K / lambda, ...
+    sn = efb.omega_local([efb.K / efb.lam, 3 * efb.K / efb.lam])[:, 1]
+    np.testing.assert_allclose(sn, 0, atol=1e-12)
+
+
+def test_symmetric_free_body_closed_form_solves_the_kinematics():
+    A0 = np.eye(3)
+    w0 = np.array([0.3, -0.2, 2.0])
+
+    def rhs(t, y):
+        w, A = y[:3], y[3:].reshape(3, 3)
+        wd = _euler_rhs((1.0, 1.0, 2.0))(t, w)
+        W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        return np.concatenate([wd, (A @ W).ravel()])
+
+    t = np.linspace(0, 6, 61)
+    sol = solve_ivp(rhs, (0, 6), np.concatenate([w0, A0.ravel()]), t_eval=t, rtol=1e-12,
+                    atol=1e-12)
+    w, A = symmetric_free_body(t, 1.0, 2.0, A0, w0)
+    np.testing.assert_allclose(w, sol.y[:3].T, atol=1e-9)
+    np.testing.assert_allclose(A, sol.y[3:].T.reshape(-1, 3, 3), atol=1e-9)
+
+
+def test_physical_pendulum_solves_its_equation_and_period():
+    pend = PhysicalPendulum(7.02, (0.5855265, 0.0010530, 0.5855265), (0, 0.5, 0), np.eye(3),
+                            (0, 0, 0), (1, 0, 0), (0, 0, -9.81))
+    w2 = pend.omega0**2
+    t = np.linspace(0, 4, 101)
+    sol = solve_ivp(lambda t, y: [y[1], -w2 * np.sin(y[0])], (0, 4), [np.pi / 2, 0],
+                    t_eval=t, rtol=1e-12, atol=1e-12)
+    th, thd, _ = pend.angle(t)
+    np.testing.assert_allclose(th, sol.y[0], atol=1e-9)
+    np.testing.assert_allclose(thd, sol.y[1], atol=1e-9)
+    assert pend.I_O == pytest.approx(0.5855265 + 7.02 * 0.25)
+    # theta returns to pi/2 after one period
+    assert pend.angle([pend.period])[0][0] == pytest.approx(np.pi / 2, abs=1e-7)
+
+
+def test_rotating_pendulum_solution():
+    t = np.linspace(0, 3, 121)
+    sol = solve_ivp(lambda t, y: [y[1], 34.335 / 3.0 * np.sin(y[0])], (0, 3), [0, -1.0],
+                    t_eval=t, rtol=1e-12, atol=1e-12)
+    phi, phid = rotating_pendulum(t, 3.0, 34.335, -1.0)
+    np.testing.assert_allclose(phi, sol.y[0], atol=1e-8)
+    np.testing.assert_allclose(phid, sol.y[1], atol=1e-8)
