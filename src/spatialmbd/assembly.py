@@ -1,14 +1,15 @@
 """Assembly: stack the constraint groups into Phi, D, nu, gamma of the whole system.
 
-The sparsity pattern of D (m x 6 nb) is computed once per model: each instance of a group fills
-a (n_eq x 12) block in the columns of its two bodies (ground columns dropped). Every evaluation
-then only computes the blocks (one vectorized call per constraint type) and scatters them with
-precomputed indices, into a dense array for small systems or the data vector of a fixed CSR
-matrix for large ones.
+Each equation row of D (m x 6 nb) has at most 12 non-zeros, the columns of the two bodies of
+its joint (ground columns dropped), so the kernels produce D as ``blocks`` (m, 12). The sparsity
+pattern of D is computed once per model; every evaluation runs all compiled groups in one call
+(:func:`.constraints.kernels.evaluate_instances`), groups without a compiled kernel in Python,
+and D itself -- a dense array for small systems or a CSR matrix with the fixed pattern for
+large ones -- is only scattered from the blocks when someone asks for ``ConstraintValues.D``.
+(The dynamics never do: :mod:`.dynamics.system` works on the blocks.)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Union
 
 import numpy as np
@@ -20,26 +21,43 @@ from .state import BodyState
 SPARSE_THRESHOLD = 600
 
 
-@dataclass
 class ConstraintValues:
-    """Phi (m,), D (m, 6 nb) dense ndarray or CSR matrix, nu (m,), gamma (m,)."""
+    """Phi (m,), D (m, 6 nb) dense ndarray or CSR matrix, nu (m,), gamma (m,).
 
-    phi: np.ndarray
-    D: Union[np.ndarray, sp.csr_matrix]
-    nu: np.ndarray
-    gamma: np.ndarray
+    ``blocks`` (m, 12): the non-zeros of each row of D over [v_i, v_j] of its two bodies.
+    """
+
+    def __init__(self, phi, D=None, nu=None, gamma=None, *, blocks=None, assembler=None):
+        self.phi = phi
+        self.nu = nu
+        self.gamma = gamma
+        self.blocks = blocks
+        self._D = D
+        self._assembler = assembler
+
+    @property
+    def D(self) -> Union[np.ndarray, sp.csr_matrix]:
+        if self._D is None:
+            self._D = self._assembler.assemble_D(self.blocks.ravel())
+        return self._D
+
+    def __repr__(self) -> str:
+        return f"ConstraintValues(m={np.size(self.phi)})"
 
 
 class Assembler:
     def __init__(self, model, sparse: bool | None = None):
+        from .constraints.kernels import JointTable
         self.model = model
         self.nb = model.nb
         self.m = model.n_eq
         self.n = 6 * model.nb
         self.sparse = (self.n > SPARSE_THRESHOLD) if sparse is None else bool(sparse)
+        groups, offsets = model.constraint_groups, model.group_offsets
+        self.table = JointTable(groups, offsets)
+        self._python = [(g, off) for g, off in zip(groups, offsets) if not g.compiled]
         rows, cols, keep = [], [], []
-        offsets = model.group_offsets
-        for g, off in zip(model.constraint_groups, offsets):
+        for g, off in zip(groups, offsets):
             r = off + np.arange(g.size).reshape(g.n, g.n_eq)
             c = np.concatenate([6 * g.body_i[:, None] + np.arange(6),
                                 6 * g.body_j[:, None] + np.arange(6)], axis=1)
@@ -72,17 +90,23 @@ class Assembler:
     def evaluate(self, q: np.ndarray, v: np.ndarray | None, t: float,
                  state: BodyState | None = None) -> ConstraintValues:
         """Phi, D, nu, gamma at (q, v, t). q: (nb, 7) or flat; v: (nb, 6), flat or None."""
+        from .constraints.kernels import evaluate_instances
         if state is None:
             state = BodyState.from_qv(q, v, t)
-        evals = self.blocks(state, t)
-        if not evals:
-            z = np.zeros(0)
-            return ConstraintValues(z, self.assemble_D(z), z, z)
-        phi = np.concatenate([e.phi.ravel() for e in evals])
-        nu = np.concatenate([e.nu.ravel() for e in evals])
-        gamma = np.concatenate([e.gamma.ravel() for e in evals])
-        data = np.concatenate([e.D.ravel() for e in evals])
-        return ConstraintValues(phi, self.assemble_D(data), nu, gamma)
+        m = self.m
+        phi, nu, gamma = np.empty(m), np.empty(m), np.empty(m)
+        D = np.empty((m, 12))
+        if self.table.has_drivers:
+            self.table.set_time(t)
+        if self.table.kind.size:
+            evaluate_instances(self.table.kind, state.arrays(), self.table.G, self.table.rows,
+                               (phi, D, nu, gamma))
+        for g, off in self._python:
+            e = g.evaluate(state, t)
+            sl = slice(off, off + g.size)
+            phi[sl], nu[sl], gamma[sl] = e.phi.ravel(), e.nu.ravel(), e.gamma.ravel()
+            D[sl] = e.D.reshape(-1, 12)
+        return ConstraintValues(phi, None, nu, gamma, blocks=D, assembler=self)
 
     def assemble_D(self, data: np.ndarray):
         """Scatter the concatenated (n, n_eq, 12) blocks into D (dense or CSR)."""
@@ -96,6 +120,4 @@ class Assembler:
 
     def phi(self, q: np.ndarray, t: float) -> np.ndarray:
         """Phi(q, t) only (m,)."""
-        state = BodyState.from_qv(q, None, t)
-        evals = self.blocks(state, t)
-        return np.concatenate([e.phi.ravel() for e in evals]) if evals else np.zeros(0)
+        return self.evaluate(q, None, t).phi

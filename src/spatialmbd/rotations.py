@@ -15,6 +15,8 @@ Conventions
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -35,21 +37,14 @@ def A_from_p(p: np.ndarray) -> np.ndarray:
     """Rotation matrix from Euler parameters, Eq. (4.13). p: (..., 4) -> (..., 3, 3).
 
     Uses A = (2 e0^2 - 1) I + 2 (e e^T + e0 e~): the right-hand side of the printed (4.14) is A,
-    not A^T (ERRATA.md). p is used as given; callers keep it unit length.
+    not A^T (ERRATA.md). p is used as given; callers keep it unit length. (Compiled:
+    :func:`A_into`.)
     """
     p = np.asarray(p, dtype=float)
-    e0, e1, e2, e3 = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
-    A = np.empty(p.shape[:-1] + (3, 3))
-    A[..., 0, 0] = 2.0 * (e0 * e0 + e1 * e1) - 1.0
-    A[..., 0, 1] = 2.0 * (e1 * e2 - e0 * e3)
-    A[..., 0, 2] = 2.0 * (e1 * e3 + e0 * e2)
-    A[..., 1, 0] = 2.0 * (e1 * e2 + e0 * e3)
-    A[..., 1, 1] = 2.0 * (e0 * e0 + e2 * e2) - 1.0
-    A[..., 1, 2] = 2.0 * (e2 * e3 - e0 * e1)
-    A[..., 2, 0] = 2.0 * (e1 * e3 - e0 * e2)
-    A[..., 2, 1] = 2.0 * (e2 * e3 + e0 * e1)
-    A[..., 2, 2] = 2.0 * (e0 * e0 + e3 * e3) - 1.0
-    return A
+    flat = np.ascontiguousarray(p.reshape(-1, 4))
+    A = np.empty((flat.shape[0], 3, 3))
+    _A_batch(flat, A)
+    return A.reshape(p.shape[:-1] + (3, 3))
 
 
 def p_from_A(A: np.ndarray) -> np.ndarray:
@@ -124,17 +119,15 @@ def L_matrix(p: np.ndarray) -> np.ndarray:
 
 
 def pdot_from_omega(p: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """pdot = 1/2 G^T omega, Eq. (5.12). p: (..., 4), omega (global): (..., 3) -> (..., 4)."""
-    p = np.asarray(p, dtype=float)
-    w = np.asarray(omega, dtype=float)
-    e0, e1, e2, e3 = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
-    wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
-    return 0.5 * np.stack([
-        -e1 * wx - e2 * wy - e3 * wz,
-        e0 * wx + e3 * wy - e2 * wz,
-        -e3 * wx + e0 * wy + e1 * wz,
-        e2 * wx - e1 * wy + e0 * wz,
-    ], axis=-1)
+    """pdot = 1/2 G^T omega, Eq. (5.12). p: (..., 4), omega (global): (..., 3) -> (..., 4).
+    (Compiled: :func:`pdot_scalar`.)"""
+    p, w = np.asarray(p, dtype=float), np.asarray(omega, dtype=float)
+    shape = np.broadcast_shapes(p.shape[:-1], w.shape[:-1])
+    p = np.ascontiguousarray(np.broadcast_to(p, shape + (4,)).reshape(-1, 4))
+    w = np.ascontiguousarray(np.broadcast_to(w, shape + (3,)).reshape(-1, 3))
+    out = np.empty((p.shape[0], 4))
+    _pdot_batch(p, w, out)
+    return out.reshape(shape + (4,))
 
 
 def omega_from_pdot(p: np.ndarray, pdot: np.ndarray) -> np.ndarray:
@@ -143,27 +136,25 @@ def omega_from_pdot(p: np.ndarray, pdot: np.ndarray) -> np.ndarray:
 
 
 def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Euler-parameter product a (x) b: A(a (x) b) = A(a) A(b). a, b: (..., 4) -> (..., 4)."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    a0, av = a[..., :1], a[..., 1:]
-    b0, bv = b[..., :1], b[..., 1:]
-    return np.concatenate([a0 * b0 - np.sum(av * bv, axis=-1, keepdims=True),
-                           a0 * bv + b0 * av + np.cross(av, bv)], axis=-1)
+    """Euler-parameter product a (x) b: A(a (x) b) = A(a) A(b). a, b: (..., 4) -> (..., 4).
+    (Compiled: :func:`quat_multiply_scalar`.)"""
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+    out = np.empty(a.shape)
+    _quat_batch(np.ascontiguousarray(a.reshape(-1, 4)), np.ascontiguousarray(b.reshape(-1, 4)),
+                out.reshape(-1, 4))
+    return out
 
 
 def p_from_rotation_vector(theta: np.ndarray) -> np.ndarray:
     """Euler parameters of a rotation by |theta| about theta/|theta| (4.7)-(4.8).
 
     theta: (..., 3) rotation vector (radians) -> (..., 4). Exact for small angles too.
+    (Compiled: :func:`p_from_rotation_vector_scalar`.)
     """
     theta = np.asarray(theta, dtype=float)
-    angle = np.linalg.norm(theta, axis=-1, keepdims=True)
-    half = 0.5 * angle
-    # sin(half)/angle with its Taylor series near zero
-    small = angle < 1e-8
-    factor = np.where(small, 0.5 - angle**2 / 48.0, np.sin(half) / np.where(small, 1.0, angle))
-    return np.concatenate([np.cos(half), factor * theta], axis=-1)
+    out = np.empty(theta.shape[:-1] + (4,))
+    _rotvec_batch(np.ascontiguousarray(theta.reshape(-1, 3)), out.reshape(-1, 4))
+    return out
 
 
 def rotate_p(p: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
@@ -171,9 +162,15 @@ def rotate_p(p: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
 
     A_new = A(dtheta) A(p): the update used by Newton-Raphson and by coordinate projection, where
     corrections are computed in the 6-per-body velocity space (ERRATA (14.6)). Unit length kept.
+    (Compiled: :func:`rotate_p_scalar`.)
     """
-    out = quat_multiply(p_from_rotation_vector(dtheta), p)
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+    p, d = np.asarray(p, dtype=float), np.asarray(dtheta, dtype=float)
+    shape = np.broadcast_shapes(p.shape[:-1], d.shape[:-1])
+    p = np.ascontiguousarray(np.broadcast_to(p, shape + (4,)).reshape(-1, 4))
+    d = np.ascontiguousarray(np.broadcast_to(d, shape + (3,)).reshape(-1, 3))
+    out = np.empty((p.shape[0], 4))
+    _rotate_p_batch(p, d, out)
+    return out.reshape(shape + (4,))
 
 
 def normalize_p(p: np.ndarray) -> np.ndarray:
@@ -515,3 +512,103 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out[..., 1] = a2 * b0 - a0 * b2
     out[..., 2] = a0 * b1 - a1 * b0
     return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Compiled hot-path helpers (one instance; the vectorized functions above call them)
+# ----------------------------------------------------------------------------------------------
+from .jit import njit  # noqa: E402
+
+
+@njit
+def A_into(p, b, A):
+    """A[b] = A(p[b]), Eq. (4.13) (see :func:`A_from_p`)."""
+    e0, e1, e2, e3 = p[b, 0], p[b, 1], p[b, 2], p[b, 3]
+    A[b, 0, 0] = 2.0 * (e0 * e0 + e1 * e1) - 1.0
+    A[b, 0, 1] = 2.0 * (e1 * e2 - e0 * e3)
+    A[b, 0, 2] = 2.0 * (e1 * e3 + e0 * e2)
+    A[b, 1, 0] = 2.0 * (e1 * e2 + e0 * e3)
+    A[b, 1, 1] = 2.0 * (e0 * e0 + e2 * e2) - 1.0
+    A[b, 1, 2] = 2.0 * (e2 * e3 - e0 * e1)
+    A[b, 2, 0] = 2.0 * (e1 * e3 - e0 * e2)
+    A[b, 2, 1] = 2.0 * (e2 * e3 + e0 * e1)
+    A[b, 2, 2] = 2.0 * (e0 * e0 + e3 * e3) - 1.0
+
+
+@njit
+def pdot_scalar(p, w):
+    """pdot = 1/2 G^T omega, Eq. (5.12), for one body: p (4-tuple), omega (3-tuple, global)."""
+    e0, e1, e2, e3 = p[0], p[1], p[2], p[3]
+    wx, wy, wz = w[0], w[1], w[2]
+    return (0.5 * (-e1 * wx - e2 * wy - e3 * wz),
+            0.5 * (e0 * wx + e3 * wy - e2 * wz),
+            0.5 * (-e3 * wx + e0 * wy + e1 * wz),
+            0.5 * (e2 * wx - e1 * wy + e0 * wz))
+
+
+@njit
+def quat_multiply_scalar(a, b):
+    """a (x) b for 4-tuples (see :func:`quat_multiply`)."""
+    return (a[0] * b[0] - (a[1] * b[1] + a[2] * b[2] + a[3] * b[3]),
+            a[0] * b[1] + b[0] * a[1] + (a[2] * b[3] - a[3] * b[2]),
+            a[0] * b[2] + b[0] * a[2] + (a[3] * b[1] - a[1] * b[3]),
+            a[0] * b[3] + b[0] * a[3] + (a[1] * b[2] - a[2] * b[1]))
+
+
+@njit
+def p_from_rotation_vector_scalar(t0, t1, t2):
+    """Euler parameters of the rotation vector (t0, t1, t2), Eqs. (4.7)-(4.8)."""
+    angle = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    half = 0.5 * angle
+    if angle < 1e-8:                   # sin(half)/angle by its Taylor series near zero
+        factor = 0.5 - angle ** 2 / 48.0
+    else:
+        factor = math.sin(half) / angle
+    return (math.cos(half), factor * t0, factor * t1, factor * t2)
+
+
+@njit
+def rotate_p_scalar(p, t0, t1, t2):
+    """p (4-tuple) rotated by the global rotation vector (t0, t1, t2), unit length kept."""
+    q = quat_multiply_scalar(p_from_rotation_vector_scalar(t0, t1, t2), p)
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+@njit
+def _A_batch(p, A):
+    for b in range(p.shape[0]):
+        A_into(p, b, A)
+
+
+@njit
+def _pdot_batch(p, w, out):
+    for b in range(p.shape[0]):
+        pd = pdot_scalar((p[b, 0], p[b, 1], p[b, 2], p[b, 3]), (w[b, 0], w[b, 1], w[b, 2]))
+        for c in range(4):
+            out[b, c] = pd[c]
+
+
+@njit
+def _quat_batch(a, b, out):
+    for k in range(a.shape[0]):
+        q = quat_multiply_scalar((a[k, 0], a[k, 1], a[k, 2], a[k, 3]),
+                                 (b[k, 0], b[k, 1], b[k, 2], b[k, 3]))
+        for c in range(4):
+            out[k, c] = q[c]
+
+
+@njit
+def _rotvec_batch(theta, out):
+    for k in range(theta.shape[0]):
+        q = p_from_rotation_vector_scalar(theta[k, 0], theta[k, 1], theta[k, 2])
+        for c in range(4):
+            out[k, c] = q[c]
+
+
+@njit
+def _rotate_p_batch(p, d, out):
+    for k in range(p.shape[0]):
+        q = rotate_p_scalar((p[k, 0], p[k, 1], p[k, 2], p[k, 3]), d[k, 0], d[k, 1], d[k, 2])
+        for c in range(4):
+            out[k, c] = q[c]

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rotations import A_from_p
+from .jit import njit
+from .rotations import A_into, pdot_scalar
 
 
 @dataclass
@@ -34,23 +35,63 @@ class BodyState:
     t: float = 0.0
 
     @classmethod
+    def empty(cls, nb: int) -> "BodyState":
+        return cls(r=np.empty((nb + 1, 3)), A=np.empty((nb + 1, 3, 3)),
+                   rdot=np.empty((nb + 1, 3)), omega=np.empty((nb + 1, 3)),
+                   p=np.empty((nb + 1, 4)))
+
+    @classmethod
     def from_qv(cls, q: np.ndarray, v: np.ndarray | None, t: float = 0.0) -> "BodyState":
         """q: (nb, 7) or (7 nb,); v: (nb, 6) or (6 nb,) or None (zero velocities)."""
-        q = np.asarray(q, dtype=float).reshape(-1, 7)
+        q = np.ascontiguousarray(q, dtype=float).reshape(-1, 7)
         nb = q.shape[0]
-        r = np.zeros((nb + 1, 3))
-        r[:nb] = q[:, :3]
-        p = np.empty((nb + 1, 4))
-        p[:nb] = q[:, 3:]
-        p[nb] = (1.0, 0.0, 0.0, 0.0)
-        A = A_from_p(p)
-        rdot = np.zeros((nb + 1, 3))
-        omega = np.zeros((nb + 1, 3))
-        if v is not None:
-            v = np.asarray(v, dtype=float).reshape(nb, 6)
-            rdot[:nb] = v[:, :3]
-            omega[:nb] = v[:, 3:]
-        return cls(r=r, A=A, rdot=rdot, omega=omega, p=p, t=t)
+        v = (np.zeros((nb, 6)) if v is None
+             else np.ascontiguousarray(v, dtype=float).reshape(nb, 6))
+        state = cls.empty(nb)
+        state_into(q, v, False, state.r, state.A, state.rdot, state.omega, state.p)
+        state.t = t
+        return state
+
+    def arrays(self):
+        """(r, A, rdot, omega, p): the tuple the compiled kernels take."""
+        return (self.r, self.A, self.rdot, self.omega, self.p)
+
+
+@njit
+def state_into(q, v, normalize, r, A, rdot, omega, p):
+    """Fill the state arrays (ground appended: r = 0, p = (1, 0, 0, 0), v = 0) from q (nb, 7)
+    and v (nb, 6); with ``normalize`` every p is divided by its length first."""
+    nb = q.shape[0]
+    for b in range(nb + 1):
+        if b < nb:
+            e0, e1, e2, e3 = q[b, 3], q[b, 4], q[b, 5], q[b, 6]
+            if normalize:
+                n = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+                e0, e1, e2, e3 = e0 / n, e1 / n, e2 / n, e3 / n
+            for c in range(3):
+                r[b, c] = q[b, c]
+                rdot[b, c] = v[b, c]
+                omega[b, c] = v[b, 3 + c]
+        else:
+            e0, e1, e2, e3 = 1.0, 0.0, 0.0, 0.0
+            for c in range(3):
+                r[b, c] = 0.0
+                rdot[b, c] = 0.0
+                omega[b, c] = 0.0
+        p[b, 0], p[b, 1], p[b, 2], p[b, 3] = e0, e1, e2, e3
+        A_into(p, b, A)
+
+
+@njit
+def qdot_into(p, omega, rdot, qd):
+    """qdot = T(q) v for the bodies (not the ground): rdot as is, pdot = 1/2 G^T omega (5.12)."""
+    for b in range(qd.shape[0]):
+        pd = pdot_scalar((p[b, 0], p[b, 1], p[b, 2], p[b, 3]),
+                         (omega[b, 0], omega[b, 1], omega[b, 2]))
+        for c in range(3):
+            qd[b, c] = rdot[b, c]
+        for c in range(4):
+            qd[b, 3 + c] = pd[c]
 
 
 def qdot_from_v(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -59,16 +100,11 @@ def qdot_from_v(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     q: (nb, 7) or flat, v: (nb, 6) or flat -> same layout as q.
     """
     shape = np.shape(q)
-    q = np.asarray(q, dtype=float).reshape(-1, 7)
-    v = np.asarray(v, dtype=float).reshape(-1, 6)
-    e0, e1, e2, e3 = q[:, 3], q[:, 4], q[:, 5], q[:, 6]
-    wx, wy, wz = v[:, 3], v[:, 4], v[:, 5]
+    q = np.ascontiguousarray(q, dtype=float).reshape(-1, 7)
+    v = np.ascontiguousarray(v, dtype=float).reshape(-1, 6)
     qd = np.empty_like(q)
-    qd[:, :3] = v[:, :3]
-    qd[:, 3] = 0.5 * (-e1 * wx - e2 * wy - e3 * wz)
-    qd[:, 4] = 0.5 * (e0 * wx + e3 * wy - e2 * wz)
-    qd[:, 5] = 0.5 * (-e3 * wx + e0 * wy + e1 * wz)
-    qd[:, 6] = 0.5 * (e2 * wx - e1 * wy + e0 * wz)
+    qdot_into(np.ascontiguousarray(q[:, 3:]), np.ascontiguousarray(v[:, 3:]),
+              np.ascontiguousarray(v[:, :3]), qd)
     return qd.reshape(shape)
 
 

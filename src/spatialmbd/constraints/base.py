@@ -1,7 +1,7 @@
 """Constraint types: the contract every joint and driver module implements.
 
-A constraint type evaluates all of its instances in one vectorized call. The joint geometry is
-reduced, at compile time, to local quantities on each of the two bodies i and j:
+A constraint type evaluates all of its instances in one call. The joint geometry is reduced, at
+model compile time, to local quantities on each of the two bodies i and j:
 
     s_i, s_j  (n, 3)     joint point in body-i / body-j axes (the text's s'^P)
     R_i, R_j  (n, 3, 3)  orthonormal joint triads in body axes, columns [u, a, b]: u is the joint
@@ -17,19 +17,24 @@ per instance,
     nu    (n, m)       -dPhi/dt, Eq. (7.4) (ERRATA: the printed right-hand side "v" is nu)
     gamma (n, m)       D vdot = gamma, Eq. (7.6), including the time terms of drivers.
 
+The equations of a type are written once, as a compiled kernel for one instance k,
+``kernel(S, G, k, row, out)`` built from the primitives of :mod:`.primitives` (see there for
+S, G and out); :mod:`.kernels` runs it for every instance of every group -- per group for
+``evaluate``, for the whole model at once in the assembly.
+
 Adding a joint type: subclass :class:`ConstraintType`, set ``name``, ``n_eq`` and ``eq_labels``,
-implement ``evaluate``, and decorate it with :func:`register`.
+decorate it with :func:`register`, and either write its compiled ``kernel`` (and list it in
+:data:`.kernels.KINDS`) or override ``evaluate`` with a vectorized NumPy version (then it runs
+in Python, outside the compiled hot path).
 """
 from __future__ import annotations
 
-import abc
 from dataclasses import dataclass
 from typing import ClassVar, Sequence
 
 import numpy as np
 
 from ..state import BodyState
-from . import primitives as prim
 
 
 @dataclass
@@ -56,7 +61,7 @@ class JointGeometry:
                      for f in ("s_i", "s_j", "R_i", "R_j", "length")))
 
 
-class ConstraintType(abc.ABC):
+class ConstraintType:
     """A group of constraint instances of one type, evaluated together."""
 
     name: ClassVar[str] = ""
@@ -79,19 +84,20 @@ class ConstraintType(abc.ABC):
     def size(self) -> int:
         return self.n * self.n_eq
 
-    @abc.abstractmethod
+    @property
+    def compiled(self) -> bool:
+        """True when the group runs through the compiled kernels (evaluate not overridden)."""
+        from .kernels import KIND_ID
+        return self.name in KIND_ID and type(self).evaluate is ConstraintType.evaluate
+
+    def law_values(self, t: float) -> np.ndarray | None:
+        """(n, 3) f, f', f'' of the drivers' motion laws at t (None: not a driver)."""
+        return None
+
     def evaluate(self, state: BodyState, t: float) -> ConstraintEval:
         """Phi, D, nu, gamma of every instance at the given state and time."""
-
-    # ------------------------------------------------------------------ helpers for subclasses
-    def _kins(self, state: BodyState):
-        """Points and triad vectors of both bodies: (P_i, P_j, (u_i, a_i, b_i), (u_j, a_j, b_j))."""
-        g = self.geometry
-        P_i = prim.body_point(state, self.body_i, g.s_i, 0)
-        P_j = prim.body_point(state, self.body_j, g.s_j, 1)
-        tri_i = tuple(prim.body_vector(state, self.body_i, g.R_i[:, :, k], 0) for k in range(3))
-        tri_j = tuple(prim.body_vector(state, self.body_j, g.R_j[:, :, k], 1) for k in range(3))
-        return P_i, P_j, tri_i, tri_j
+        from .kernels import evaluate_group
+        return evaluate_group(self, state, t)
 
     @staticmethod
     def _scleronomic(phi, D, gamma) -> ConstraintEval:

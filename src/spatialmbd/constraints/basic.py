@@ -10,14 +10,43 @@ avoids the critical case of vectors parallel to a global axis discussed after (8
 """
 from __future__ import annotations
 
-from . import primitives as prim
+from ..jit import njit
 from .base import ConstraintType, register
+from .primitives import kin_sub, point, put_dot, vector
 
 
-def _d(self, state):
-    g = self.geometry
-    return (prim.body_point(state, self.body_j, g.s_j, 1)
-            - prim.body_point(state, self.body_i, g.s_i, 0))
+@njit
+def _d(S, G, k):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    return kin_sub(point(S, bj[k], s_j, k, 1), point(S, bi[k], s_i, k, 0))
+
+
+@njit
+def kernel_n1(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    put_dot(vector(S, bi[k], R_i, k, 0, 0), vector(S, bj[k], R_j, k, 0, 1), out, row)
+
+
+@njit
+def kernel_n2(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    put_dot(vector(S, bi[k], R_i, k, 0, 0), _d(S, G, k), out, row)
+
+
+@njit
+def kernel_p1(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    u_i = vector(S, bi[k], R_i, k, 0, 0)
+    put_dot(u_i, vector(S, bj[k], R_j, k, 1, 1), out, row)
+    put_dot(u_i, vector(S, bj[k], R_j, k, 2, 1), out, row + 1)
+
+
+@njit
+def kernel_p2(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    d = _d(S, G, k)
+    put_dot(d, vector(S, bi[k], R_i, k, 1, 0), out, row)
+    put_dot(d, vector(S, bi[k], R_i, k, 2, 0), out, row + 1)
 
 
 @register
@@ -26,22 +55,12 @@ class Normal1(ConstraintType):
     n_eq = 1
     eq_labels = ("n1",)
 
-    def evaluate(self, state, t):
-        g = self.geometry
-        u_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 0], 0)
-        u_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 0], 1)
-        return self._scleronomic(*prim.dot(u_i, u_j))
-
 
 @register
 class Normal2(ConstraintType):
     name = "n2"
     n_eq = 1
     eq_labels = ("n2",)
-
-    def evaluate(self, state, t):
-        u_i = prim.body_vector(state, self.body_i, self.geometry.R_i[:, :, 0], 0)
-        return self._scleronomic(*prim.dot(u_i, _d(self, state)))
 
 
 @register
@@ -50,23 +69,9 @@ class Parallel1(ConstraintType):
     n_eq = 2
     eq_labels = ("p1.a", "p1.b")
 
-    def evaluate(self, state, t):
-        g = self.geometry
-        u_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 0], 0)
-        a_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 1], 1)
-        b_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 2], 1)
-        return self._scleronomic(*prim.stack(prim.dot(u_i, a_j), prim.dot(u_i, b_j)))
-
 
 @register
 class Parallel2(ConstraintType):
     name = "p2"
     n_eq = 2
     eq_labels = ("p2.a", "p2.b")
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        a_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 1], 0)
-        b_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 2], 0)
-        d = _d(self, state)
-        return self._scleronomic(*prim.stack(prim.dot(d, a_i), prim.dot(d, b_i)))

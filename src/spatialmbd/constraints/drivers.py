@@ -9,17 +9,58 @@ Kinds:
                  Phi = wrap(theta - f) to (-pi, pi], so f may grow past pi (constant speed).
     translation  translation u_i.d of a translational or cylindrical joint.
     coordinate   a body coordinate x, y, z (of r) or e0..e3 (of p).
+
+The motion laws are evaluated in Python (:class:`~spatialmbd.motion.MotionLawSet`, one call per
+law class) and reach the compiled kernels as the table column ``law`` = (f, f', f'').
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ..jit import njit
 from ..motion import MotionLawSet
-from ..rotations import G_matrix, pdot_from_omega
-from . import primitives as prim
-from .base import ConstraintEval, ConstraintType, register
+from .base import ConstraintType, register
+from .primitives import angle_row, coordinate_row, translation_row
 
 COORDINATES = ("x", "y", "z", "e0", "e1", "e2", "e3")
+
+
+@njit
+def _put(out, row, value, law, k, quad):
+    phi, D, nu, gamma = out
+    phi[row] = value - law[k, 0]
+    nu[row] = law[k, 1]
+    gamma[row] = law[k, 2] - quad
+
+
+@njit
+def kernel_angle(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    theta, thetad, quad = angle_row(S, bi[k], bj[k], R_i, R_j, k, out[1], row)
+    _put(out, row, theta, law, k, quad)
+    out[0][row] = wrap_angle(theta - law[k, 0])
+
+
+@njit
+def wrap_angle(x):
+    """x wrapped to [-pi, pi): np.remainder(x + pi, 2 pi) - pi (Python's float modulo)."""
+    return (x + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit
+def kernel_translation(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    x, xd, quad = translation_row(S, bi[k], bj[k], s_i, s_j, R_i, k, out[1], row)
+    _put(out, row, x, law, k, quad)
+
+
+@njit
+def kernel_coordinate(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    value, quad = coordinate_row(S, bi[k], coord[k], out[1], row)
+    _put(out, row, value, law, k, quad)
 
 
 class _Driver(ConstraintType):
@@ -32,31 +73,21 @@ class _Driver(ConstraintType):
         self._lawset = MotionLawSet(self.laws)
         self.coordinate = None if coordinate is None else np.asarray(coordinate, dtype=np.intp)
 
+    def law_values(self, t: float) -> np.ndarray:
+        f, fd, fdd = self._lawset(t)
+        return np.stack([f, fd, fdd], axis=1)
+
 
 @register
 class AngleDriver(_Driver):
     name = "angle"
     eq_labels = ("angle",)
 
-    def evaluate(self, state, t):
-        g = self.geometry
-        theta, D, _, quad = prim.relative_angle(state, self.body_i, self.body_j, g.R_i, g.R_j)
-        f, fd, fdd = self._lawset(t)
-        phi = np.remainder(theta - f + np.pi, 2.0 * np.pi) - np.pi
-        return ConstraintEval(phi[:, None], D[:, None, :], fd[:, None], (fdd - quad)[:, None])
-
 
 @register
 class TranslationDriver(_Driver):
     name = "translation"
     eq_labels = ("translation",)
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        x, D, _, quad = prim.relative_translation(state, self.body_i, self.body_j, g.s_i, g.s_j,
-                                                  g.R_i)
-        f, fd, fdd = self._lawset(t)
-        return ConstraintEval((x - f)[:, None], D[:, None, :], fd[:, None], (fdd - quad)[:, None])
 
 
 @register
@@ -65,28 +96,3 @@ class CoordinateDriver(_Driver):
 
     name = "coordinate"
     eq_labels = ("coordinate",)
-
-    def evaluate(self, state, t):
-        n = self.n
-        k = self.coordinate
-        b = self.body_i
-        f, fd, fdd = self._lawset(t)
-        value = np.empty(n)
-        D = np.zeros((n, 1, 12))
-        quad = np.zeros(n)
-        trans = k < 3
-        rows = np.nonzero(trans)[0]
-        value[rows] = state.r[b[rows], k[rows]]
-        D[rows, 0, k[rows]] = 1.0
-        rows = np.nonzero(~trans)[0]
-        if rows.size:
-            e = k[rows] - 3
-            p = state.p[b[rows]]
-            w = state.omega[b[rows]]
-            GT = np.swapaxes(G_matrix(p), 1, 2)                 # (m, 4, 3)
-            value[rows] = p[np.arange(rows.size), e]
-            D[rows, 0, 3:6] = 0.5 * GT[np.arange(rows.size), e]  # Eq. (5.12)
-            pd = pdot_from_omega(p, w)
-            # pddot = 1/2 G(pdot)^T omega + 1/2 G(p)^T omegadot (G is linear in p)
-            quad[rows] = pdot_from_omega(pd, w)[np.arange(rows.size), e]
-        return ConstraintEval((value - f)[:, None], D, fd[:, None], (fdd - quad)[:, None])

@@ -4,8 +4,22 @@ joint point of j stays in it (n2: u_i.d = 0); three equations.
 """
 from __future__ import annotations
 
-from . import primitives as prim
+from ..jit import njit
 from .base import ConstraintType, register
+from .primitives import kin_sub, point, put_dot, vector
+
+
+@njit
+def kernel(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    i, j = bi[k], bj[k]
+    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
+    u_i = vector(S, i, R_i, k, 0, 0)
+    a_j = vector(S, j, R_j, k, 1, 1)
+    b_j = vector(S, j, R_j, k, 2, 1)
+    put_dot(u_i, a_j, out, row)
+    put_dot(u_i, b_j, out, row + 1)
+    put_dot(u_i, d, out, row + 2)
 
 
 @register
@@ -13,13 +27,3 @@ class Planar(ConstraintType):
     name = "planar"
     n_eq = 3
     eq_labels = ("normal.a", "normal.b", "offset")
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        d = (prim.body_point(state, self.body_j, g.s_j, 1)
-             - prim.body_point(state, self.body_i, g.s_i, 0))
-        u_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 0], 0)
-        a_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 1], 1)
-        b_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 2], 1)
-        return self._scleronomic(*prim.stack(prim.dot(u_i, a_j), prim.dot(u_i, b_j),
-                                             prim.dot(u_i, d)))

@@ -6,8 +6,22 @@ D rows (9.13): [-I, s~_i, I, -s~_j]; [0, (u_i x a_j)^T, 0, -(u_i x a_j)^T]; same
 """
 from __future__ import annotations
 
-from . import primitives as prim
+from ..jit import njit
 from .base import ConstraintType, register
+from .primitives import kin_sub, point, put_dot, put_vector, vector
+
+
+@njit
+def kernel(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    i, j = bi[k], bj[k]
+    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
+    u_i = vector(S, i, R_i, k, 0, 0)
+    a_j = vector(S, j, R_j, k, 1, 1)
+    b_j = vector(S, j, R_j, k, 2, 1)
+    put_vector(d, out, row)                  # Eq. (9.1)
+    put_dot(u_i, a_j, out, row + 3)          # Eq. (9.9) n1
+    put_dot(u_i, b_j, out, row + 4)          # Eq. (9.9) n1
 
 
 @register
@@ -16,14 +30,3 @@ class Revolute(ConstraintType):
     n_eq = 5
     eq_labels = ("x", "y", "z", "axis.a", "axis.b")
     driver_kinds = ("angle",)
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        d = (prim.body_point(state, self.body_j, g.s_j, 1)
-             - prim.body_point(state, self.body_i, g.s_i, 0))
-        u_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 0], 0)
-        a_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 1], 1)
-        b_j = prim.body_vector(state, self.body_j, g.R_j[:, :, 2], 1)
-        return self._scleronomic(*prim.stack(prim.vector_equation(d),   # Eq. (9.1)
-                                             prim.dot(u_i, a_j),         # Eq. (9.9) n1
-                                             prim.dot(u_i, b_j)))        # Eq. (9.9) n1

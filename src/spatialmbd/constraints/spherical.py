@@ -5,8 +5,16 @@ the printed -s~_i omega_i + s~_j omega_j is a velocity, not an acceleration term
 """
 from __future__ import annotations
 
-from . import primitives as prim
+from ..jit import njit
 from .base import ConstraintType, register
+from .primitives import kin_sub, point, put_vector
+
+
+@njit
+def kernel(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    d = kin_sub(point(S, bj[k], s_j, k, 1), point(S, bi[k], s_i, k, 0))     # Eq. (9.1)
+    put_vector(d, out, row)
 
 
 @register
@@ -14,9 +22,3 @@ class Spherical(ConstraintType):
     name = "spherical"
     n_eq = 3
     eq_labels = ("x", "y", "z")
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        d = (prim.body_point(state, self.body_j, g.s_j, 1)
-             - prim.body_point(state, self.body_i, g.s_i, 0))      # Eq. (9.1)
-        return self._scleronomic(*prim.vector_equation(d))

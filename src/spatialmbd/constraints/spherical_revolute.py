@@ -4,8 +4,20 @@ link stays normal to the axis (n2: u_i.d = 0) and keeps its length (d.d - l^2 = 
 """
 from __future__ import annotations
 
-from . import primitives as prim
+from ..jit import njit
 from .base import ConstraintType, register
+from .primitives import kin_sub, point, put_dot, vector
+
+
+@njit
+def kernel(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    i, j = bi[k], bj[k]
+    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
+    u_i = vector(S, i, R_i, k, 0, 0)
+    put_dot(u_i, d, out, row)
+    put_dot(d, d, out, row + 1)
+    out[0][row + 1] -= length[k] ** 2
 
 
 @register
@@ -13,12 +25,3 @@ class SphericalRevolute(ConstraintType):
     name = "spherical_revolute"
     n_eq = 2
     eq_labels = ("normal", "distance")
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        d = (prim.body_point(state, self.body_j, g.s_j, 1)
-             - prim.body_point(state, self.body_i, g.s_i, 0))
-        u_i = prim.body_vector(state, self.body_i, g.R_i[:, :, 0], 0)
-        phi_d, D_d, gamma_d = prim.dot(d, d)
-        return self._scleronomic(*prim.stack(prim.dot(u_i, d),
-                                             (phi_d - g.length**2, D_d, gamma_d)))

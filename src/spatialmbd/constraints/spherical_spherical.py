@@ -5,8 +5,17 @@ gamma = 2 d^T (omega~_i sdot_i - omega~_j sdot_j) - 2 ddot^T ddot (ERRATA for (9
 """
 from __future__ import annotations
 
-from . import primitives as prim
+from ..jit import njit
 from .base import ConstraintType, register
+from .primitives import kin_sub, point, put_dot
+
+
+@njit
+def kernel(S, G, k, row, out):
+    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
+    d = kin_sub(point(S, bj[k], s_j, k, 1), point(S, bi[k], s_i, k, 0))     # Eq. (9.19)
+    put_dot(d, d, out, row)
+    out[0][row] -= length[k] ** 2                                            # Eq. (9.18)
 
 
 @register
@@ -14,10 +23,3 @@ class SphericalSpherical(ConstraintType):
     name = "spherical_spherical"
     n_eq = 1
     eq_labels = ("distance",)
-
-    def evaluate(self, state, t):
-        g = self.geometry
-        d = (prim.body_point(state, self.body_j, g.s_j, 1)
-             - prim.body_point(state, self.body_i, g.s_i, 0))      # Eq. (9.19)
-        phi, D, gamma = prim.dot(d, d)
-        return self._scleronomic(phi - g.length**2, D, gamma)    # Eq. (9.18)

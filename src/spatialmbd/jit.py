@@ -1,0 +1,180 @@
+"""Just-in-time compilation of the hot path with Numba.
+
+Every per-step kernel (constraint equations, body terms, the structured linear solves) is
+written once, as plain Python over scalars and small tuples, and compiled with :func:`njit`.
+Compiled code is cached on disk (``cache=True``), so the compile time (about a minute for
+the whole hot path) is paid once per machine and Python version; later processes load the
+machine code in about a second.
+
+Cache location and freshness: Numba keys a cached function on its own source file only, so a
+change to a function it calls in another file would go unnoticed. The library's functions are
+therefore cached under a directory named after a hash of all hot-path sources
+(``<package>/__pycache__/numba-<hash>``, or the user cache directory when the package is not
+writable, or ``$NUMBA_CACHE_DIR/spatialmbd-<hash>``): any edit compiles afresh.
+
+Numba is a regular dependency (binary wheels, no compiler needed). Without it -- or with the
+environment variable ``NUMBA_DISABLE_JIT=1`` -- the same functions run as ordinary Python:
+correct, but one to two orders of magnitude slower.
+
+Options: ``error_model="numpy"`` (a division by zero gives inf/NaN as in NumPy instead of
+raising), no bounds checking, ``nogil``. ``fastmath`` is off: results match NumPy's IEEE
+arithmetic.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+
+try:                                   # pragma: no cover - exercised by the install
+    import numba as _numba
+except ImportError:                    # pragma: no cover
+    _numba = None
+
+ENABLED = _numba is not None and not getattr(getattr(_numba, "config", None),
+                                             "DISABLE_JIT", False)
+
+_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+
+_PKG = os.path.dirname(os.path.abspath(__file__))
+#: the sources of compiled code (and of everything it calls), relative to the package
+HOT_PATH = ("jit.py", "rotations.py", "state.py", "constraints", "dynamics")
+
+
+def _source_hash() -> str:
+    h = hashlib.sha256(getattr(_numba, "__version__", "").encode())
+    for entry in HOT_PATH:
+        path = os.path.join(_PKG, entry)
+        files = [path] if path.endswith(".py") else sorted(
+            os.path.join(path, f) for f in os.listdir(path) if f.endswith(".py"))
+        for f in files:
+            h.update(os.path.relpath(f, _PKG).encode())
+            with open(f, "rb") as fh:
+                h.update(fh.read())
+    return h.hexdigest()[:16]
+
+
+def _install_cache_locator() -> None:
+    """Cache the package's compiled functions under a directory keyed by the source hash."""
+    from numba.core import caching
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")
+    stamp = _source_hash()
+
+    def roots():
+        if os.environ.get("NUMBA_CACHE_DIR"):
+            yield os.path.join(os.environ["NUMBA_CACHE_DIR"], f"spatialmbd-{stamp}"), False
+        yield os.path.join(_PKG, "__pycache__", f"numba-{stamp}"), True
+        from numba.misc.appdirs import AppDirs
+        yield os.path.join(AppDirs(appname="spatialmbd", appauthor=False).user_cache_dir,
+                           f"numba-{stamp}"), True
+
+    class Locator(caching._CacheLocator):
+        def __init__(self, py_func, py_file, path):
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = path
+
+        def get_cache_path(self):
+            return self._cache_path
+
+        def get_source_stamp(self):
+            return stamp
+
+        def get_disambiguator(self):
+            return str(self._lineno)
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not os.path.abspath(py_file).startswith(_PKG + os.sep):
+                return None
+            for path, prune in roots():
+                self = cls(py_func, py_file, path)
+                try:
+                    fresh = not os.path.isdir(path)
+                    self.ensure_cache_path()
+                except OSError:
+                    continue
+                if fresh and prune:
+                    _prune(path)
+                return self
+            return None
+
+    impl._locator_classes.insert(0, Locator)
+
+
+def _prune(path: str) -> None:
+    """Remove the caches of older sources next to ``path`` (best effort)."""
+    parent, name = os.path.split(path)
+    prefix = name.rsplit("-", 1)[0] + "-"
+    for other in os.listdir(parent):
+        if other.startswith(prefix) and other != name:
+            shutil.rmtree(os.path.join(parent, other), ignore_errors=True)
+
+
+if ENABLED:
+    _install_cache_locator()
+
+
+def njit(fn=None, **options):
+    """``numba.njit`` with the library's options, or the identity without Numba."""
+    if _numba is None:
+        return fn if fn is not None else (lambda f: f)
+    opts = dict(_OPTIONS)
+    opts.update(options)
+    if fn is None:
+        return _numba.njit(**opts)
+    return _numba.njit(**opts)(fn)
+
+
+def array_view(B, offset, shape):
+    """A C-contiguous view of B[offset:offset + prod(shape)] with the given shape (a tuple).
+
+    In compiled code this is a plain pointer-and-shape construction without reference counting
+    (``ndarray.reshape`` costs about 50 ns per call in Numba and every reference-counted view
+    a few more on each function call, which adds up over the tens of views of an evaluation).
+    The view must not outlive the compiled call and B must stay alive meanwhile (it does: the
+    buffers are owned by the Python caller)."""
+    size = 1
+    for d in shape:
+        size *= d
+    return B[offset:offset + size].reshape(shape)
+
+
+if _numba is not None:                 # pragma: no branch
+    from numba.core import cgutils as _cgutils
+    from numba.core import types as _types
+    from numba.extending import intrinsic as _intrinsic
+    from numba.extending import overload as _overload
+    from numba.np.arrayobj import make_array as _make_array
+    from numba.np.arrayobj import populate_array as _populate_array
+
+    @_intrinsic
+    def _view(typingctx, B, offset, shape):
+        if not (isinstance(B, _types.Array) and B.layout == "C" and B.ndim == 1):
+            raise _numba.core.errors.TypingError("array_view needs a C-contiguous 1-D array")
+        nd = len(shape)
+        rettype = _types.Array(B.dtype, nd, "C")
+        sig = rettype(B, offset, shape)
+
+        def codegen(context, builder, sig, args):
+            src = _make_array(sig.args[0])(context, builder, args[0])
+            out = _make_array(rettype)(context, builder)
+            shapes = _cgutils.unpack_tuple(builder, args[2], nd)
+            strides = [None] * nd
+            acc = src.itemsize
+            for d in reversed(range(nd)):
+                strides[d] = acc
+                acc = builder.mul(acc, shapes[d])
+            off = context.cast(builder, args[1], sig.args[1], _types.intp)
+            # no meminfo: the view is not reference counted (like numba.carray); the caller
+            # keeps B alive while the view is used
+            _populate_array(out, data=builder.gep(src.data, [off]), shape=shapes,
+                            strides=strides, itemsize=src.itemsize, meminfo=None)
+            return out._getvalue()
+        return sig, codegen
+
+    @_overload(array_view)
+    def _view_overload(B, offset, shape):
+        def impl(B, offset, shape):
+            return _view(B, offset, shape)
+        return impl
