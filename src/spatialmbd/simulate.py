@@ -7,6 +7,12 @@ integrator -> results. The integrator advances y = [q (7 nb), v (6 nb), W] with
 Euler parameters: the right-hand side uses p / |p| (so A(p) is always a rotation) and every
 accepted step renormalises p; since p^T pdot = 0 exactly, this only removes integration error
 (a projection onto the unit sphere, which does not lower the integrator's order).
+
+The right-hand side of the built-in methods is compiled (:mod:`.dynamics.system`): one call per
+evaluation when the model has no force elements and only compiled joint types, otherwise two
+compiled stages around the Python force elements. Methods without a compiled path run through
+``Method.accelerations``. Large models skip the dense rank analysis of D when a sparse Cholesky
+factorisation of D D^T shows that its rows are independent.
 """
 from __future__ import annotations
 
@@ -16,7 +22,9 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from .assembly import SPARSE_THRESHOLD
 from .dynamics import EquationsOfMotion, get_method
+from .dynamics import system as cs
 from .dynamics.correction import correct_initial_conditions, hold_mask
 from .errors import ModelError, SimulationError, SpatialMBDError
 from .integrators import get_integrator
@@ -84,9 +92,12 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     q = normalize_q(q)
     correction = None
     if correct_initial and model.n_eq:
-        q, v, correction = correct_initial_conditions(model, q, v, t0, hold_mask(model, hold))
+        q, v, correction = correct_initial_conditions(model, q, v, t0, hold_mask(model, hold),
+                                                      system=eom.system)
 
-    mob = mobility(model, q, t0) if model.n_eq else None
+    mob = None
+    if model.n_eq and (6 * nb <= SPARSE_THRESHOLD or not eom.system.rows_independent(q, t0)):
+        mob = mobility(model, q, t0)
     redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
     redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
     messages = []
@@ -102,6 +113,103 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     n_q, n_v = 7 * nb, 6 * nb
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
+    rhs = _compiled_rhs(model, eom, meth, track_work)
+    if rhs is None:
+        rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
+
+    def project(t, y):
+        y = y.copy()
+        cs.normalize_y(y, nb)
+        if meth.projects and hasattr(meth, "project_y"):
+            return meth.project_y(eom.system, t, y)
+        if meth.projects:
+            qq, vv = meth.project(eom, t, y[:n_q].reshape(nb, 7), y[n_q:n_q + n_v])
+            y[n_q:n_q + n_v] = vv
+            y[:n_q] = np.asarray(qq).reshape(-1)
+        return y
+
+    y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
+    callback = _progress(progress, t0, t_out[-1])
+    start = time.perf_counter()
+    try:
+        # rhs uses p / |p|, so the normalisation alone never changes it
+        problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects)
+        res = integ.integrate(problem, t0, y0, t_out, progress=callback)
+    finally:
+        if hasattr(callback, "close"):
+            callback.close()
+    wall = time.perf_counter() - start
+    if res.status != "success":
+        messages.append(res.message)
+    return Results.from_integration(
+        model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
+        message=res.message, counters=res.counters.as_dict(), wall_time=wall,
+        correction=correction, redundant_joints=redundant_joints, messages=messages,
+        settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
+                      method=meth.name, method_options=meth.parameters(),
+                      integrator=integ.name, integrator_options=_integrator_options(integ),
+                      correct_initial=correct_initial))
+
+
+def _compiled_rhs(model, eom, meth, track_work):
+    """y' = f(t, y) through the method's compiled kernels (None if it has none)."""
+    system = eom.system
+    kernels = meth.kernels(system)
+    if kernels is None:
+        return None
+    full, after, args = kernels
+    table = system.table
+    drivers = table.has_drivers
+    iterate = meth.iterate
+    status = meth.status
+
+    def finish(t, y, ydot, code):
+        if code < 0:
+            code = status(code, system, t, y, ydot)
+        if code < 0:
+            check_finite(t, ydot, "accelerations")
+        elif iterate:
+            meth.total_iterations += code
+
+    if system.fused:
+        def rhs(t, y):
+            if not y.flags.c_contiguous:          # e.g. a column of SciPy's Jacobian
+                y = np.ascontiguousarray(y)
+            if drivers:
+                table.set_time(t)
+            ydot = np.empty_like(y)
+            code = full(t, y, ydot, *args)
+            if code:
+                finish(t, y, ydot, code)
+            return ydot
+        return rhs
+
+    F, I, W = system.F, system.I, system.W
+    forces = model.force_groups
+    state = system.state
+
+    def rhs(t, y):
+        if not y.flags.c_contiguous:
+            y = np.ascontiguousarray(y)
+        if drivers:
+            table.set_time(t)
+        cs.stage_state(t, y, True, F, I, W)
+        if not system.python_stage(t):
+            eom._raise_non_finite(state, t)
+        ydot = np.empty_like(y)
+        code = after(y, ydot, *args)
+        if forces and track_work:
+            ydot[-1] += sum(g.nonconservative_power(state, t) for g in forces)
+        if code:
+            finish(t, y, ydot, code)
+        return ydot
+    return rhs
+
+
+def _python_rhs(model, eom, meth, track_work, driver_rows):
+    """y' = f(t, y) through Method.accelerations (methods without a compiled path)."""
+    nb = model.nb
+    n_q, n_v = 7 * nb, 6 * nb
 
     def rhs(t, y):
         qq = normalize_q(y[:n_q]).reshape(nb, 7)
@@ -117,36 +225,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
             ydot[-1] = 0.0
         check_finite(t, ydot, "accelerations")
         return ydot
-
-    def project(t, y):
-        y = y.copy()
-        qq = normalize_q(y[:n_q]).reshape(nb, 7)
-        if meth.projects:
-            qq, vv = meth.project(eom, t, qq, y[n_q:n_q + n_v])
-            y[n_q:n_q + n_v] = vv
-        y[:n_q] = qq.reshape(-1)
-        return y
-
-    y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
-    callback = _progress(progress, t0, t_out[-1])
-    start = time.perf_counter()
-    try:
-        res = integ.integrate(ODEProblem(rhs=rhs, project=project), t0, y0, t_out,
-                              progress=callback)
-    finally:
-        if hasattr(callback, "close"):
-            callback.close()
-    wall = time.perf_counter() - start
-    if res.status != "success":
-        messages.append(res.message)
-    return Results.from_integration(
-        model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
-        message=res.message, counters=res.counters.as_dict(), wall_time=wall,
-        correction=correction, redundant_joints=redundant_joints, messages=messages,
-        settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
-                      method=meth.name, method_options=meth.parameters(),
-                      integrator=integ.name, integrator_options=_integrator_options(integ),
-                      correct_initial=correct_initial))
+    return rhs
 
 
 def _make_integrator(integrator, options: dict):

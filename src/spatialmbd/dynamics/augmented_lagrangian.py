@@ -15,20 +15,19 @@ Read with the multiplier update lam_{i+1} = lam_i - alpha (D vdot_{i+1} - gamma 
 Phidot + omega^2 Phi) (Jalon and Bayo 1994), (12.17) is M vdot_{i+1} = g + D^T lam_{i+1}
 -- the iteration converges to the standard multipliers, while each solve stays positive
 definite (redundant constraints and singular positions are handled). One factorisation of the
-leading matrix serves every iteration of an instant.
+leading matrix serves every iteration of an instant (compiled: :func:`.system.solve_penalty`).
 """
 from __future__ import annotations
 
-import numpy as np
-
 from ..errors import ConvergenceError
-from .base import MethodOutput, check_positive, register
+from .base import check_positive, register
 from .penalty import _PenaltyBase
 
 
 @register
 class AugmentedLagrangian(_PenaltyBase):
     name = "augmented_lagrangian"
+    iterate = True
 
     def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0,
                  tolerance: float = 1e-8, max_iterations: int = 50, floor: float = 1e-6):
@@ -39,28 +38,12 @@ class AugmentedLagrangian(_PenaltyBase):
         self.floor = check_positive("augmented_lagrangian floor", floor)
         self.total_iterations = 0
 
-    def accelerations(self, ev, t):
-        solve, c_term = self._factor(ev, t)
-        vdot = ev.M.solve(ev.g)                                                  # Eq. (12.16)
-        DT_c = ev.cv.D.T @ c_term
-        lam = np.zeros(ev.cv.phi.size)
-        previous = np.inf
-        for it in range(1, self.max_iterations + 1):
-            new = solve(ev.M.dot(vdot) - self.alpha * DT_c)                      # Eq. (12.17)
-            lam = lam + self._lam(ev, new, c_term)
-            change = float(np.linalg.norm(new - vdot))
-            vdot = new
-            scale = max(1.0, float(np.abs(vdot).max()))
-            at_floor = change <= self.floor * scale and change > 0.5 * previous
-            if change <= self.tolerance * scale or at_floor:                     # Eq. (12.18)
-                self.total_iterations += it
-                return MethodOutput(vdot, lam, it)
-            previous = change
+    def _not_converged(self, t):
         err = ConvergenceError(f"t = {t:.6g} s: augmented Lagrangian iterations did not converge "
-                               f"in {self.max_iterations} (last change {change:.3g}); raise "
-                               "alpha or max_iterations, or loosen the tolerance")
+                               f"in {self.max_iterations}; raise alpha or max_iterations, or "
+                               "loosen the tolerance")
         err.t = t
-        raise err
+        return err
 
     def parameters(self):
         out = super().parameters()

@@ -6,7 +6,9 @@ reaction forces on the bodies). It never knows which integrator drives it. A met
 offer ``project(eom, t, q, v)``, applied by the integrator after every accepted step.
 
 Adding a method: subclass :class:`Method`, set ``name``, implement ``accelerations`` and
-register it with :func:`register`.
+register it with :func:`register`. (The built-in methods also provide a compiled right-hand
+side, :meth:`Method.kernels`, which ``simulate`` uses; a method without one runs through
+``accelerations`` with the arrays of an :class:`~.eom.Evaluation`.)
 """
 from __future__ import annotations
 
@@ -38,6 +40,22 @@ class Method(abc.ABC):
     @abc.abstractmethod
     def accelerations(self, ev, t: float) -> MethodOutput:
         """vdot and lam at the evaluated instant."""
+
+    #: the method keeps a count of inner iterations (``total_iterations``)
+    iterate: ClassVar[bool] = False
+
+    def kernels(self, system, W=None):
+        """The compiled right-hand side, if the method has one (built-in methods,
+        :mod:`.system`): ``(full, after_state, args)`` with ``full(t, y, ydot, *args)`` (the
+        whole evaluation) and ``after_state(y, ydot, *args)`` (after :func:`stage_state` and
+        the Python stage), both returning a status (>= 0 success, the inner iterations for
+        iterative methods; < 0 see :meth:`status`). W: the work array (default the system's).
+        """
+        return None
+
+    def status(self, code: int, system, t: float, y, ydot, W=None) -> int:
+        """Handle a negative status of the compiled solve: fall back, or raise."""
+        return code
 
     def parameters(self) -> dict:
         return {}

@@ -83,10 +83,54 @@ class CorrectionReport:
                 f"{self.max_rotation_change:.3g} rad, velocity {self.max_velocity_change:.3g}")
 
 
-def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assembler=None):
-    """Positions satisfying Phi(q, t) = 0 by (14.12); returns (q, dx_total, iterations, phi0)."""
-    asm = assembler or model.assembler
+def _system(model, system):
+    if system is None:
+        from .system import System
+        system = System(model)
+    return system
+
+
+def _free(hold) -> bool:
+    return hold is None or not np.any(hold)
+
+
+def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assembler=None,
+                      system=None):
+    """Positions satisfying Phi(q, t) = 0 by (14.12); returns (q, dx_total, iterations, phi0).
+
+    Without ``hold`` the compiled Newton iteration of :func:`.system.project_positions` runs
+    (on ``system``, default a new one for the model); with held coordinates, or when D D^T is
+    singular (redundant constraints), the iteration below with the least-squares
+    pseudo-inverse."""
     q = np.array(q, dtype=float).reshape(model.nb, 7)
+    sys_ = _system(model, system) if _free(hold) and model.n_eq else None
+    if sys_ is not None and not sys_.python_groups:
+        from . import system as cs
+        if sys_.table.has_drivers:
+            sys_.table.set_time(t)
+        y = np.concatenate([q.ravel(), np.zeros(6 * model.nb)])
+        total = np.zeros(6 * model.nb)
+        it, phi0, err = cs.project_positions(t, y, sys_.F, sys_.I, sys_.W, tol, max_iter,
+                                             total)
+        if it >= 0:
+            return y[:7 * model.nb].reshape(model.nb, 7), total, it, phi0
+        if it == -2:
+            qf = y[:7 * model.nb].reshape(model.nb, 7)
+            raise _not_converged(model, qf, t, max_iter, err,
+                                 (assembler or model.assembler).evaluate(qf, None, t).phi)
+    return _correct_positions_lstsq(model, q, t, tol, max_iter, hold, assembler)
+
+
+def _not_converged(model, q, t, max_iter, err, phi):
+    return ConvergenceError(
+        f"t = {t:.6g} s: position correction did not converge in {max_iter} iterations "
+        f"(max |Phi| = {err:.3g}); largest residuals: {describe_residual(model, phi)}. The "
+        "initial positions are too far from an assembled configuration, or the joints are "
+        "inconsistent.")
+
+
+def _correct_positions_lstsq(model, q, t, tol, max_iter, hold, assembler):
+    asm = assembler or model.assembler
     total = np.zeros(6 * model.nb)
     phi0 = None
     for it in range(max_iter + 1):
@@ -101,17 +145,29 @@ def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assemb
         dx = -pinv_solve(cv.D, cv.phi, hold)                                    # Eq. (14.12)
         q = apply_correction(q, dx)
         total += dx
-    raise ConvergenceError(
-        f"t = {t:.6g} s: position correction did not converge in {max_iter} iterations "
-        f"(max |Phi| = {err:.3g}); largest residuals: {describe_residual(model, cv.phi)}. The "
-        "initial positions are too far from an assembled configuration, or the joints are "
-        "inconsistent.")
+    raise _not_converged(model, q, t, max_iter, err, cv.phi)
 
 
-def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None):
-    """Velocities satisfying D v = nu by (14.19); returns (v, phidot_before, phidot_after)."""
-    asm = assembler or model.assembler
+def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None, system=None):
+    """Velocities satisfying D v = nu by (14.19); returns (v, phidot_before, phidot_after).
+
+    Compiled (:func:`.system.project_velocities`) without ``hold``; least squares otherwise
+    or when D D^T is singular."""
     v = np.array(v, dtype=float).reshape(-1)
+    sys_ = _system(model, system) if _free(hold) and model.n_eq else None
+    if sys_ is not None and not sys_.python_groups:
+        from . import system as cs
+        if sys_.table.has_drivers:
+            sys_.table.set_time(t)
+        y = np.concatenate([np.asarray(q, dtype=float).ravel(), v])
+        ok, before, after = cs.project_velocities(t, y, sys_.F, sys_.I, sys_.W)
+        if ok:
+            return y[7 * model.nb:].copy(), before, after
+    return _correct_velocities_lstsq(model, q, v, t, hold, assembler)
+
+
+def _correct_velocities_lstsq(model, q, v, t, hold, assembler):
+    asm = assembler or model.assembler
     cv = asm.evaluate(q, v, t)
     resid = cv.D @ v - cv.nu
     before = float(np.abs(resid).max()) if resid.size else 0.0
@@ -121,12 +177,13 @@ def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None):
     return v, before, after
 
 
-def correct_initial_conditions(model, q, v, t=0.0, hold=None, tol=1e-12, max_iter=30):
+def correct_initial_conditions(model, q, v, t=0.0, hold=None, tol=1e-12, max_iter=30,
+                               system=None):
     """Both corrections of chapter 14; returns (q, v, CorrectionReport)."""
     nb = model.nb
     v0 = np.array(v, dtype=float).reshape(-1)
-    qc, dx, iters, phi0 = correct_positions(model, q, t, tol, max_iter, hold)
-    vc, pd0, pd1 = correct_velocities(model, qc, v0, t, hold)
+    qc, dx, iters, phi0 = correct_positions(model, q, t, tol, max_iter, hold, system=system)
+    vc, pd0, pd1 = correct_velocities(model, qc, v0, t, hold, system=system)
     phi1 = model.assembler.phi(qc, t)
     report = CorrectionReport(dr=dx.reshape(nb, 6)[:, :3], dtheta=dx.reshape(nb, 6)[:, 3:],
                               dv=(vc - v0).reshape(nb, 6), phi_before=phi0,

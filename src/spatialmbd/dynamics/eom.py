@@ -9,17 +9,21 @@ reaction forces acting on the bodies, (10.10). The augmented system then reads
 M is block diagonal, blocks diag(m I, J) with the global inertia J = A J' A^T (10.6); it is
 never formed or inverted as a dense matrix: M^-1 b = [b_r / m, A J'^-1 A^T b_w] per body.
 g holds gravity, the force elements and the gyroscopic term -omega~ J omega (10.4).
+
+The evaluation itself is compiled (:mod:`.system`); :class:`Evaluation` wraps its arrays for
+methods written in Python, and carries the compiled system so the built-in methods solve on it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..assembly import ConstraintValues
 from ..state import BodyState
-from ..rotations import cross
+from .system import System, mass_apply
 
 
 @dataclass
@@ -30,60 +34,73 @@ class MassMatrix:
     J: np.ndarray
     J_inv: np.ndarray
 
+    def _apply(self, b: np.ndarray, inverse: bool) -> np.ndarray:
+        x = np.ascontiguousarray(b, dtype=float)
+        cols = x.reshape(x.shape[0], -1)
+        out = np.empty_like(cols)
+        mass_apply(np.ascontiguousarray(self.mass, dtype=float),
+                   np.ascontiguousarray(self.J_inv if inverse else self.J), cols, out, inverse)
+        return out.reshape(x.shape)
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         """M^-1 b for b (6 nb,) or (6 nb, k)."""
-        nb = self.mass.size
-        if b.ndim == 1:
-            b = b.reshape(nb, 6)
-            out = np.empty_like(b)
-            out[:, :3] = b[:, :3] / self.mass[:, None]
-            out[:, 3:] = np.einsum("nij,nj->ni", self.J_inv, b[:, 3:])
-            return out.reshape(-1)
-        k = b.shape[1]
-        b = b.reshape(nb, 6, k)
-        out = np.empty_like(b)
-        out[:, :3] = b[:, :3] / self.mass[:, None, None]
-        out[:, 3:] = np.einsum("nij,njk->nik", self.J_inv, b[:, 3:])
-        return out.reshape(6 * nb, k)
+        return self._apply(b, True)
 
     def dot(self, x: np.ndarray) -> np.ndarray:
-        """M x for x (6 nb,)."""
-        nb = self.mass.size
-        x = x.reshape(nb, 6)
-        out = np.empty_like(x)
-        out[:, :3] = x[:, :3] * self.mass[:, None]
-        out[:, 3:] = np.einsum("nij,nj->ni", self.J, x[:, 3:])
-        return out.reshape(-1)
+        """M x for x (6 nb,) or (6 nb, k)."""
+        return self._apply(x, False)
 
-    def sparse(self) -> sp.csr_matrix:
-        """M as a sparse block-diagonal matrix (for the penalty methods)."""
+    def blocks(self) -> np.ndarray:
         nb = self.mass.size
         blocks = np.zeros((nb, 6, 6))
         blocks[:, 0, 0] = blocks[:, 1, 1] = blocks[:, 2, 2] = self.mass
         blocks[:, 3:, 3:] = self.J
-        return sp.block_diag(list(blocks), format="csr")
+        return blocks
+
+    def sparse(self) -> sp.csr_matrix:
+        """M as a sparse block-diagonal matrix."""
+        return sp.block_diag(list(self.blocks()), format="csr")
 
     def dense(self) -> np.ndarray:
-        nb = self.mass.size
-        M = np.zeros((6 * nb, 6 * nb))
-        idx = np.arange(nb) * 6
-        for k in range(3):
-            M[idx + k, idx + k] = self.mass
-        for a in range(3):
-            for c in range(3):
-                M[idx + 3 + a, idx + 3 + c] = self.J[:, a, c]
-        return M
+        return self.sparse().toarray()
 
 
-@dataclass
 class Evaluation:
-    """Everything a method needs at one (t, q, v)."""
+    """Everything a method needs at one (t, q, v): state, M, g, cv (Phi, D, nu, gamma), v.
 
-    state: BodyState
-    M: MassMatrix
-    g: np.ndarray              # (6 nb,)
-    cv: ConstraintValues       # Phi, D, nu, gamma
-    v: np.ndarray              # (6 nb,)
+    system / W: the compiled system and the work array holding this evaluation (the built-in
+    methods solve on them directly); the other fields are views into W, made on first use.
+    """
+
+    def __init__(self, t, v, system, W, assembler):
+        self.t = t
+        self.v = v
+        self.system = system
+        self.W = W
+        self._assembler = assembler
+
+    def _field(self, name):
+        return self.system.fields(self.W, name)
+
+    @cached_property
+    def state(self) -> BodyState:
+        state = self.system.state_of(self.W)
+        state.t = self.t
+        return state
+
+    @cached_property
+    def M(self) -> MassMatrix:
+        return MassMatrix(self.system.model.mass, self._field("J"), self._field("Jinv"))
+
+    @cached_property
+    def g(self) -> np.ndarray:
+        return self._field("g")
+
+    @cached_property
+    def cv(self) -> ConstraintValues:
+        return ConstraintValues(self._field("phi"), None, self._field("nu"),
+                                self._field("gamma"), blocks=self._field("D"),
+                                assembler=self._assembler)
 
     @property
     def phidot(self) -> np.ndarray:
@@ -92,7 +109,11 @@ class Evaluation:
 
 
 class EquationsOfMotion:
-    """Evaluates M, g and the constraints of a model at (t, q, v)."""
+    """Evaluates M, g and the constraints of a model at (t, q, v).
+
+    ``system`` is the compiled :class:`~.system.System` (built on first use; methods choose
+    the constraint rows their solves keep with :meth:`set_keep`).
+    """
 
     def __init__(self, model, sparse: bool | None = None):
         self.model = model
@@ -103,31 +124,39 @@ class EquationsOfMotion:
             from ..assembly import Assembler
             self.assembler = Assembler(model, sparse=sparse)
         self.sparse = self.assembler.sparse
-        self._weight = model.mass[:, None] * model.gravity[None, :]      # (11.1)
-        self._J_local = model.inertia
-        self._J_local_inv = model.inertia_inverse
+        self._keep = None
+        self._system = None
 
-    def mass_matrix(self, state: BodyState) -> MassMatrix:
-        A = state.A[:self.nb]
-        At = np.swapaxes(A, 1, 2)
-        J = A @ self._J_local @ At                                         # J = A J' A^T
-        J_inv = A @ self._J_local_inv @ At
-        return MassMatrix(self.model.mass, J, J_inv)
+    @property
+    def system(self) -> System:
+        if self._system is None:
+            self._system = System(self.model, self._keep)
+        return self._system
 
-    def forces(self, state: BodyState, t: float, M: MassMatrix) -> np.ndarray:
-        """g (6 nb,): gravity, force elements and the gyroscopic term -omega~ J omega (10.6)."""
+    def set_keep(self, keep) -> None:
+        """Rows of the multiplier and projection solves (None: all)."""
+        keep = None if keep is None else np.asarray(keep, dtype=np.int64)
+        same = (keep is None and self._keep is None) or (
+            keep is not None and self._keep is not None and np.array_equal(keep, self._keep))
+        if not same:
+            self._keep = keep
+            self._system = None
+
+    def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> Evaluation:
+        sys_ = self.system
         nb = self.nb
-        g = np.zeros((nb + 1, 6))
-        g[:nb, :3] = self._weight
-        w = state.omega[:nb]
-        g[:nb, 3:] = -cross(w, np.einsum("nij,nj->ni", M.J, w))         # Eq. (10.4)
-        for group in self.model.force_groups:
-            group.evaluate(state, t, g)
-        if not np.all(np.isfinite(g[:nb])):
-            self._raise_non_finite(state, t, M)
-        return g[:nb].reshape(-1)
+        y = np.concatenate([np.asarray(q, dtype=float).reshape(-1),
+                            np.asarray(v, dtype=float).reshape(-1)])
+        if y.size != 13 * nb:
+            raise ValueError(f"q and v must hold {7 * nb} and {6 * nb} numbers")
+        W = sys_.W.copy()
+        ok = sys_.evaluate(t, y, False, W)
+        ev = Evaluation(t, y[7 * nb:], sys_, W, self.assembler)
+        if not (ok and np.all(np.isfinite(ev.g))):
+            self._raise_non_finite(ev.state, t)
+        return ev
 
-    def _raise_non_finite(self, state, t, M):
+    def _raise_non_finite(self, state, t):
         """Name the force element (or the state) that made g non-finite."""
         from ..errors import SimulationError
         culprit = "the state itself (positions or velocities are not finite)"
@@ -141,10 +170,3 @@ class EquationsOfMotion:
                               f"{culprit}")
         err.t = t
         raise err
-
-    def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> Evaluation:
-        state = BodyState.from_qv(q, v, t)
-        M = self.mass_matrix(state)
-        g = self.forces(state, t, M)
-        cv = self.assembler.evaluate(q, v, t, state=state)
-        return Evaluation(state=state, M=M, g=g, cv=cv, v=np.asarray(v, dtype=float).reshape(-1))

@@ -5,44 +5,27 @@
 The constraint forces are D^T lam with lam = -alpha (D vdot - gamma + 2 mu omega Phidot +
 omega^2 Phi) (the convention of eom.py). Redundant constraints need no special treatment: the
 leading matrix stays positive definite. Defaults alpha = 1e7, omega = 10, mu = 1 (text).
+
+M + alpha D^T D has the block pattern of the bodies connected by joints; it is assembled into
+that fixed pattern and factorised by a sparse Cholesky (compiled: :func:`.system.solve_penalty`).
 """
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as la
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import SingularMatrixError
+from . import system as cs
 from .base import Method, MethodOutput, check_positive, register
 
 
 class _PenaltyBase(Method):
+    #: augmented Lagrangian iterations (12.17) instead of one penalty solve (False here)
+    iterate = False
+
     def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0):
         self.alpha = check_positive(f"{self.name} alpha", alpha)
         self.omega = check_positive(f"{self.name} omega", omega, allow_zero=True)
         self.mu = check_positive(f"{self.name} mu", mu, allow_zero=True)
-
-    def _factor(self, ev, t):
-        """A solver for (M + alpha D^T D) x = b, and the penalty right-hand side."""
-        D = ev.cv.D
-        if sp.issparse(D):
-            A = (ev.M.sparse() + self.alpha * (D.T @ D)).tocsc()
-            try:
-                lu = spla.splu(A)
-            except RuntimeError:
-                raise self._singular(t) from None
-            solve = lu.solve
-        else:
-            A = ev.M.dense() + self.alpha * (D.T @ D)
-            try:
-                c = la.cho_factor(A, check_finite=False)
-            except la.LinAlgError:
-                raise self._singular(t) from None
-            solve = lambda b: la.cho_solve(c, b, check_finite=False)  # noqa: E731
-        # constraint dynamics term of (12.14): -gamma + 2 mu omega Phidot + omega^2 Phi
-        c_term = -ev.cv.gamma + 2 * self.mu * self.omega * ev.phidot + self.omega**2 * ev.cv.phi
-        return solve, c_term
 
     def _singular(self, t):
         err = SingularMatrixError(f"t = {t:.6g} s: M + alpha D^T D is not positive definite "
@@ -50,8 +33,37 @@ class _PenaltyBase(Method):
         err.t = t
         return err
 
-    def _lam(self, ev, vdot, c_term):
-        return -self.alpha * (ev.cv.D @ vdot + c_term)
+    def params(self) -> np.ndarray:
+        """mp of the compiled solve (:data:`.system.MP_PENALTY`)."""
+        return np.array([1.0, self.alpha, self.omega, self.mu, float(self.iterate),
+                         getattr(self, "tolerance", 0.0), getattr(self, "max_iterations", 1),
+                         getattr(self, "floor", 0.0)])
+
+    def kernels(self, system, W=None):
+        KI, KW = system.penalty_pack()
+        return (cs.rhs_penalty, cs.after_state_penalty,
+                (system.F, system.I, system.W if W is None else W, KI, KW, self.params()))
+
+    def status(self, code, system, t, y, ydot, W=None):
+        if code == cs.SINGULAR:
+            raise self._singular(t)
+        if code == cs.NOT_CONVERGED:
+            raise self._not_converged(t)
+        return code
+
+    def accelerations(self, ev, t):
+        sys_ = ev.system
+        _, after, args = self.kernels(sys_, ev.W)
+        y = np.zeros(13 * sys_.nb)
+        y[7 * sys_.nb:] = ev.v
+        code = after(y, np.empty_like(y), *args)
+        if code < 0:
+            self.status(code, sys_, t, y, None, ev.W)
+        it = max(code, 0)
+        if self.iterate:
+            self.total_iterations += it
+        return MethodOutput(sys_.fields(ev.W, "vdot").copy(), sys_.fields(ev.W, "lam").copy(),
+                            it)
 
     def parameters(self):
         return {"alpha": self.alpha, "omega": self.omega, "mu": self.mu}
@@ -60,8 +72,3 @@ class _PenaltyBase(Method):
 @register
 class Penalty(_PenaltyBase):
     name = "penalty"
-
-    def accelerations(self, ev, t):
-        solve, c_term = self._factor(ev, t)
-        vdot = solve(ev.g - self.alpha * (ev.cv.D.T @ c_term))                 # Eq. (12.14)
-        return MethodOutput(vdot, self._lam(ev, vdot, c_term))

@@ -2,13 +2,19 @@
 for the accelerations, and after every accepted step the positions and velocities are projected
 back onto Phi = 0 and D v = nu with the corrections of chapter 14 (14.12, 14.19). No gains to
 choose -- the text notes there is no reliable rule for Baumgarte's.
+
+The projection runs compiled (:func:`.system.project`) on the same sparse Cholesky machinery as
+the multipliers (D D^T instead of D M^-1 D^T); if D D^T is singular at some instant the
+least-squares corrections of :mod:`.correction` are used for that instant.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ConvergenceError
+from . import system as cs
 from .base import check_positive, register
-from .correction import correct_positions, correct_velocities
+from .correction import _correct_positions_lstsq, _correct_velocities_lstsq
 from .standard import Standard
 
 
@@ -22,12 +28,45 @@ class Projection(Standard):
         self.tolerance = check_positive("projection tolerance", tolerance)
         self.max_iterations = int(check_positive("projection max_iterations", max_iterations))
 
+    def project_y(self, system, t, y) -> np.ndarray:
+        """y (a copy) with q and v projected; raises ConvergenceError if Newton fails."""
+        y = y.copy()
+        if system.table.has_drivers:
+            system.table.set_time(t)
+        it = -1
+        if not system.python_groups:
+            it = cs.project(t, y, system.F, system.I, system.W, self.tolerance,
+                            self.max_iterations, np.zeros(6 * system.nb))
+        if it == -1:                   # D D^T singular here: least squares
+            nb = system.nb
+            q, v = self._project_lstsq(system.model, t, y[:7 * nb], y[7 * nb:13 * nb])
+            y[:7 * nb], y[7 * nb:13 * nb] = q.ravel(), v
+        elif it == -2:
+            nb = system.nb
+            q = y[:7 * nb].reshape(nb, 7)
+            phi = system.model.assembler.evaluate(q, None, t).phi
+            err = ConvergenceError(
+                f"t = {t:.6g} s: projection onto the constraints did not converge in "
+                f"{self.max_iterations} iterations (max |Phi| = {np.abs(phi).max():.3g})")
+            err.t = t
+            raise err
+        return y
+
+    def _project_lstsq(self, model, t, q, v):
+        q = np.asarray(q, dtype=float).reshape(model.nb, 7)
+        q, _, _, _ = _correct_positions_lstsq(model, q, t, self.tolerance, self.max_iterations,
+                                              None, None)
+        v, _, _ = _correct_velocities_lstsq(model, q, np.asarray(v, dtype=float), t, None,
+                                            None)
+        return q, v
+
     def project(self, eom, t, q, v):
         """(q, v) projected onto the position and velocity constraint manifolds."""
-        q, _, _, _ = correct_positions(eom.model, q, t, self.tolerance, self.max_iterations,
-                                       assembler=eom.assembler)
-        v, _, _ = correct_velocities(eom.model, q, v, t, assembler=eom.assembler)
-        return q, v
+        nb = eom.nb
+        y = np.concatenate([np.asarray(q, dtype=float).ravel(),
+                            np.asarray(v, dtype=float).ravel()])
+        y = self.project_y(eom.system, t, y)
+        return y[:7 * nb].reshape(nb, 7), y[7 * nb:13 * nb]
 
     def parameters(self):
         return {"tolerance": self.tolerance, "max_iterations": self.max_iterations,

@@ -2,9 +2,10 @@
 
 With M block diagonal the Schur complement is cheap: lam = S^-1 (gamma - D M^-1 g) with
 S = D M^-1 D^T (12.5), then vdot = M^-1 (g + D^T lam) (12.4) -- signs for the convention
-D^T lam = reaction forces (eom.py). S is factorised by Cholesky (dense) or sparse LU with a
-fill-reducing ordering (large systems). solver="kkt" instead factorises the whole augmented
-matrix [M, -D^T; D, 0] with a pivoting LU (12.3).
+D^T lam = reaction forces (eom.py). S is assembled body by body into its fixed sparsity pattern
+and factorised by a sparse Cholesky with a fill-reducing ordering chosen once (compiled,
+:mod:`.system`, :mod:`.sparse`): O(N) for chains and trees. solver="kkt" instead factorises the
+whole augmented matrix [M, -D^T; D, 0] with a pivoting LU (12.3), densely.
 
 Redundant constraints: rows found dependent at the start (mobility) are left out (reduced
 sense, their multipliers are 0 and the reactions of their joints are not unique); if S is
@@ -18,13 +19,38 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SingularMatrixError
+from . import system as cs
 from .base import Method, MethodOutput, register
 
 SOLVERS = ("schur", "kkt")
+#: S up to this size is solved densely (lstsq) when it is singular, larger ones by LSQR
+DENSE_FALLBACK_MAX = 2000
+
+
+def fallback_multipliers(system, W) -> None:
+    """lam of a singular S (minimum norm), from the values the compiled solve left in W."""
+    Cx = system.fields(W, "Cx")
+    b = system.fields(W, "bs")
+    S = system.S.to_scipy(Cx)
+    if S.shape[0] <= DENSE_FALLBACK_MAX:
+        lam = la.lstsq(S.toarray(), b, check_finite=False)[0]
+    else:
+        lam = spla.lsqr(S, b, atol=1e-15, btol=1e-15)[0]
+    full = system.fields(W, "lam")
+    full[:] = 0.0
+    full[system.keep] = lam
+
+
+def singular_error(t):
+    err = SingularMatrixError(f"t = {t:.6g} s: the system matrix D M^-1 D^T is singular "
+                              "(singular configuration or redundant constraints)")
+    err.t = t
+    return err
 
 
 def solve_constrained(ev, rhs_gamma: np.ndarray, keep=None, solver: str = "schur"):
-    """vdot, lam of [M, -D^T; D, 0][vdot; lam] = [g; rhs_gamma] (rows ``keep`` of D only)."""
+    """vdot, lam of [M, -D^T; D, 0][vdot; lam] = [g; rhs_gamma] (rows ``keep`` of D only),
+    for a Python method: dense or sparse SciPy linear algebra on ev's arrays."""
     D = ev.cv.D
     m_all = D.shape[0]
     if keep is not None:
@@ -35,20 +61,10 @@ def solve_constrained(ev, rhs_gamma: np.ndarray, keep=None, solver: str = "schur
         return Minv_g, np.zeros(m_all)
     if solver == "kkt":
         lam = _kkt(ev, D, rhs_gamma)
-    elif sp.issparse(D):
-        Minv_DT = _sparse_minv_dt(ev.M, D)
-        S = (D @ Minv_DT).tocsc()
-        b = rhs_gamma - D @ Minv_g
-        try:
-            lam = spla.splu(S, permc_spec="COLAMD").solve(b)
-        except RuntimeError:
-            lam = spla.lsqr(S, b, atol=1e-15, btol=1e-15)[0]
-        if not np.all(np.isfinite(lam)):
-            lam = spla.lsqr(S, b, atol=1e-15, btol=1e-15)[0]
     else:
-        Minv_DT = ev.M.solve(D.T)
-        S = D @ Minv_DT                                           # Eq. (12.5)
-        b = rhs_gamma - D @ Minv_g
+        Dd = D.toarray() if sp.issparse(D) else D
+        S = Dd @ ev.M.solve(Dd.T)                                 # Eq. (12.5)
+        b = rhs_gamma - Dd @ Minv_g
         try:
             lam = la.cho_solve(la.cho_factor(S, check_finite=False), b, check_finite=False)
         except la.LinAlgError:
@@ -59,18 +75,6 @@ def solve_constrained(ev, rhs_gamma: np.ndarray, keep=None, solver: str = "schur
         full[keep] = lam
         lam = full
     return vdot, lam
-
-
-def _sparse_minv_dt(M, D):
-    """M^-1 D^T as a sparse matrix (block-diagonal M^-1 times sparse D^T)."""
-    nb = M.mass.size
-    blocks = np.zeros((nb, 6, 6))
-    blocks[:, 0, 0] = blocks[:, 1, 1] = blocks[:, 2, 2] = 1.0 / M.mass
-    blocks[:, 3:, 3:] = M.J_inv
-    rows = (np.arange(nb)[:, None, None] * 6 + np.arange(6)[None, :, None]).repeat(6, axis=2)
-    cols = (np.arange(nb)[:, None, None] * 6 + np.arange(6)[None, None, :]).repeat(6, axis=1)
-    Minv = sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(6 * nb, 6 * nb))
-    return Minv @ D.T.tocsr()
 
 
 def _kkt(ev, D, rhs_gamma):
@@ -90,11 +94,21 @@ def _kkt(ev, D, rhs_gamma):
     return sol[n:]
 
 
+def _y_of(ev):
+    """A state vector whose velocity part is ev.v (the compiled solves read v from y)."""
+    nb = ev.v.size // 6
+    y = np.zeros(13 * nb)
+    y[7 * nb:] = ev.v
+    return y
+
+
 @register
 class Standard(Method):
     """Lagrange multipliers, index-1 form (12.3); constraint drift is not corrected."""
 
     name = "standard"
+    #: Baumgarte mode of the compiled solve (0: gamma as is)
+    mode = 0
 
     def __init__(self, solver: str = "schur"):
         if solver not in SOLVERS:
@@ -108,18 +122,57 @@ class Standard(Method):
             keep = np.ones(eom.model.n_eq, dtype=bool)
             keep[redundant_rows] = False
             self.keep = np.nonzero(keep)[0]
+        eom.set_keep(self.keep)
+
+    def gains(self):
+        """(alpha, beta) of the compiled right-hand side gamma - 2 alpha Phidot - beta^2 Phi."""
+        return 0.0, 0.0
+
+    def params(self) -> np.ndarray:
+        """mp of the compiled solve: normalize, mode, alpha, beta (:data:`.system.MP_STANDARD`)."""
+        alpha, beta = self.gains()
+        return np.array([1.0, float(self.mode), alpha, beta])
 
     def rhs_gamma(self, ev):
-        return ev.cv.gamma
+        """The right-hand side of D vdot = ... (gamma; Baumgarte: (12.8)), from the compiled
+        code."""
+        if self.mode == 0:
+            return ev.cv.gamma
+        sys_ = ev.system
+        cs.rhs_gamma_into(_y_of(ev), sys_.F, sys_.I, ev.W, self.params())
+        return sys_.fields(ev.W, "rg").copy()
+
+    # ---- compiled path: used by accelerations() and by simulate's right-hand side
+    def kernels(self, system, W=None):
+        if self.solver == "kkt":
+            return None
+        return (cs.rhs_standard, cs.after_state_standard,
+                (system.F, system.I, system.W if W is None else W, self.params()))
+
+    def status(self, code, system, t, y, ydot, W=None):
+        """A singular S: minimum-norm multipliers for this instant; non-finite vdot: raise."""
+        W = system.W if W is None else W
+        if code == cs.SINGULAR:
+            fallback_multipliers(system, W)
+            code = cs.fallback_finish(y, ydot, system.F, system.I, W)
+        if code == cs.NOT_FINITE and not np.all(np.isfinite(system.fields(W, "vdot"))):
+            raise singular_error(t)
+        return code
 
     def accelerations(self, ev, t):
-        vdot, lam = solve_constrained(ev, self.rhs_gamma(ev), self.keep, self.solver)
-        if not np.all(np.isfinite(vdot)):
-            err = SingularMatrixError(f"t = {t:.6g} s: the system matrix D M^-1 D^T is singular "
-                                      "(singular configuration or redundant constraints)")
-            err.t = t
-            raise err
-        return MethodOutput(vdot, lam)
+        if self.solver == "kkt" or ev.system is None:
+            vdot, lam = solve_constrained(ev, self.rhs_gamma(ev), self.keep, self.solver)
+            if not np.all(np.isfinite(vdot)):
+                raise singular_error(t)
+            return MethodOutput(vdot, lam)
+        sys_ = ev.system
+        _, after, args = self.kernels(sys_, ev.W)
+        y = _y_of(ev)
+        ydot = np.empty_like(y)
+        code = after(y, ydot, *args)
+        if code < 0:
+            self.status(code, sys_, t, y, ydot, ev.W)
+        return MethodOutput(sys_.fields(ev.W, "vdot").copy(), sys_.fields(ev.W, "lam").copy())
 
     def parameters(self):
         return {"solver": self.solver}

@@ -43,11 +43,15 @@ class ODEProblem:
         it must be idempotent on states that already lie on the manifold.
     jac: optional (t, y) -> (n, n) Jacobian dy'/dy; implicit integrators fall back to finite
         differences of ``rhs`` when it is None.
+    project_keeps_rhs: True when ``project`` never changes rhs(t, y) (beyond round-off), e.g.
+        when it only rescales components that rhs normalises anyway (unit Euler parameters);
+        integrators may then keep a derivative computed before the projection (FSAL).
     """
 
     rhs: RHS
     project: Optional[Projection] = None
     jac: Optional[Callable[[float, np.ndarray], np.ndarray]] = None
+    project_keeps_rhs: bool = False
 
 
 @dataclass

@@ -9,9 +9,14 @@ extension of Dormand-Prince (Shampine 1986, the same coefficients as MATLAB's od
 RK45); it reproduces both end points of a step.
 
 Projection: when ``problem.project`` changes the accepted y_(n+1), the FSAL derivative is
-recomputed at the projected state (1 extra evaluation, counted in nfev), and the interpolant gets
-the linear correction theta (y_proj - y_raw) so it still passes through both (projected) end
-points; dense outputs are projected too (the hook is idempotent on the manifold).
+recomputed at the projected state (1 extra evaluation, counted in nfev; not when the problem
+declares ``project_keeps_rhs``), and the interpolant gets the linear correction
+theta (y_proj - y_raw) so it still passes through both (projected) end points; dense outputs
+are projected too (the hook is idempotent on the manifold).
+
+The arithmetic of a step (stages, error norm, continuous extension) is compiled
+(:func:`dopri_combine`, :func:`dopri_error`, :func:`dopri_interpolate`); the
+step-size control stays in Python.
 """
 from __future__ import annotations
 
@@ -21,6 +26,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import SpatialMBDError
+from ..jit import njit
 from .base import Integrator, register
 from .controller import (StepController, atol_vector, default_max_step, end_step,
                          initial_step, min_step_size, non_negative, positive,
@@ -55,12 +61,65 @@ DOPRI_P = np.array([
 ])
 
 
+# The tableau as one (7, 7) array: row s (1..5) holds a_sj, row 6 the weights b (y_(n+1)).
+_AB = np.zeros((7, 7))
+for _s in range(1, 6):
+    _AB[_s, :_s] = DOPRI_A[_s]
+_AB[6, :6] = DOPRI_B
+
+
+@njit
+def dopri_combine(y, hs, K, s, out):
+    """out = y + hs sum_(j<s) a_sj K_j (stage s = 1..5), or y_(n+1) for s = 6."""
+    n = y.size
+    for i in range(n):
+        acc = 0.0
+        for j in range(s):
+            acc += _AB[s, j] * K[j, i]
+        out[i] = y[i] + hs * acc
+
+
+@njit
+def dopri_error(y, y_new, K, hs, atol, rtol):
+    """Weighted RMS norm of the local error estimate hs sum_j e_j K_j, scale
+    atol + rtol max(|y|, |y_new|)."""
+    n = y.size
+    acc = 0.0
+    for i in range(n):
+        e = 0.0
+        for j in range(7):
+            e += DOPRI_E[j] * K[j, i]
+        scale = atol[i] + rtol * max(abs(y[i]), abs(y_new[i]))
+        e *= hs / scale
+        acc += e * e
+    return math.sqrt(acc / n)
+
+
+@njit
+def dopri_interpolate(y, hs, K, theta, out):
+    """Dormand-Prince continuous extension: out = y + hs sum_j (P[j] . [theta, .., theta^4]) K_j."""
+    t2 = theta * theta
+    t3 = t2 * theta
+    t4 = t3 * theta
+    w = np.empty(7)
+    for j in range(7):
+        w[j] = DOPRI_P[j, 0] * theta + DOPRI_P[j, 1] * t2 + DOPRI_P[j, 2] * t3 + DOPRI_P[j, 3] * t4
+    for i in range(y.size):
+        acc = 0.0
+        for j in range(7):
+            acc += w[j] * K[j, i]
+        out[i] = y[i] + hs * acc
+
+
 def dopri_dense(y_old: np.ndarray, h: float, K: np.ndarray, theta: float) -> np.ndarray:
     """Dormand-Prince continuous extension at t_n + theta h (theta in [0, 1]).
 
     y_old: (n,), K: (7, n) stage derivatives of the step, h: step size (s). Order 4.
     """
-    return y_old + h * np.dot(np.dot(DOPRI_P, [theta, theta ** 2, theta ** 3, theta ** 4]), K)
+    K = np.ascontiguousarray(K, dtype=float)
+    out = np.empty(K.shape[1])
+    dopri_interpolate(np.ascontiguousarray(y_old, dtype=float), float(h), K, float(theta), out)
+    return out
 
 
 @register
@@ -97,6 +156,7 @@ class DormandPrince45(Integrator):
     def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
         f = problem.rhs
         project = problem.project
+        keeps_rhs = problem.project_keeps_rhs
         n = y0.size
         rtol = self.rtol
         atol = atol_vector(self.atol, n)
@@ -112,11 +172,10 @@ class DormandPrince45(Integrator):
             k_out = 1
         if k_out == n_out:
             return
-        A = DOPRI_A
-        C = DOPRI_C
-        B = DOPRI_B
-        E = DOPRI_E
+        C = DOPRI_C.tolist()
         K = np.empty((7, n))
+        stage = np.empty(n)
+        combine, error = dopri_combine, dopri_error
         t, y = t0, y0
         try:
             K[0] = f(t0, y0)
@@ -139,13 +198,13 @@ class DormandPrince45(Integrator):
                             + ("; the derivative is not finite" if not_finite else ""))
                     t_new = t_end if hs == t_end - t else t + hs
                     for s in range(1, 6):
-                        K[s] = f(t + C[s] * hs, y + hs * np.dot(A[s], K[:s]))
-                    y_new = y + hs * np.dot(B, K[:6])
+                        combine(y, hs, K, s, stage)
+                        K[s] = f(t + C[s] * hs, stage)
+                    y_new = np.empty(n)
+                    combine(y, hs, K, 6, y_new)
                     K[6] = f(t_new, y_new)
                     counters.nfev += 6
-                    scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-                    e = np.dot(E, K) * (hs / scale)
-                    err = math.sqrt(float(np.dot(e, e)) / n)
+                    err = error(y, y_new, K, hs, atol, rtol)
                     if err <= 1.0:
                         break
                     not_finite = not math.isfinite(err)
@@ -156,15 +215,18 @@ class DormandPrince45(Integrator):
                 # ---- accept
                 fac = ctrl.accept(err, after_reject)
                 after_reject = False
-                Q = None
-                if k_out < n_out and touts[k_out] < t_new:
-                    Q = np.dot(DOPRI_P.T, K)             # (4, n), before K[6] may change
+                Kd = K                                   # the stages of the interpolant
                 delta = None
                 if project is not None:
                     y_p = project(t_new, y_new)
-                    if y_p is not y_new and not np.array_equal(y_p, y_new):
+                    if keeps_rhs:
                         delta = y_p - y_new
                         y_new = y_p
+                    elif y_p is not y_new and not np.array_equal(y_p, y_new):
+                        delta = y_p - y_new
+                        y_new = y_p
+                        if k_out < n_out and touts[k_out] < t_new:
+                            Kd = K.copy()                # before K[6] changes
                         K[6] = f(t_new, y_new)           # FSAL derivative at projected state
                         counters.nfev += 1
                 raise_if_nonfinite(t_new, y_new)
@@ -175,9 +237,10 @@ class DormandPrince45(Integrator):
                         outputs.append(y_new)
                     else:
                         th = (to - t) / hs
-                        yo = y + hs * np.dot([th, th * th, th ** 3, th ** 4], Q)
+                        yo = np.empty(n)
+                        dopri_interpolate(y, hs, Kd, th, yo)
                         if delta is not None:
-                            yo = yo + th * delta
+                            yo += th * delta
                         if project is not None:
                             yo = project(to, yo)
                         outputs.append(yo)
