@@ -1,4 +1,6 @@
 """Every constraint kernel against finite differences at many random states (ERRATA-aware)."""
+import zlib
+
 import numpy as np
 import pytest
 
@@ -35,12 +37,26 @@ def make_group(name, rng):
     return cls(names, PAIRS[:, 0], PAIRS[:, 1], geom)
 
 
+def angle_well_defined(group, q0):
+    """The angle atan2(b_i.a_j, a_i.a_j) is defined only while a_j is not along the axis u_i;
+    keep random states where x^2 + y^2 > 0.1 (else the angle itself is ill-conditioned)."""
+    from spatialmbd.state import BodyState
+    s = BodyState.from_qv(q0, None, 0.0)
+    a_j = np.einsum("nij,nj->ni", s.A[group.body_j], group.geometry.R_j[:, :, 1])
+    a_i = np.einsum("nij,nj->ni", s.A[group.body_i], group.geometry.R_i[:, :, 1])
+    b_i = np.einsum("nij,nj->ni", s.A[group.body_i], group.geometry.R_i[:, :, 2])
+    r2 = np.sum(a_i * a_j, axis=1) ** 2 + np.sum(b_i * a_j, axis=1) ** 2
+    return r2.min() > 0.1
+
+
 @pytest.mark.parametrize("name", sorted(CONSTRAINT_TYPES))
 def test_jacobian_and_gamma_match_finite_differences(name):
-    rng = np.random.default_rng(abs(hash(name)) % 2**32)
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
     for trial in range(20):
         group = make_group(name, rng)
         q0, v = random_state(rng, NB)
+        while name == "angle" and not angle_well_defined(group, q0):
+            q0, v = random_state(rng, NB)
         e1, e2, scale = derivative_errors(group, q0, v, t0=rng.uniform(0, 1.5))
         assert e1 < 1e-8 * scale, f"{name}: D v - nu differs from dPhi/dt by {e1:.3g}"
         assert e2 < 1e-6 * scale, f"{name}: -gamma differs from d2Phi/dt2 by {e2:.3g}"
