@@ -9,6 +9,8 @@ Function evaluations per step: Euler 1, Heun 2, RK4 4.
 """
 from __future__ import annotations
 
+import abc
+
 import math
 
 import numpy as np
@@ -30,9 +32,9 @@ class FixedStepIntegrator(Integrator):
     def __repr__(self) -> str:
         return f"{type(self).__name__}(step={self.step!r})"
 
+    @abc.abstractmethod
     def _advance(self, f, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """One step of size h from (t, y); returns y_(n+1) (a new array)."""
-        raise NotImplementedError
 
     def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
         f = problem.rhs

@@ -128,9 +128,11 @@ class Deck:
                 else:
                     ip = [_number(x) for x in st.keys["IP"]]
                     if len(ip) > 3 and any(abs(x) > 0 for x in ip[3:]):
-                        raise NotImplementedError("products of inertia")
+                        raise ValueError(f"{path.name}: PART/{st.id} has products of inertia, which this "
+                                         "deck reader does not support")
                     if "QG" in st.keys or "REULER" in st.keys:
-                        raise NotImplementedError("part frames other than the ground frame")
+                        raise ValueError(f"{path.name}: PART/{st.id} has its own frame (QG/REULER), "
+                                         "which this deck reader does not support")
                     parts[st.id] = dict(ground=False, mass=_number(st.keys["MASS"][0]),
                                         cm=int(st.keys["CM"][0]), ip=np.array(ip[:3]))
             elif st.name == "MARKER":
@@ -163,7 +165,8 @@ class Deck:
             bi, bj = self.part_name(mi.part), self.part_name(mj.part)
             name = f"joint{j['id']}"
             if np.linalg.norm(mi.origin - mj.origin) > 1e-9:
-                raise NotImplementedError(f"{name}: I and J markers not coincident")
+                raise ValueError(f"{self.name} {name}: I and J markers are not coincident; "
+                                 "this deck reader supports coincident markers only")
             if j["type"] == "REVOLUTE":
                 b.add_joint("revolute", name, bi, bj, point=mi.origin, axis=mi.A[:, 2])
             elif j["type"] == "SPHERICAL":
@@ -172,7 +175,8 @@ class Deck:
                 b.add_joint("universal", name, bi, bj, point=mi.origin, axis=mi.A[:, 0],
                             axis2=mj.A[:, 1])
             else:
-                raise NotImplementedError(f"joint type {j['type']}")
+                raise ValueError(f"{self.name} {name}: joint type {j['type']} is not supported "
+                                 "by this deck reader (REVOLUTE, SPHERICAL, HOOKE)")
         return b
 
 
