@@ -193,7 +193,7 @@ def _compiled_rhs(model, eom, meth, track_work):
             y = np.ascontiguousarray(y)
         if drivers:
             table.set_time(t)
-        cs.stage_state(t, y, True, F, I, W)
+        cs.stage_state(t, y, 1.0, F, I, W)
         if not system.python_stage(t):
             eom._raise_non_finite(state, t)
         ydot = np.empty_like(y)

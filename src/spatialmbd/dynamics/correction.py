@@ -86,7 +86,7 @@ class CorrectionReport:
 def _system(model, system):
     if system is None:
         from .system import System
-        system = System(model)
+        system = System.for_model(model)
     return system
 
 

@@ -15,6 +15,7 @@ methods written in Python, and carries the compiled system so the built-in metho
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -130,7 +131,7 @@ class EquationsOfMotion:
     @property
     def system(self) -> System:
         if self._system is None:
-            self._system = System(self.model, self._keep)
+            self._system = System.for_model(self.model, self._keep)
         return self._system
 
     def set_keep(self, keep) -> None:
@@ -152,7 +153,8 @@ class EquationsOfMotion:
         W = sys_.W.copy()
         ok = sys_.evaluate(t, y, False, W)
         ev = Evaluation(t, y[7 * nb:], sys_, W, self.assembler)
-        if not (ok and np.all(np.isfinite(ev.g))):
+        g = ev.g
+        if not (ok and math.isfinite(float(g @ g))) and not np.all(np.isfinite(g)):
             self._raise_non_finite(ev.state, t)
         return ev
 

@@ -3,8 +3,9 @@
 :class:`System` packs everything an evaluation needs into three flat arrays -- ``F`` (model
 floats), ``I`` (integers: the header, topology, sparsity patterns) and ``W`` (the work arrays
 of one evaluation) -- because a compiled call pays about 0.1 us per array argument; inside
-the compiled code :func:`unpack` turns them back into named views (the namedtuple
-:data:`Sys`). Per evaluation, with no Python loop over bodies or joints:
+the compiled code :func:`body_views`, :func:`cons_views` and :func:`schur_views` turn them back
+into named views (the namedtuples :data:`Body`, :data:`Cons`, :data:`Schur`). Per evaluation,
+with no Python loop over bodies or joints:
 
 * :func:`stage_state`: p / |p|, A(p) (4.13), J = A J' A^T and its inverse (10.6), gravity and
   the gyroscopic term -omega~ J omega (10.4), and every compiled constraint group
@@ -25,6 +26,7 @@ body_i = row_bi[a] and body_j = row_bj[a] (the ground, index nb, is skipped).
 """
 from __future__ import annotations
 
+import copy as copy_module
 import math
 from collections import namedtuple
 
@@ -37,27 +39,33 @@ from ..state import BodyState, qdot_into, state_into
 from . import sparse as spc
 
 # --------------------------------------------------------------------------------- layout
-#: (name, buffer, ndim) of every field, in the order of :data:`Sys`
-FIELDS = (
-    # model (F)
+#: (name, buffer, ndim) of every field: the bodies, the constraint rows, the pattern and work
+#: arrays of S = D W D^T (the three views :data:`Body`, :data:`Cons` and :data:`Schur`)
+BODY_FIELDS = (
     ("mass", "F", 1), ("Jl", "F", 3), ("Jl_inv", "F", 3), ("weight", "F", 2),
-    ("s_i", "F", 2), ("s_j", "F", 2), ("R_i", "F", 3), ("R_j", "F", 3), ("length", "F", 1),
-    # topology (I)
-    ("kind", "I", 1), ("rows", "I", 1), ("bi", "I", 1), ("bj", "I", 1), ("coord", "I", 1),
-    ("row_bi", "I", 1), ("row_bj", "I", 1), ("keep", "I", 1), ("drv", "I", 1),
-    ("inc_ptr", "I", 1), ("inc_row", "I", 1), ("inc_side", "I", 1),
-    ("pair_ptr", "I", 1), ("pair_pos", "I", 1),
-    ("S_Cp", "I", 1), ("S_Ci", "I", 1), ("S_Lp", "I", 1), ("S_Li", "I", 1), ("S_Rp", "I", 1),
-    ("S_Rj", "I", 1), ("S_Rpos", "I", 1), ("S_perm", "I", 1),
-    # one evaluation (W)
-    ("r", "W", 2), ("A", "W", 3), ("rdot", "W", 2), ("omega", "W", 2), ("p", "W", 2),
-    ("J", "W", 3), ("Jinv", "W", 3), ("g", "W", 1),
-    ("phi", "W", 1), ("D", "W", 2), ("nu", "W", 1), ("gamma", "W", 1), ("law", "W", 2),
-    ("lam", "W", 1), ("vdot", "W", 1), ("rg", "W", 1), ("t6", "W", 1), ("u6", "W", 1),
-    ("wk", "W", 2), ("Cx", "W", 1), ("Lx", "W", 1), ("xs", "W", 1), ("ys", "W", 1),
-    ("bs", "W", 1), ("q", "W", 2), ("v", "W", 1),
+    ("r", "W", 2), ("A", "W", 3), ("rdot", "W", 2), ("omega", "W", 2),
+    ("p", "W", 2), ("J", "W", 3), ("Jinv", "W", 3), ("g", "W", 1),
+    ("v", "W", 1), ("vdot", "W", 1), ("t6", "W", 1), ("u6", "W", 1),
+    ("q", "W", 2),
 )
-Sys = namedtuple("Sys", [f[0] for f in FIELDS])
+CONS_FIELDS = (
+    ("kind", "I", 1), ("rows", "I", 1), ("bi", "I", 1), ("bj", "I", 1),
+    ("coord", "I", 1), ("s_i", "F", 2), ("s_j", "F", 2), ("R_i", "F", 3),
+    ("R_j", "F", 3), ("length", "F", 1), ("law", "W", 2), ("phi", "W", 1),
+    ("D", "W", 2), ("nu", "W", 1), ("gamma", "W", 1), ("row_bi", "I", 1),
+    ("row_bj", "I", 1), ("lam", "W", 1), ("rg", "W", 1), ("drv", "I", 1),
+)
+SCHUR_FIELDS = (
+    ("keep", "I", 1), ("inc_ptr", "I", 1), ("inc_row", "I", 1), ("inc_side", "I", 1),
+    ("pair_ptr", "I", 1), ("pair_pos", "I", 1), ("wk", "W", 2), ("Cx", "W", 1),
+    ("Lx", "W", 1), ("xs", "W", 1), ("ys", "W", 1), ("bs", "W", 1),
+    ("S_Cp", "I", 1), ("S_Ci", "I", 1), ("S_Lp", "I", 1), ("S_Li", "I", 1),
+    ("S_Rp", "I", 1), ("S_Rj", "I", 1), ("S_Rpos", "I", 1), ("S_perm", "I", 1),
+)
+FIELDS = BODY_FIELDS + CONS_FIELDS + SCHUR_FIELDS
+Body = namedtuple("Body", [f[0] for f in BODY_FIELDS])
+Cons = namedtuple("Cons", [f[0] for f in CONS_FIELDS])
+Schur = namedtuple("Schur", [f[0] for f in SCHUR_FIELDS])
 
 #: fields of the penalty pack (K = M + alpha D^T D), kept apart so it can be added later
 KFIELDS = (("blkpos", "I", 3), ("rowblk", "I", 2), ("K_Cp", "I", 1), ("K_Ci", "I", 1),
@@ -99,17 +107,18 @@ def field_view(fields, F, I, W, name):
     return B[o:o + int(np.prod(shape))].reshape(shape)
 
 
-@njit
+# inlined: called with a literal k, a separate function would be compiled for every k
+@njit(inline="always")
 def _v1(B, I, k):
     return array_view(B, I[4 * k], (I[4 * k + 1],))
 
 
-@njit
+@njit(inline="always")
 def _v2(B, I, k):
     return array_view(B, I[4 * k], (I[4 * k + 1], I[4 * k + 2]))
 
 
-@njit
+@njit(inline="always")
 def _v3(B, I, k):
     return array_view(B, I[4 * k], (I[4 * k + 1], I[4 * k + 2], I[4 * k + 3]))
 
@@ -121,25 +130,32 @@ def bare(B):
 
 
 @njit(inline="always")
-def unpack(F, I, W):
-    """The named views of a System (the field order of FIELDS)."""
+def body_views(F, I, W):
     F, I, W = bare(F), bare(I), bare(W)
-    return Sys(
-        _v1(F, I, 0), _v3(F, I, 1), _v3(F, I, 2), _v2(F, I, 3),
-        _v2(F, I, 4), _v2(F, I, 5), _v3(F, I, 6), _v3(F, I, 7), _v1(F, I, 8),
-        _v1(I, I, 9), _v1(I, I, 10), _v1(I, I, 11), _v1(I, I, 12), _v1(I, I, 13),
-        _v1(I, I, 14), _v1(I, I, 15), _v1(I, I, 16), _v1(I, I, 17),
-        _v1(I, I, 18), _v1(I, I, 19), _v1(I, I, 20),
-        _v1(I, I, 21), _v1(I, I, 22),
-        _v1(I, I, 23), _v1(I, I, 24), _v1(I, I, 25), _v1(I, I, 26), _v1(I, I, 27),
-        _v1(I, I, 28), _v1(I, I, 29), _v1(I, I, 30),
-        _v2(W, I, 31), _v3(W, I, 32), _v2(W, I, 33), _v2(W, I, 34), _v2(W, I, 35),
-        _v3(W, I, 36), _v3(W, I, 37), _v1(W, I, 38),
-        _v1(W, I, 39), _v2(W, I, 40), _v1(W, I, 41), _v1(W, I, 42), _v2(W, I, 43),
-        _v1(W, I, 44), _v1(W, I, 45), _v1(W, I, 46), _v1(W, I, 47), _v1(W, I, 48),
-        _v2(W, I, 49), _v1(W, I, 50), _v1(W, I, 51), _v1(W, I, 52), _v1(W, I, 53),
-        _v1(W, I, 54), _v2(W, I, 55), _v1(W, I, 56),
-    )
+    return Body(
+        _v1(F, I, 0), _v3(F, I, 1), _v3(F, I, 2), _v2(F, I, 3), _v2(W, I, 4), _v3(W, I, 5),
+        _v2(W, I, 6), _v2(W, I, 7), _v2(W, I, 8), _v3(W, I, 9), _v3(W, I, 10), _v1(W, I, 11),
+        _v1(W, I, 12), _v1(W, I, 13), _v1(W, I, 14), _v1(W, I, 15), _v2(W, I, 16))
+
+
+@njit(inline="always")
+def cons_views(F, I, W):
+    F, I, W = bare(F), bare(I), bare(W)
+    return Cons(
+        _v1(I, I, 17), _v1(I, I, 18), _v1(I, I, 19), _v1(I, I, 20), _v1(I, I, 21),
+        _v2(F, I, 22), _v2(F, I, 23), _v3(F, I, 24), _v3(F, I, 25), _v1(F, I, 26),
+        _v2(W, I, 27), _v1(W, I, 28), _v2(W, I, 29), _v1(W, I, 30), _v1(W, I, 31),
+        _v1(I, I, 32), _v1(I, I, 33), _v1(W, I, 34), _v1(W, I, 35), _v1(I, I, 36))
+
+
+@njit(inline="always")
+def schur_views(F, I, W):
+    F, I, W = bare(F), bare(I), bare(W)
+    return Schur(
+        _v1(I, I, 37), _v1(I, I, 38), _v1(I, I, 39), _v1(I, I, 40), _v1(I, I, 41),
+        _v1(I, I, 42), _v2(W, I, 43), _v1(W, I, 44), _v1(W, I, 45), _v1(W, I, 46),
+        _v1(W, I, 47), _v1(W, I, 48), _v1(I, I, 49), _v1(I, I, 50), _v1(I, I, 51),
+        _v1(I, I, 52), _v1(I, I, 53), _v1(I, I, 54), _v1(I, I, 55), _v1(I, I, 56))
 
 
 @njit(inline="always")
@@ -153,30 +169,59 @@ def unpack_k(KI, KW):
 
 
 def _check_layout():
-    """unpack() lists the fields by position: keep it in step with FIELDS."""
-    assert len(FIELDS) == 57 and len(KFIELDS) == 17
+    """The view functions list the fields by position: keep them in step with FIELDS."""
+    assert (len(BODY_FIELDS), len(CONS_FIELDS), len(SCHUR_FIELDS), len(KFIELDS)) == \
+        (17, 20, 20, 17)
 
 
 _check_layout()
 
 
 # --------------------------------------------------------------------------------- helpers
-# The functions that take the views ``s`` (a namedtuple of some 60 arrays, which Numba would pass
-# as several hundred scalar arguments) are inlined into their callers (``inline="always"``).
-@njit
+# Only the entry points (called from Python) make the views bo, co, sc (Body, Cons, Schur); the
+# helpers take the arrays they need, in small tuples:  M = (mass, J, Jinv),  R = (D, row_bi,
+# row_bj) -- the rows of D as 12-blocks over the columns of their two bodies --, and P, the
+# pattern and work arrays of S (see :func:`_P`). (Numba passes a tuple as all of its fields, so
+# big tuples make calls slow and compilation slower.)
+@njit(inline="always")
 def fill(a, value):
     for k in range(a.size):
         a[k] = value
 
 
-@njit
+@njit(inline="always")
 def copy(dst, src):
     for k in range(src.size):
         dst[k] = src[k]
 
 
+@njit(inline="always")
+def finite(x):
+    for k in range(x.size):
+        if not math.isfinite(x[k]):
+            return False
+    return True
+
+
+@njit(inline="always")
+def _M(bo):
+    return (bo.mass, bo.J, bo.Jinv)
+
+
+@njit(inline="always")
+def _R(co):
+    return (co.D, co.row_bi, co.row_bj)
+
+
+@njit(inline="always")
+def _P(sc):
+    return (sc.keep, sc.inc_ptr, sc.inc_row, sc.inc_side, sc.pair_ptr, sc.pair_pos, sc.wk, sc.Cx,
+            sc.Lx, sc.xs, sc.ys,
+            (sc.S_Cp, sc.S_Ci, sc.S_Lp, sc.S_Li, sc.S_Rp, sc.S_Rj, sc.S_Rpos, sc.S_perm))
+
+
 # --------------------------------------------------------------------------------- bodies
-@njit
+@njit(inline="always")
 def congruence(A, X, b, out):
     """out[b] = A[b] X[b] A[b]^T for 3 x 3 blocks (X symmetric)."""
     for a in range(3):
@@ -188,31 +233,43 @@ def congruence(A, X, b, out):
 
 
 @njit
-def stage_state(t, y, normalize, F, I, W):
-    """State, mass matrix, g and the compiled constraints at (t, y) (y = [q (7 nb), v, ...])."""
-    s = unpack(F, I, W)
-    nb = s.mass.size
-    q = array_view(y, 0, (nb, 7))
-    v = array_view(y, 7 * nb, (nb, 6))
-    state_into(q, v, normalize, s.r, s.A, s.rdot, s.omega, s.p)
-    for b in range(nb):
-        congruence(s.A, s.Jl, b, s.J)                                  # J = A J' A^T (10.6)
-        congruence(s.A, s.Jl_inv, b, s.Jinv)
-        w0, w1, w2 = s.omega[b, 0], s.omega[b, 1], s.omega[b, 2]
-        h0 = s.J[b, 0, 0] * w0 + s.J[b, 0, 1] * w1 + s.J[b, 0, 2] * w2
-        h1 = s.J[b, 1, 0] * w0 + s.J[b, 1, 1] * w1 + s.J[b, 1, 2] * w2
-        h2 = s.J[b, 2, 0] * w0 + s.J[b, 2, 1] * w1 + s.J[b, 2, 2] * w2
-        g = s.g[6 * b:6 * b + 6]
-        g[0], g[1], g[2] = s.weight[b, 0], s.weight[b, 1], s.weight[b, 2]     # (11.1)
-        g[3] = -(w1 * h2 - w2 * h1)                                    # -omega~ J omega (10.4)
-        g[4] = -(w2 * h0 - w0 * h2)
-        g[5] = -(w0 * h1 - w1 * h0)
-    S = (s.r, s.A, s.rdot, s.omega, s.p)
-    G = (s.bi, s.bj, s.s_i, s.s_j, s.R_i, s.R_j, s.length, s.law, s.coord)
-    evaluate_instances(s.kind, S, G, s.rows, (s.phi, s.D, s.nu, s.gamma))
+def body_terms(A, omega, Jl, Jl_inv, weight, J, Jinv, g):
+    """J = A J' A^T and its inverse (10.6); g = [m gravity (11.1), -omega~ J omega (10.4)]."""
+    for b in range(J.shape[0]):
+        congruence(A, Jl, b, J)
+        congruence(A, Jl_inv, b, Jinv)
+        w0, w1, w2 = omega[b, 0], omega[b, 1], omega[b, 2]
+        h0 = J[b, 0, 0] * w0 + J[b, 0, 1] * w1 + J[b, 0, 2] * w2
+        h1 = J[b, 1, 0] * w0 + J[b, 1, 1] * w1 + J[b, 1, 2] * w2
+        h2 = J[b, 2, 0] * w0 + J[b, 2, 1] * w1 + J[b, 2, 2] * w2
+        o = 6 * b
+        g[o], g[o + 1], g[o + 2] = weight[b, 0], weight[b, 1], weight[b, 2]
+        g[o + 3] = -(w1 * h2 - w2 * h1)
+        g[o + 4] = -(w2 * h0 - w0 * h2)
+        g[o + 5] = -(w0 * h1 - w1 * h0)
 
 
 @njit
+def stage_state(t, y, normalize, F, I, W):
+    """State, mass matrix, g and the compiled constraints at (t, y) (y = [q (7 nb), v, ...]).
+
+    normalize (a float, 1.0 or 0.0): use p / |p|."""
+    _state(t, y, normalize, body_views(F, I, W), cons_views(F, I, W))
+
+
+@njit(inline="always")
+def _state(t, y, normalize, bo, co):
+    nb = bo.mass.size
+    q = array_view(y, 0, (nb, 7))
+    v = array_view(y, 7 * nb, (nb, 6))
+    state_into(q, v, normalize != 0.0, bo.r, bo.A, bo.rdot, bo.omega, bo.p)
+    body_terms(bo.A, bo.omega, bo.Jl, bo.Jl_inv, bo.weight, bo.J, bo.Jinv, bo.g)
+    S = (bo.r, bo.A, bo.rdot, bo.omega, bo.p)
+    G = (co.bi, co.bj, co.s_i, co.s_j, co.R_i, co.R_j, co.length, co.law, co.coord)
+    evaluate_instances(co.kind, S, G, co.rows, (co.phi, co.D, co.nu, co.gamma))
+
+
+@njit(inline="always")
 def block_apply(m, J, b, f, fo, out, oo, inverse):
     """out[oo:oo+6] = M_b f[fo:fo+6] = [m f_r, J f_w], or M_b^-1 f = [f_r / m, J^-1 f_w] with
     ``inverse`` (J then holds the inverse inertia J^-1 = A J'^-1 A^T): M is block diagonal,
@@ -224,15 +281,19 @@ def block_apply(m, J, b, f, fo, out, oo, inverse):
 
 
 @njit(inline="always")
-def minv_body(s, b, f, out):
-    """out[6b:6b+6] = M_b^-1 f[6b:6b+6]."""
-    block_apply(s.mass, s.Jinv, b, f, 6 * b, out, 6 * b, True)
+def minv_all(M, f, out):
+    """out = M^-1 f (6 nb,)."""
+    mass, J, Jinv = M
+    for b in range(mass.size):
+        block_apply(mass, Jinv, b, f, 6 * b, out, 6 * b, True)
 
 
 @njit(inline="always")
-def m_body(s, b, f, out):
-    """out[6b:6b+6] = M_b f[6b:6b+6]."""
-    block_apply(s.mass, s.J, b, f, 6 * b, out, 6 * b, False)
+def m_all(M, f, out):
+    """out = M f (6 nb,)."""
+    mass, J, Jinv = M
+    for b in range(mass.size):
+        block_apply(mass, J, b, f, 6 * b, out, 6 * b, False)
 
 
 @njit
@@ -247,174 +308,145 @@ def mass_apply(mass, J, x, out, inverse):
 
 
 @njit(inline="always")
-def row_times(s, a, x):
+def row_times(R, a, x):
     """(D x)[a] for x in velocity space (6 nb,)."""
-    nb = s.mass.size
+    D, row_bi, row_bj = R
+    nb = x.size // 6
     acc = 0.0
-    bi, bj = s.row_bi[a], s.row_bj[a]
+    bi, bj = row_bi[a], row_bj[a]
     if bi < nb:
         for c in range(6):
-            acc += s.D[a, c] * x[6 * bi + c]
+            acc += D[a, c] * x[6 * bi + c]
     if bj < nb:
         for c in range(6):
-            acc += s.D[a, 6 + c] * x[6 * bj + c]
+            acc += D[a, 6 + c] * x[6 * bj + c]
     return acc
 
 
 @njit(inline="always")
-def add_transpose_times(s, lam, out):
+def add_transpose_times(R, lam, out):
     """out += D^T lam (lam over all m rows)."""
-    nb = s.mass.size
+    D, row_bi, row_bj = R
+    nb = out.size // 6
     for a in range(lam.size):
         la = lam[a]
         if la == 0.0:
             continue
-        bi, bj = s.row_bi[a], s.row_bj[a]
+        bi, bj = row_bi[a], row_bj[a]
         if bi < nb:
             for c in range(6):
-                out[6 * bi + c] += s.D[a, c] * la
+                out[6 * bi + c] += D[a, c] * la
         if bj < nb:
             for c in range(6):
-                out[6 * bj + c] += s.D[a, 6 + c] * la
+                out[6 * bj + c] += D[a, 6 + c] * la
 
 
 # --------------------------------------------------------------------------------- S = D W D^T
 @njit(inline="always")
-def assemble_schur(s, use_mass):
-    """Cx = values of S = D M^-1 D^T (use_mass) or D D^T over the kept rows."""
-    nb = s.mass.size
-    fill(s.Cx, 0.0)
-    for b in range(nb):
-        p0, p1 = s.inc_ptr[b], s.inc_ptr[b + 1]
+def assemble_schur(M, R, P, use_mass):
+    """Cx = values of S = D M^-1 D^T (use_mass) or D D^T over the kept rows, body by body:
+    S = sum_b D_b W_b D_b^T with D_b the columns of body b."""
+    mass, J, Jinv = M
+    D = R[0]
+    keep, inc_ptr, inc_row, inc_side, pair_ptr, pair_pos, wk, Cx = P[:8]
+    fill(Cx, 0.0)
+    for b in range(mass.size):
+        p0, p1 = inc_ptr[b], inc_ptr[b + 1]
         for t in range(p0, p1):
-            a = s.keep[s.inc_row[t]]
-            c0 = 6 * s.inc_side[t]
+            a = keep[inc_row[t]]
+            c0 = 6 * inc_side[t]
             if use_mass:                        # a row of D M^-1 (M^-1 is symmetric)
-                block_apply(s.mass, s.Jinv, b, s.D[a], c0, s.wk[t - p0], 0, True)
+                block_apply(mass, Jinv, b, D[a], c0, wk[t - p0], 0, True)
             else:
                 for c in range(6):
-                    s.wk[t - p0, c] = s.D[a, c0 + c]
-        q = s.pair_ptr[b]
+                    wk[t - p0, c] = D[a, c0 + c]
+        q = pair_ptr[b]
         for ta in range(p0, p1):
             for tc in range(ta, p1):
-                a = s.keep[s.inc_row[tc]]
-                c0 = 6 * s.inc_side[tc]
+                a = keep[inc_row[tc]]
+                c0 = 6 * inc_side[tc]
                 val = 0.0
                 for c in range(6):
-                    val += s.wk[ta - p0, c] * s.D[a, c0 + c]
-                s.Cx[s.pair_pos[q]] += val
+                    val += wk[ta - p0, c] * D[a, c0 + c]
+                Cx[pair_pos[q]] += val
                 q += 1
 
 
 @njit(inline="always")
-def schur_factor(s, use_mass):
+def schur_factor(M, R, P, use_mass):
     """Assemble and factorise S (or D D^T); False if it is not positive definite."""
-    assemble_schur(s, use_mass)
-    sym = (s.S_Cp, s.S_Ci, s.S_Lp, s.S_Li, s.S_Rp, s.S_Rj, s.S_Rpos, s.S_perm)
-    return spc.numeric(sym, s.Cx, s.Lx, s.xs)
+    assemble_schur(M, R, P, use_mass)
+    return spc.numeric(P[11], P[7], P[8], P[9])
 
 
 @njit(inline="always")
-def schur_solve(s, b):
-    sym = (s.S_Cp, s.S_Ci, s.S_Lp, s.S_Li, s.S_Rp, s.S_Rj, s.S_Rpos, s.S_perm)
-    spc.solve(sym, s.Lx, b, s.ys)
+def schur_solve(P, b):
+    """b <- S^-1 b with the factor of :func:`schur_factor`."""
+    spc.solve(P[11], P[8], b, P[10])
 
 
 @njit(inline="always")
-def finish(s):
+def finish(M, R, g, lam, t6, vdot):
     """vdot = M^-1 (g + D^T lam), Eq. (12.4)."""
-    nb = s.mass.size
-    copy(s.t6, s.g)
-    add_transpose_times(s, s.lam, s.t6)
-    for b in range(nb):
-        minv_body(s, b, s.t6, s.vdot)
+    copy(t6, g)
+    add_transpose_times(R, lam, t6)
+    minv_all(M, t6, vdot)
 
 
 @njit(inline="always")
-def multiplier_rhs(s):
-    """bs = rg - D M^-1 g over the kept rows (the right-hand side of S lam = ...)."""
-    nb = s.mass.size
-    for b in range(nb):
-        minv_body(s, b, s.g, s.u6)
-    for k in range(s.keep.size):
-        a = s.keep[k]
-        s.bs[k] = s.rg[a] - row_times(s, a, s.u6)
-
-
-@njit(inline="always")
-def baumgarte_rhs(s, mode, alpha, beta):
-    """rg = gamma (mode 0) or gamma - 2 alpha Phidot - beta^2 Phi (mode 1, Eq. 12.8)."""
-    nb = s.mass.size
+def baumgarte_rhs(R, gamma, phi, nu, v, mode, alpha, beta, rg):
+    """rg = gamma (mode 0) or gamma - 2 alpha Phidot - beta^2 Phi (mode 1, Eq. 12.8),
+    Phidot = D v - nu."""
     if mode == 0:
-        copy(s.rg, s.gamma)
+        copy(rg, gamma)
         return
-    for a in range(s.gamma.size):
-        phidot = -s.nu[a]
-        bi, bj = s.row_bi[a], s.row_bj[a]
-        if bi < nb:
-            for c in range(6):
-                phidot += s.D[a, c] * s.v[6 * bi + c]
-        if bj < nb:
-            for c in range(6):
-                phidot += s.D[a, 6 + c] * s.v[6 * bj + c]
-        s.rg[a] = s.gamma[a] - 2.0 * alpha * phidot - beta * beta * s.phi[a]
-
-
-@njit
-def rhs_gamma_into(y, F, I, W, mp):
-    """rg of :func:`baumgarte_rhs` at the evaluation in W (v read from y)."""
-    s = unpack(F, I, W)
-    copy_v(s, y)
-    baumgarte_rhs(s, int(mp[1]), mp[2], mp[3])
+    for a in range(gamma.size):
+        phidot = row_times(R, a, v) - nu[a]
+        rg[a] = gamma[a] - 2.0 * alpha * phidot - beta * beta * phi[a]
 
 
 @njit(inline="always")
-def solve_multipliers(s, mode, alpha, beta):
-    """lam and vdot of the (Baumgarte-modified) standard method; False if S is singular
-    (s.bs then holds the right-hand side and s.Cx the values of S for a fallback)."""
-    baumgarte_rhs(s, mode, alpha, beta)
-    fill(s.lam, 0.0)
-    if s.keep.size == 0:
-        finish(s)
-        return True
-    multiplier_rhs(s)
-    if not schur_factor(s, True):
-        return False
-    schur_solve(s, s.bs)
-    for k in range(s.keep.size):
-        s.lam[s.keep[k]] = s.bs[k]
-    finish(s)
+def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot):
+    """lam = S^-1 (rg - D M^-1 g) over the kept rows (12.5) and vdot (12.4); False if S is
+    singular (bs then holds the right-hand side and Cx the values of S for a fallback)."""
+    keep = P[0]
+    fill(lam, 0.0)
+    if keep.size:
+        minv_all(M, g, u6)
+        for k in range(keep.size):
+            bs[k] = rg[keep[k]] - row_times(R, keep[k], u6)
+        if not schur_factor(M, R, P, True):
+            return False
+        schur_solve(P, bs)
+        for k in range(keep.size):
+            lam[keep[k]] = bs[k]
+    finish(M, R, g, lam, t6, vdot)
     return True
 
 
 @njit(inline="always")
-def copy_v(s, y):
-    nb = s.mass.size
-    for k in range(6 * nb):
-        s.v[k] = y[7 * nb + k]
+def copy_v(y, v):
+    for k in range(v.size):
+        v[k] = y[7 * (v.size // 6) + k]
 
 
 @njit(inline="always")
-def write_ydot(s, ydot):
+def write_ydot(p, omega, rdot, vdot, lam, nu, drv, ydot):
     """ydot = [qdot (5.12), vdot, power of the drivers lam^T nu]."""
-    nb = s.mass.size
-    qdot_into(s.p, s.omega, s.rdot, array_view(ydot, 0, (nb, 7)))
+    nb = vdot.size // 6
+    qdot_into(p, omega, rdot, array_view(ydot, 0, (nb, 7)))
     for j in range(6 * nb):
-        ydot[7 * nb + j] = s.vdot[j]
+        ydot[7 * nb + j] = vdot[j]
     power = 0.0
-    for k in range(s.drv.size):
-        a = s.drv[k]
-        power += s.lam[a] * s.nu[a]
+    for k in range(drv.size):
+        power += lam[drv[k]] * nu[drv[k]]
     if ydot.size > 13 * nb:
         ydot[13 * nb] = power
 
 
-@njit
-def finite(x):
-    for k in range(x.size):
-        if not math.isfinite(x[k]):
-            return False
-    return True
+@njit(inline="always")
+def _write_ydot(bo, co, ydot):
+    write_ydot(bo.p, bo.omega, bo.rdot, bo.vdot, co.lam, co.nu, co.drv, ydot)
 
 
 #: status codes of the compiled right-hand sides (>= 0: success; the augmented Lagrangian
@@ -426,65 +458,85 @@ MP_STANDARD = ("normalize", "mode", "alpha", "beta")
 
 
 @njit
+def rhs_gamma_into(y, F, I, W, mp):
+    """rg of :func:`baumgarte_rhs` at the evaluation in W (v read from y)."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    copy_v(y, bo.v)
+    baumgarte_rhs(_R(co), co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
+
+
+@njit
 def rhs_standard(t, y, ydot, F, I, W, mp):
     """The whole right-hand side of the standard / Baumgarte methods (no Python parts)."""
-    stage_state(t, y, mp[0] != 0.0, F, I, W)
-    return after_state_standard(y, ydot, F, I, W, mp)
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    _state(t, y, mp[0], bo, co)
+    return _after_standard(y, ydot, bo, co, sc, mp)
 
 
 @njit
 def after_state_standard(y, ydot, F, I, W, mp):
-    s = unpack(F, I, W)
-    copy_v(s, y)
-    if not solve_multipliers(s, int(mp[1]), mp[2], mp[3]):
+    """The standard / Baumgarte solve after :func:`stage_state` (and the Python stage)."""
+    return _after_standard(y, ydot, body_views(F, I, W), cons_views(F, I, W),
+                           schur_views(F, I, W), mp)
+
+
+@njit(inline="always")
+def _after_standard(y, ydot, bo, co, sc, mp):
+    copy_v(y, bo.v)
+    R = _R(co)
+    baumgarte_rhs(R, co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
+    if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg, co.lam, sc.bs, bo.t6, bo.u6,
+                             bo.vdot):
         return SINGULAR
-    write_ydot(s, ydot)
+    _write_ydot(bo, co, ydot)
     return OK if finite(ydot) else NOT_FINITE
 
 
 @njit
 def fallback_finish(y, ydot, F, I, W):
-    """vdot and ydot after a fallback solve that has put lam into s.lam."""
-    s = unpack(F, I, W)
-    finish(s)
-    write_ydot(s, ydot)
+    """vdot and ydot after a fallback solve that has put lam into co.lam."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    finish(_M(bo), _R(co), bo.g, co.lam, bo.t6, bo.vdot)
+    _write_ydot(bo, co, ydot)
     return OK if finite(ydot) else NOT_FINITE
 
 
 # --------------------------------------------------------------------------------- penalty
-@njit(inline="always")
-def assemble_penalty(s, k, alpha):
-    """Kx = values of M + alpha D^T D (12.14)."""
-    nb = s.mass.size
-    fill(k.Kx, 0.0)
-    for b in range(nb):
+@njit
+def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
+    """Kx = values of M + alpha D^T D (12.14): the body blocks of M, and alpha D_r^T D_r of
+    every row r into the blocks of its bodies."""
+    mass, J, Jinv = M
+    D = R[0]
+    fill(Kx, 0.0)
+    for b in range(mass.size):
         for a in range(6):
             for c in range(6):
-                pos = k.blkpos[b, a, c]
+                pos = blkpos[b, a, c]
                 if pos < 0:
                     continue
                 if a < 3 and c < 3:
                     if a == c:
-                        k.Kx[pos] += s.mass[b]
+                        Kx[pos] += mass[b]
                 elif a >= 3 and c >= 3:
-                    k.Kx[pos] += s.J[b, a - 3, c - 3]
-    for r in range(s.D.shape[0]):
-        bii, bjj, bij, flip = k.rowblk[r, 0], k.rowblk[r, 1], k.rowblk[r, 2], k.rowblk[r, 3]
+                    Kx[pos] += J[b, a - 3, c - 3]
+    for r in range(D.shape[0]):
+        bii, bjj, bij, flip = rowblk[r, 0], rowblk[r, 1], rowblk[r, 2], rowblk[r, 3]
         for a in range(6):
-            da_i = alpha * s.D[r, a]
-            da_j = alpha * s.D[r, 6 + a]
+            da_i = alpha * D[r, a]
+            da_j = alpha * D[r, 6 + a]
             for c in range(6):
                 if bii >= 0:
-                    pos = k.blkpos[bii, a, c]
+                    pos = blkpos[bii, a, c]
                     if pos >= 0:
-                        k.Kx[pos] += da_i * s.D[r, c]
+                        Kx[pos] += da_i * D[r, c]
                 if bjj >= 0:
-                    pos = k.blkpos[bjj, a, c]
+                    pos = blkpos[bjj, a, c]
                     if pos >= 0:
-                        k.Kx[pos] += da_j * s.D[r, 6 + c]
+                        Kx[pos] += da_j * D[r, 6 + c]
                 if bij >= 0:
-                    pos = k.blkpos[bij, c, a] if flip else k.blkpos[bij, a, c]
-                    k.Kx[pos] += da_i * s.D[r, 6 + c]
+                    pos = blkpos[bij, c, a] if flip else blkpos[bij, a, c]
+                    Kx[pos] += da_i * D[r, 6 + c]
 
 
 #: the parameter array ``mp`` of the penalty / augmented Lagrangian right-hand side
@@ -493,54 +545,49 @@ MP_PENALTY = ("normalize", "alpha", "omega", "mu", "iterate", "tolerance", "max_
 
 
 @njit
-def solve_penalty(y, F, I, W, KI, KW, mp):
+def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
     """Penalty (12.14) or augmented Lagrangian (12.16)-(12.18) accelerations and lam.
 
-    Returns the number of iterations (1 for the penalty method), SINGULAR if
+    Returns the number of iterations (0 for the penalty method), SINGULAR if
     M + alpha D^T D is not positive definite, NOT_CONVERGED if the augmented Lagrangian
     iteration did not converge."""
     alpha, omega, mu, al = mp[1], mp[2], mp[3], mp[4] != 0.0
     tol, max_it, floor = mp[5], int(mp[6]), mp[7]
-    s = unpack(F, I, W)
-    k = unpack_k(KI, KW)
-    nb = s.mass.size
-    m = s.phi.size
-    copy_v(s, y)
-    assemble_penalty(s, k, alpha)
+    n = vdot.size
+    m = phi.size
+    assemble_penalty(M, R, k.blkpos, k.rowblk, alpha, k.Kx)
     sym = (k.K_Cp, k.K_Ci, k.K_Lp, k.K_Li, k.K_Rp, k.K_Rj, k.K_Rpos, k.K_perm)
     if not spc.numeric(sym, k.Kx, k.KLx, k.xk):
         return SINGULAR
     # constraint dynamics term of (12.14): c = -gamma + 2 mu omega Phidot + omega^2 Phi
     for a in range(m):
-        phidot = row_times(s, a, s.v) - s.nu[a]
-        k.ck[a] = -s.gamma[a] + 2.0 * mu * omega * phidot + omega * omega * s.phi[a]
+        phidot = row_times(R, a, v) - nu[a]
+        k.ck[a] = -gamma[a] + 2.0 * mu * omega * phidot + omega * omega * phi[a]
     fill(k.dtc, 0.0)
-    add_transpose_times(s, k.ck, k.dtc)
+    add_transpose_times(R, k.ck, k.dtc)
     if not al:
-        for j in range(6 * nb):
-            s.vdot[j] = s.g[j] - alpha * k.dtc[j]
-        spc.solve(sym, k.KLx, s.vdot, k.yk)
+        for j in range(n):
+            vdot[j] = g[j] - alpha * k.dtc[j]
+        spc.solve(sym, k.KLx, vdot, k.yk)
         for a in range(m):
-            s.lam[a] = -alpha * (row_times(s, a, s.vdot) + k.ck[a])
-        return 1
-    for b in range(nb):                                               # (12.16)
-        minv_body(s, b, s.g, s.vdot)
-    fill(s.lam, 0.0)
+            lam[a] = -alpha * (row_times(R, a, vdot) + k.ck[a])
+        return OK
+    minv_all(M, g, vdot)                                              # (12.16)
+    fill(lam, 0.0)
     previous = np.inf
     for it in range(1, max_it + 1):
-        copy(k.old, s.vdot)
-        for b in range(nb):
-            m_body(s, b, k.old, s.t6)
-        for j in range(6 * nb):
-            s.vdot[j] = s.t6[j] - alpha * k.dtc[j]
-        spc.solve(sym, k.KLx, s.vdot, k.yk)                          # (12.17)
+        copy(k.old, vdot)
+        m_all(M, k.old, t6)
+        for j in range(n):
+            vdot[j] = t6[j] - alpha * k.dtc[j]
+        spc.solve(sym, k.KLx, vdot, k.yk)                            # (12.17)
         for a in range(m):
-            s.lam[a] += -alpha * (row_times(s, a, s.vdot) + k.ck[a])
+            lam[a] += -alpha * (row_times(R, a, vdot) + k.ck[a])
         change = 0.0
         big = 1.0
-        for j in range(6 * nb):
-            change += (s.vdot[j] - k.old[j]) ** 2
-            big = max(big, abs(s.vdot[j]))
+        for j in range(n):
+            change += (vdot[j] - k.old[j]) ** 2
+            big = max(big, abs(vdot[j]))
         change = math.sqrt(change)
         at_floor = change <= floor * big and change > 0.5 * previous
         if change <= tol * big or at_floor:                           # (12.18)
@@ -551,21 +598,47 @@ def solve_penalty(y, F, I, W, KI, KW, mp):
 
 @njit
 def rhs_penalty(t, y, ydot, F, I, W, KI, KW, mp):
-    stage_state(t, y, mp[0] != 0.0, F, I, W)
-    return after_state_penalty(y, ydot, F, I, W, KI, KW, mp)
+    bo, co = body_views(F, I, W), cons_views(F, I, W)
+    _state(t, y, mp[0], bo, co)
+    return _after_penalty(y, ydot, bo, co, unpack_k(KI, KW), mp)
 
 
 @njit
 def after_state_penalty(y, ydot, F, I, W, KI, KW, mp):
-    it = solve_penalty(y, F, I, W, KI, KW, mp)
+    return _after_penalty(y, ydot, body_views(F, I, W), cons_views(F, I, W),
+                          unpack_k(KI, KW), mp)
+
+
+@njit(inline="always")
+def _after_penalty(y, ydot, bo, co, k, mp):
+    copy_v(y, bo.v)
+    it = penalty_solve(_M(bo), _R(co), co.phi, co.nu, co.gamma, bo.g, bo.v, k, mp, co.lam,
+                       bo.vdot, bo.t6)
     if it < 0:
         return it
-    s = unpack(F, I, W)
-    write_ydot(s, ydot)
+    _write_ydot(bo, co, ydot)
     return it if finite(ydot) else NOT_FINITE
 
 
 # --------------------------------------------------------------------------------- projection
+@njit
+def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx):
+    """dx = -D^T (D D^T)^-1 r over the kept rows (r = rhs_rows[keep]); False if D D^T is
+    singular."""
+    keep = P[0]
+    if not schur_factor(M, R, P, False):
+        return False
+    for k in range(keep.size):
+        bs[k] = rhs_rows[keep[k]]
+    schur_solve(P, bs)
+    fill(lam, 0.0)
+    for k in range(keep.size):
+        lam[keep[k]] = -bs[k]
+    fill(dx, 0.0)
+    add_transpose_times(R, lam, dx)
+    return True
+
+
 @njit
 def project_positions(t, y, F, I, W, tol, max_it, dx_total):
     """Positions onto Phi(q, t) = 0 by Newton-Raphson, dx = -D^T (D D^T)^-1 Phi (14.12) over
@@ -573,42 +646,43 @@ def project_positions(t, y, F, I, W, tol, max_it, dx_total):
 
     dx_total (6 nb,) accumulates the corrections. Returns (iterations, max |Phi| before, after);
     iterations = -1 if D D^T is singular, -2 if Newton did not converge in max_it."""
-    s = unpack(F, I, W)
-    nb = s.mass.size
-    m = s.phi.size
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    nb = bo.mass.size
     q = array_view(y, 0, (nb, 7))
+    M, R, P = _M(bo), _R(co), _P(sc)
     it = 0
     phi0 = -1.0
     while True:
-        stage_state(t, y, False, F, I, W)
+        stage_state(t, y, 0.0, F, I, W)
         err = 0.0
-        for a in range(m):
-            err = max(err, abs(s.phi[a]))
+        for a in range(co.phi.size):
+            err = max(err, abs(co.phi[a]))
         if phi0 < 0.0:
             phi0 = err
         if err <= tol:
             return it, phi0, err
         if it == max_it or not math.isfinite(err):
             return -2, phi0, err
-        if not schur_factor(s, False):
+        if not dd_solve_correction(M, R, P, co.phi, sc.bs, co.lam, bo.t6):
             return -1, phi0, err
-        for k in range(s.keep.size):
-            s.bs[k] = s.phi[s.keep[k]]
-        schur_solve(s, s.bs)
-        fill(s.lam, 0.0)
-        for k in range(s.keep.size):
-            s.lam[s.keep[k]] = -s.bs[k]
-        fill(s.t6, 0.0)
-        add_transpose_times(s, s.lam, s.t6)                            # dx = -D^T y
         for b in range(nb):
             for c in range(3):
-                q[b, c] += s.t6[6 * b + c]
-            pn = _rot(q, b, s.t6[6 * b + 3], s.t6[6 * b + 4], s.t6[6 * b + 5])
+                q[b, c] += bo.t6[6 * b + c]
+            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
+                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
             for c in range(4):
                 q[b, 3 + c] = pn[c]
         for j in range(6 * nb):
-            dx_total[j] += s.t6[j]
+            dx_total[j] += bo.t6[j]
         it += 1
+
+
+@njit
+def _max_residual(R, v, nu):
+    out = 0.0
+    for a in range(nu.size):
+        out = max(out, abs(row_times(R, a, v) - nu[a]))
+    return out
 
 
 @njit
@@ -616,34 +690,22 @@ def project_velocities(t, y, F, I, W):
     """v <- v - D^T (D D^T)^-1 (D v - nu) (14.19) over the kept rows, in place on y.
 
     Returns (ok, max |D v - nu| before, after) (all rows); ok False if D D^T is singular."""
-    s = unpack(F, I, W)
-    nb = s.mass.size
-    m = s.phi.size
-    stage_state(t, y, False, F, I, W)
-    copy_v(s, y)
-    before = 0.0
-    for a in range(m):
-        before = max(before, abs(row_times(s, a, s.v) - s.nu[a]))
-    if m == 0:
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    nb = bo.mass.size
+    stage_state(t, y, 0.0, F, I, W)
+    copy_v(y, bo.v)
+    R = _R(co)
+    before = _max_residual(R, bo.v, co.nu)
+    if co.phi.size == 0:
         return True, 0.0, 0.0
-    if not schur_factor(s, False):
+    for a in range(co.rg.size):
+        co.rg[a] = row_times(R, a, bo.v) - co.nu[a]
+    if not dd_solve_correction(_M(bo), R, _P(sc), co.rg, sc.bs, co.lam, bo.t6):
         return False, before, before
-    for k in range(s.keep.size):
-        a = s.keep[k]
-        s.bs[k] = row_times(s, a, s.v) - s.nu[a]
-    schur_solve(s, s.bs)
-    fill(s.lam, 0.0)
-    for k in range(s.keep.size):
-        s.lam[s.keep[k]] = -s.bs[k]
-    fill(s.t6, 0.0)
-    add_transpose_times(s, s.lam, s.t6)
     for j in range(6 * nb):
-        y[7 * nb + j] += s.t6[j]
-    copy_v(s, y)
-    after = 0.0
-    for a in range(m):
-        after = max(after, abs(row_times(s, a, s.v) - s.nu[a]))
-    return True, before, after
+        y[7 * nb + j] += bo.t6[j]
+    copy_v(y, bo.v)
+    return True, before, _max_residual(R, bo.v, co.nu)
 
 
 @njit
@@ -658,8 +720,30 @@ def project(t, y, F, I, W, tol, max_it, dx_total):
 
 
 @njit
-def _rot(q, b, t0, t1, t2):
-    return rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), t0, t1, t2)
+def normalize_y(y, nb):
+    """Every body's Euler parameters in y = [q, ...] scaled to unit length, in place."""
+    for b in range(nb):
+        o = 7 * b + 3
+        n = math.sqrt(y[o] ** 2 + y[o + 1] ** 2 + y[o + 2] ** 2 + y[o + 3] ** 2)
+        for c in range(4):
+            y[o + c] /= n
+
+
+@njit
+def factor_dd(F, I, W):
+    """Factorise D D^T (kept rows) of the evaluation in W; (ok, min pivot^2 / max diagonal)."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    if sc.keep.size == 0:
+        return True, 1.0
+    if not schur_factor(_M(bo), _R(co), _P(sc), False):
+        return False, 0.0
+    big = 0.0
+    for j in range(sc.keep.size):
+        big = max(big, sc.Cx[sc.S_Cp[j + 1] - 1])                # diagonal: last in column j
+    small = np.inf
+    for j in range(sc.keep.size):
+        small = min(small, sc.Lx[sc.S_Lp[j]] ** 2)
+    return True, small / big
 
 
 # --------------------------------------------------------------------------------- Python side
@@ -713,17 +797,44 @@ class System:
                                np.asarray(arrays[name]).shape)
                         for k, (name, buf, _) in enumerate(FIELDS) if buf == "W"}
         self._kpack = None
-        # views used from Python
-        w = lambda name: field_view(FIELDS, self.F, self.I, self.W, name)  # noqa: E731
+        self._kshared = [None]                # the penalty pack, shared with the clones
+        self.fused = not self.python_groups and not model.force_groups
+        self._bind()
+
+    def _bind(self):
+        """The Python-side views of W (and the drivers' law table into W)."""
+        w = lambda name: self.fields(None, name)  # noqa: E731
         self.law = w("law")
+        table = copy_module.copy(self.table)
         table.law = self.law                  # drivers write their (f, f', f'') here
         table.G = table.G[:7] + (self.law,) + table.G[8:]
+        self.table = table
         self.state = BodyState(r=w("r"), A=w("A"), rdot=w("rdot"), omega=w("omega"),
                                p=w("p"))
         self.g = w("g")
         self.phi, self.D, self.nu, self.gamma = w("phi"), w("D"), w("nu"), w("gamma")
         self.lam, self.vdot, self.bs, self.Cx = w("lam"), w("vdot"), w("bs"), w("Cx")
-        self.fused = not self.python_groups and not model.force_groups
+
+    @classmethod
+    def for_model(cls, model, keep=None) -> "System":
+        """A System of the model with its own work arrays; the static part (packed model,
+        patterns, symbolic factorisations) is built once per model and kept rows."""
+        cache = model.assembler.__dict__.setdefault("_systems", {})
+        key = None if keep is None else tuple(np.asarray(keep).tolist())
+        proto = cache.get(key)
+        if proto is None:
+            proto = cache[key] = cls(model, keep)
+        return proto.clone()
+
+    def clone(self) -> "System":
+        """The same static data with fresh work arrays."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.W = self.W.copy()
+        if self._kpack is not None:
+            new._kpack = (self._kpack[0], self._kpack[1].copy())
+        new._bind()
+        return new
 
     # ---------------------------------------------------------------- patterns
     def _incidence(self, keep):
@@ -752,9 +863,13 @@ class System:
                     inc_side=side.astype(np.int64), pair_ptr=pair_ptr, pair_pos=pair_pos)
 
     def penalty_pack(self):
-        """(KI, KW) of K = M + alpha D^T D (built on first use)."""
+        """(KI, KW) of K = M + alpha D^T D (built on first use, static part shared by the
+        clones of a System)."""
         if self._kpack is None:
-            self._kpack = self._build_penalty()
+            if self._kshared[0] is None:
+                self._kshared[0] = self._build_penalty()
+            KI, KW = self._kshared[0]
+            self._kpack = (KI, KW.copy())
         return self._kpack
 
     def _build_penalty(self):
@@ -838,38 +953,10 @@ class System:
         W = self.W if W is None else W
         if W is not self.W and self.table.has_drivers:
             self.fields(W, "law")[:] = self.law
-        stage_state(t, y, normalize, self.F, self.I, W)
+        stage_state(t, y, 1.0 if normalize else 0.0, self.F, self.I, W)
         if not (self.python_groups or self.model.force_groups):
             return True
         return self.python_stage(t, None if W is self.W else W)
-
-
-@njit
-def normalize_y(y, nb):
-    """Every body's Euler parameters in y = [q, ...] scaled to unit length, in place."""
-    for b in range(nb):
-        o = 7 * b + 3
-        n = math.sqrt(y[o] ** 2 + y[o + 1] ** 2 + y[o + 2] ** 2 + y[o + 3] ** 2)
-        for c in range(4):
-            y[o + c] /= n
-
-
-@njit
-def factor_dd(F, I, W):
-    """Factorise D D^T (kept rows) of the evaluation in W; (ok, min pivot^2 / max diagonal)."""
-    s = unpack(F, I, W)
-    if s.keep.size == 0:
-        return True, 1.0
-    ok = schur_factor(s, False)
-    if not ok:
-        return False, 0.0
-    big = 0.0
-    for j in range(s.keep.size):
-        big = max(big, s.Cx[s.S_Cp[j + 1] - 1])                # diagonal: last in column j
-    small = np.inf
-    for j in range(s.keep.size):
-        small = min(small, s.Lx[s.S_Lp[j]] ** 2)
-    return True, small / big
 
 
 @njit

@@ -96,8 +96,9 @@ def dopri_error(y, y_new, K, hs, atol, rtol):
 
 
 @njit
-def dopri_interpolate(y, hs, K, theta, out):
-    """Dormand-Prince continuous extension: out = y + hs sum_j (P[j] . [theta, .., theta^4]) K_j."""
+def dopri_interpolate(y, hs, K, theta, delta, out):
+    """Dormand-Prince continuous extension: out = y + hs sum_j (P[j] . [theta, .., theta^4]) K_j
+    (+ theta delta when delta is not empty: the correction for a projected end point)."""
     t2 = theta * theta
     t3 = t2 * theta
     t4 = t3 * theta
@@ -109,6 +110,12 @@ def dopri_interpolate(y, hs, K, theta, out):
         for j in range(7):
             acc += w[j] * K[j, i]
         out[i] = y[i] + hs * acc
+    if delta.size:
+        for i in range(y.size):
+            out[i] += theta * delta[i]
+
+
+_NO_DELTA = np.zeros(0)
 
 
 def dopri_dense(y_old: np.ndarray, h: float, K: np.ndarray, theta: float) -> np.ndarray:
@@ -118,7 +125,8 @@ def dopri_dense(y_old: np.ndarray, h: float, K: np.ndarray, theta: float) -> np.
     """
     K = np.ascontiguousarray(K, dtype=float)
     out = np.empty(K.shape[1])
-    dopri_interpolate(np.ascontiguousarray(y_old, dtype=float), float(h), K, float(theta), out)
+    dopri_interpolate(np.ascontiguousarray(y_old, dtype=float), float(h), K, float(theta),
+                      _NO_DELTA, out)
     return out
 
 
@@ -216,7 +224,7 @@ class DormandPrince45(Integrator):
                 fac = ctrl.accept(err, after_reject)
                 after_reject = False
                 Kd = K                                   # the stages of the interpolant
-                delta = None
+                delta = _NO_DELTA
                 if project is not None:
                     y_p = project(t_new, y_new)
                     if keeps_rhs:
@@ -238,9 +246,7 @@ class DormandPrince45(Integrator):
                     else:
                         th = (to - t) / hs
                         yo = np.empty(n)
-                        dopri_interpolate(y, hs, Kd, th, yo)
-                        if delta is not None:
-                            yo += th * delta
+                        dopri_interpolate(y, hs, Kd, th, delta, yo)
                         if project is not None:
                             yo = project(to, yo)
                         outputs.append(yo)
