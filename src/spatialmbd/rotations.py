@@ -165,9 +165,12 @@ def rotate_p(p: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
     (Compiled: :func:`rotate_p_scalar`.)
     """
     p, d = np.asarray(p, dtype=float), np.asarray(dtheta, dtype=float)
-    shape = np.broadcast_shapes(p.shape[:-1], d.shape[:-1])
-    p = np.ascontiguousarray(np.broadcast_to(p, shape + (4,)).reshape(-1, 4))
-    d = np.ascontiguousarray(np.broadcast_to(d, shape + (3,)).reshape(-1, 3))
+    shape = p.shape[:-1]
+    if d.shape[:-1] != shape:
+        shape = np.broadcast_shapes(shape, d.shape[:-1])
+        p, d = np.broadcast_to(p, shape + (4,)), np.broadcast_to(d, shape + (3,))
+    p = np.ascontiguousarray(p.reshape(-1, 4))
+    d = np.ascontiguousarray(d.reshape(-1, 3))
     out = np.empty((p.shape[0], 4))
     _rotate_p_batch(p, d, out)
     return out.reshape(shape + (4,))

@@ -151,6 +151,26 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
                       correct_initial=correct_initial))
 
 
+def right_hand_side(model, method="standard", method_options: Optional[dict] = None):
+    """The y' = f(t, y) that :func:`simulate` integrates, and its initial state y0.
+
+    y = [q (7 nb), v (6 nb), W] (see the module docstring). For benchmarks and for driving the
+    equations of motion with an integrator of one's own. No initial-condition correction and
+    no redundancy analysis: every constraint row enters the multiplier solve.
+    """
+    meth = get_method(method, **(method_options or {}))
+    eom = EquationsOfMotion(model)
+    meth.setup(eom, None)
+    driver_rows = _driver_rows(model)
+    track_work = bool(model.force_groups) or driver_rows.size > 0
+    rhs = _compiled_rhs(model, eom, meth, track_work)
+    if rhs is None:
+        rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
+    y0 = np.concatenate([normalize_q(np.asarray(model.q0, dtype=float)).reshape(-1),
+                         np.asarray(model.v0, dtype=float).reshape(-1), [0.0]])
+    return rhs, y0
+
+
 def _compiled_rhs(model, eom, meth, track_work):
     """y' = f(t, y) through the method's compiled kernels (None if it has none)."""
     system = eom.system

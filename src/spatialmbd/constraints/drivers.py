@@ -74,8 +74,9 @@ class _Driver(ConstraintType):
         self.coordinate = None if coordinate is None else np.asarray(coordinate, dtype=np.intp)
 
     def law_values(self, t: float) -> np.ndarray:
-        f, fd, fdd = self._lawset(t)
-        return np.stack([f, fd, fdd], axis=1)
+        out = np.empty((self.n, 3))
+        out[:, 0], out[:, 1], out[:, 2] = self._lawset(t)
+        return out
 
 
 @register
