@@ -114,6 +114,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
     rhs = _compiled_rhs(model, eom, meth, track_work)
+    compiled = rhs is not None
     if rhs is None:
         rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
 
@@ -133,7 +134,8 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     start = time.perf_counter()
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
-        problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects)
+        problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
+                             stages=meth.stages(eom.system) if compiled else None)
         res = integ.integrate(problem, t0, y0, t_out, progress=callback)
     finally:
         if hasattr(callback, "close"):

@@ -103,10 +103,7 @@ class JointTable:
             if g.rheonomic:
                 self._drivers.append((slice(start, start + g.n), g))
             start += g.n
-
-    @property
-    def has_drivers(self) -> bool:
-        return bool(self._drivers)
+        self.has_drivers = bool(self._drivers)
 
     def set_time(self, t: float) -> None:
         """law = (f, f', f'') of every driver at time t."""

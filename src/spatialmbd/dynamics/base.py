@@ -53,6 +53,10 @@ class Method(abc.ABC):
         """
         return None
 
+    def stages(self, system):
+        """Optional compiled ``ODEProblem.stages`` hook (built-in methods); None here."""
+        return None
+
     def status(self, code: int, system, t: float, y, ydot, W=None) -> int:
         """Handle a negative status of the compiled solve: fall back, or raise."""
         return code

@@ -15,9 +15,7 @@ methods written in Python, and carries the compiled system so the built-in metho
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -70,38 +68,38 @@ class Evaluation:
     """Everything a method needs at one (t, q, v): state, M, g, cv (Phi, D, nu, gamma), v.
 
     system / W: the compiled system and the work array holding this evaluation (the built-in
-    methods solve on them directly); the other fields are views into W, made on first use.
+    methods solve on them directly); y = [q, v] the evaluated state vector. The other fields
+    are views into W, made on first use.
     """
 
-    def __init__(self, t, v, system, W, assembler):
+    def __init__(self, t, y, system, W, assembler):
         self.t = t
-        self.v = v
+        self.y = y
         self.system = system
         self.W = W
         self._assembler = assembler
 
+    def __getattr__(self, name):             # the lazy fields (first access only)
+        if name == "v":
+            value = self.y[7 * self.system.nb:13 * self.system.nb]
+        elif name == "state":
+            value = self.system.state_of(self.W)
+            value.t = self.t
+        elif name == "M":
+            value = MassMatrix(self.system.model.mass, self._field("J"), self._field("Jinv"))
+        elif name == "g":
+            value = self._field("g")
+        elif name == "cv":
+            value = ConstraintValues(self._field("phi"), None, self._field("nu"),
+                                     self._field("gamma"), blocks=self._field("D"),
+                                     assembler=self._assembler)
+        else:
+            raise AttributeError(name)
+        self.__dict__[name] = value
+        return value
+
     def _field(self, name):
         return self.system.fields(self.W, name)
-
-    @cached_property
-    def state(self) -> BodyState:
-        state = self.system.state_of(self.W)
-        state.t = self.t
-        return state
-
-    @cached_property
-    def M(self) -> MassMatrix:
-        return MassMatrix(self.system.model.mass, self._field("J"), self._field("Jinv"))
-
-    @cached_property
-    def g(self) -> np.ndarray:
-        return self._field("g")
-
-    @cached_property
-    def cv(self) -> ConstraintValues:
-        return ConstraintValues(self._field("phi"), None, self._field("nu"),
-                                self._field("gamma"), blocks=self._field("D"),
-                                assembler=self._assembler)
 
     @property
     def phidot(self) -> np.ndarray:
@@ -144,17 +142,15 @@ class EquationsOfMotion:
             self._system = None
 
     def evaluate(self, t: float, q: np.ndarray, v: np.ndarray) -> Evaluation:
-        sys_ = self.system
+        sys_ = self._system if self._system is not None else self.system
         nb = self.nb
-        y = np.concatenate([np.asarray(q, dtype=float).reshape(-1),
-                            np.asarray(v, dtype=float).reshape(-1)])
+        y = np.concatenate((np.asarray(q, dtype=float).reshape(-1),
+                            np.asarray(v, dtype=float).reshape(-1)))
         if y.size != 13 * nb:
             raise ValueError(f"q and v must hold {7 * nb} and {6 * nb} numbers")
         W = sys_.W.copy()
-        ok = sys_.evaluate(t, y, False, W)
-        ev = Evaluation(t, y[7 * nb:], sys_, W, self.assembler)
-        g = ev.g
-        if not (ok and math.isfinite(float(g @ g))) and not np.all(np.isfinite(g)):
+        ev = Evaluation(t, y, sys_, W, self.assembler)
+        if not sys_.evaluate(t, y, False, W):
             self._raise_non_finite(ev.state, t)
         return ev
 

@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import SingularMatrixError
 from . import system as cs
 from .base import Method, MethodOutput, check_positive, register
+from .standard import _y_of
 
 
 class _PenaltyBase(Method):
@@ -41,8 +42,27 @@ class _PenaltyBase(Method):
 
     def kernels(self, system, W=None):
         KI, KW = system.penalty_pack()
+        self._mp = self.params()
         return (cs.rhs_penalty, cs.after_state_penalty,
-                (system.F, system.I, system.W if W is None else W, KI, KW, self.params()))
+                (system.F, system.I, system.W if W is None else W, KI, KW, self._mp))
+
+    def stages(self, system):
+        """The compiled ``ODEProblem.stages`` hook (see Standard.stages)."""
+        if not system.fused or system.table.has_drivers:
+            return None
+        KI, KW = system.penalty_pack()
+        F, I, W, mp = system.F, system.I, system.W, self._mp
+        kernel = cs.stages_penalty
+        count = np.zeros(1, dtype=np.int64)
+        method = self
+
+        def stages(t, y, h, A, C, K, s0, s1, out, t_last):
+            done = kernel(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, count)
+            if method.iterate:
+                method.total_iterations += int(count[0])
+                count[0] = 0
+            return done
+        return stages
 
     def status(self, code, system, t, y, ydot, W=None):
         if code == cs.SINGULAR:
@@ -53,10 +73,12 @@ class _PenaltyBase(Method):
 
     def accelerations(self, ev, t):
         sys_ = ev.system
-        _, after, args = self.kernels(sys_, ev.W)
-        y = np.zeros(13 * sys_.nb)
-        y[7 * sys_.nb:] = ev.v
-        code = after(y, np.empty_like(y), *args)
+        mp = self.__dict__.get("_mp")
+        if mp is None:
+            mp = self._mp = self.params()
+        KI, KW = sys_.penalty_pack()
+        y = _y_of(ev)
+        code = cs.after_state_penalty(y, np.empty(y.size), sys_.F, sys_.I, ev.W, KI, KW, mp)
         if code < 0:
             self.status(code, sys_, t, y, None, ev.W)
         it = max(code, 0)

@@ -95,10 +95,12 @@ def _kkt(ev, D, rhs_gamma):
 
 
 def _y_of(ev):
-    """A state vector whose velocity part is ev.v (the compiled solves read v from y)."""
-    nb = ev.v.size // 6
-    y = np.zeros(13 * nb)
-    y[7 * nb:] = ev.v
+    """The evaluated state vector [q, v] (the compiled solves read v from y)."""
+    y = getattr(ev, "y", None)
+    if y is None:
+        nb = ev.v.size // 6
+        y = np.zeros(13 * nb)
+        y[7 * nb:] = ev.v
     return y
 
 
@@ -117,6 +119,7 @@ class Standard(Method):
 
     def setup(self, eom, redundant_rows=None):
         super().setup(eom, redundant_rows)
+        self._mp = self.params()
         self.keep = None
         if redundant_rows is not None and len(redundant_rows):
             keep = np.ones(eom.model.n_eq, dtype=bool)
@@ -146,8 +149,21 @@ class Standard(Method):
     def kernels(self, system, W=None):
         if self.solver == "kkt":
             return None
+        self._mp = self.params()
         return (cs.rhs_standard, cs.after_state_standard,
-                (system.F, system.I, system.W if W is None else W, self.params()))
+                (system.F, system.I, system.W if W is None else W, self._mp))
+
+    def stages(self, system):
+        """The compiled ``ODEProblem.stages`` hook (None when the right-hand side needs Python
+        between its stages)."""
+        if self.solver == "kkt" or not system.fused or system.table.has_drivers:
+            return None
+        F, I, W, mp = system.F, system.I, system.W, self._mp
+        kernel = cs.stages_standard
+
+        def stages(t, y, h, A, C, K, s0, s1, out, t_last):
+            return kernel(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp)
+        return stages
 
     def status(self, code, system, t, y, ydot, W=None):
         """A singular S: minimum-norm multipliers for this instant; non-finite vdot: raise."""
@@ -166,10 +182,12 @@ class Standard(Method):
                 raise singular_error(t)
             return MethodOutput(vdot, lam)
         sys_ = ev.system
-        _, after, args = self.kernels(sys_, ev.W)
+        mp = self.__dict__.get("_mp")
+        if mp is None:
+            mp = self._mp = self.params()
         y = _y_of(ev)
-        ydot = np.empty_like(y)
-        code = after(y, ydot, *args)
+        ydot = np.empty(y.size)
+        code = cs.after_state_standard(y, ydot, sys_.F, sys_.I, ev.W, mp)
         if code < 0:
             self.status(code, sys_, t, y, ydot, ev.W)
         return MethodOutput(sys_.fields(ev.W, "vdot").copy(), sys_.fields(ev.W, "lam").copy())

@@ -33,6 +33,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..constraints.kernels import JointTable, evaluate_instances
+from ..integrators.explicit import rk_combine
 from ..jit import array_view, njit
 from ..rotations import rotate_p_scalar
 from ..state import BodyState, qdot_into, state_into
@@ -253,8 +254,10 @@ def body_terms(A, omega, Jl, Jl_inv, weight, J, Jinv, g):
 def stage_state(t, y, normalize, F, I, W):
     """State, mass matrix, g and the compiled constraints at (t, y) (y = [q (7 nb), v, ...]).
 
-    normalize (a float, 1.0 or 0.0): use p / |p|."""
-    _state(t, y, normalize, body_views(F, I, W), cons_views(F, I, W))
+    normalize (a float, 1.0 or 0.0): use p / |p|. Returns False if g is not finite."""
+    bo = body_views(F, I, W)
+    _state(t, y, normalize, bo, cons_views(F, I, W))
+    return finite(bo.g)
 
 
 @njit(inline="always")
@@ -493,6 +496,20 @@ def _after_standard(y, ydot, bo, co, sc, mp):
 
 
 @njit
+def stages_standard(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp):
+    """Runge-Kutta stages s0 .. s1-1 with the standard / Baumgarte right-hand side (the
+    ``ODEProblem.stages`` hook): out = y + h sum_j A[s, j] K[j], K[s] = f(t + C[s] h, out).
+    Returns the first stage that did not succeed (s1 if all did)."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    for s in range(s0, s1):
+        rk_combine(y, h, A, K, s, out)
+        _state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], bo, co)
+        if _after_standard(out, K[s], bo, co, sc, mp) != OK:
+            return s
+    return s1
+
+
+@njit
 def fallback_finish(y, ydot, F, I, W):
     """vdot and ydot after a fallback solve that has put lam into co.lam."""
     bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
@@ -607,6 +624,21 @@ def rhs_penalty(t, y, ydot, F, I, W, KI, KW, mp):
 def after_state_penalty(y, ydot, F, I, W, KI, KW, mp):
     return _after_penalty(y, ydot, body_views(F, I, W), cons_views(F, I, W),
                           unpack_k(KI, KW), mp)
+
+
+@njit
+def stages_penalty(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, iterations):
+    """:func:`stages_standard` for the penalty / augmented Lagrangian methods; adds the inner
+    iterations to iterations[0]."""
+    bo, co, k = body_views(F, I, W), cons_views(F, I, W), unpack_k(KI, KW)
+    for s in range(s0, s1):
+        rk_combine(y, h, A, K, s, out)
+        _state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], bo, co)
+        it = _after_penalty(out, K[s], bo, co, k, mp)
+        if it < 0:
+            return s
+        iterations[0] += it
+    return s1
 
 
 @njit(inline="always")
@@ -940,6 +972,8 @@ class System:
         if W is None:
             W = self.W
         o, size, shape = self._layout[name]
+        if len(shape) == 1:
+            return W[o:o + size]
         return W[o:o + size].reshape(shape)
 
     def state_of(self, W) -> BodyState:
@@ -948,15 +982,15 @@ class System:
 
     def evaluate(self, t: float, y: np.ndarray, normalize: bool, W=None) -> bool:
         """Both stages at (t, y) into W (default the system's own); False if g is not finite."""
+        own = W is None or W is self.W
         if self.table.has_drivers:
             self.table.set_time(t)
-        W = self.W if W is None else W
-        if W is not self.W and self.table.has_drivers:
-            self.fields(W, "law")[:] = self.law
-        stage_state(t, y, 1.0 if normalize else 0.0, self.F, self.I, W)
-        if not (self.python_groups or self.model.force_groups):
-            return True
-        return self.python_stage(t, None if W is self.W else W)
+            if not own:
+                self.fields(W, "law")[:] = self.law
+        ok = stage_state(t, y, 1.0 if normalize else 0.0, self.F, self.I, self.W if own else W)
+        if self.python_groups or self.model.force_groups:
+            ok = self.python_stage(t, None if own else W) and ok
+        return ok
 
 
 @njit

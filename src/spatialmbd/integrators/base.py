@@ -46,12 +46,19 @@ class ODEProblem:
     project_keeps_rhs: True when ``project`` never changes rhs(t, y) (beyond round-off), e.g.
         when it only rescales components that rhs normalises anyway (unit Euler parameters);
         integrators may then keep a derivative computed before the projection (FSAL).
+    stages: optional compiled evaluation of explicit Runge-Kutta stages,
+        ``stages(t, y, h, A, C, K, s0, s1, out, t_last) -> s``: for s = s0 .. s1-1,
+        out = y + h sum_(j<s) A[s, j] K[j] and K[s] = rhs(t + C[s] h, out) (t_last for the last
+        stage), exactly as :func:`.explicit.rk_stages` does with ``rhs``, in one call. Returns
+        the first stage it did not complete (s1 when all went well); the integrator evaluates
+        the rest with ``rhs`` (which then reports the problem, e.g. a singular matrix).
     """
 
     rhs: RHS
     project: Optional[Projection] = None
     jac: Optional[Callable[[float, np.ndarray], np.ndarray]] = None
     project_keeps_rhs: bool = False
+    stages: Optional[Callable] = None
 
 
 @dataclass

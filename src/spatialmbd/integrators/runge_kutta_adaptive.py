@@ -15,8 +15,10 @@ theta (y_proj - y_raw) so it still passes through both (projected) end points; d
 are projected too (the hook is idempotent on the manifold).
 
 The arithmetic of a step (stages, error norm, continuous extension) is compiled
-(:func:`dopri_combine`, :func:`dopri_error`, :func:`dopri_interpolate`); the
-step-size control stays in Python.
+(:func:`.explicit.rk_combine` with the tableau :data:`DOPRI_AB`, :func:`dopri_error`,
+:func:`dopri_interpolate`); the step-size control stays in Python. When the problem offers
+``stages`` (a compiled evaluation of a run of stages, see :class:`.base.ODEProblem`), the six
+stages of an attempt are one call.
 """
 from __future__ import annotations
 
@@ -28,6 +30,7 @@ import numpy as np
 from ..errors import SpatialMBDError
 from ..jit import njit
 from .base import Integrator, register
+from .explicit import rk_stages
 from .controller import (StepController, atol_vector, default_max_step, end_step,
                          initial_step, min_step_size, non_negative, positive,
                          raise_if_nonfinite, underflow_error, validate_tolerances)
@@ -61,22 +64,12 @@ DOPRI_P = np.array([
 ])
 
 
-# The tableau as one (7, 7) array: row s (1..5) holds a_sj, row 6 the weights b (y_(n+1)).
-_AB = np.zeros((7, 7))
+#: The tableau as one (7, 7) array: row s (1..5) holds a_sj, row 6 the weights b, so that
+#: "stage" 6 is y_(n+1) and K_6 = f(t_(n+1), y_(n+1)) the FSAL derivative.
+DOPRI_AB = np.zeros((7, 7))
 for _s in range(1, 6):
-    _AB[_s, :_s] = DOPRI_A[_s]
-_AB[6, :6] = DOPRI_B
-
-
-@njit
-def dopri_combine(y, hs, K, s, out):
-    """out = y + hs sum_(j<s) a_sj K_j (stage s = 1..5), or y_(n+1) for s = 6."""
-    n = y.size
-    for i in range(n):
-        acc = 0.0
-        for j in range(s):
-            acc += _AB[s, j] * K[j, i]
-        out[i] = y[i] + hs * acc
+    DOPRI_AB[_s, :_s] = DOPRI_A[_s]
+DOPRI_AB[6, :6] = DOPRI_B
 
 
 @njit
@@ -180,10 +173,10 @@ class DormandPrince45(Integrator):
             k_out = 1
         if k_out == n_out:
             return
-        C = DOPRI_C.tolist()
+        AB, C = DOPRI_AB, DOPRI_C
+        stages = problem.stages
         K = np.empty((7, n))
-        stage = np.empty(n)
-        combine, error = dopri_combine, dopri_error
+        error = dopri_error
         t, y = t0, y0
         try:
             K[0] = f(t0, y0)
@@ -205,12 +198,11 @@ class DormandPrince45(Integrator):
                             self.name, t, hs, "error test failed repeatedly"
                             + ("; the derivative is not finite" if not_finite else ""))
                     t_new = t_end if hs == t_end - t else t + hs
-                    for s in range(1, 6):
-                        combine(y, hs, K, s, stage)
-                        K[s] = f(t + C[s] * hs, stage)
                     y_new = np.empty(n)
-                    combine(y, hs, K, 6, y_new)
-                    K[6] = f(t_new, y_new)
+                    done = 1 if stages is None else stages(t, y, hs, AB, C, K, 1, 7, y_new,
+                                                           t_new)
+                    if done < 7:                          # (the rest of) the stages in Python
+                        rk_stages(f, t, y, hs, AB, C, K, done, 7, y_new, t_new)
                     counters.nfev += 6
                     err = error(y, y_new, K, hs, atol, rtol)
                     if err <= 1.0:
