@@ -15,6 +15,7 @@ from typing import Union
 import numpy as np
 import scipy.sparse as sp
 
+from .constraints.kernels import JointTable, evaluate_instances
 from .state import BodyState
 
 #: systems with more velocity coordinates than this use sparse D by default
@@ -47,7 +48,6 @@ class ConstraintValues:
 
 class Assembler:
     def __init__(self, model, sparse: bool | None = None):
-        from .constraints.kernels import JointTable
         self.model = model
         self.nb = model.nb
         self.m = model.n_eq
@@ -90,7 +90,6 @@ class Assembler:
     def evaluate(self, q: np.ndarray, v: np.ndarray | None, t: float,
                  state: BodyState | None = None) -> ConstraintValues:
         """Phi, D, nu, gamma at (q, v, t). q: (nb, 7) or flat; v: (nb, 6), flat or None."""
-        from .constraints.kernels import evaluate_instances
         if state is None:
             state = BodyState.from_qv(q, v, t)
         m = self.m
