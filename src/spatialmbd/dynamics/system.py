@@ -108,22 +108,8 @@ def field_view(fields, F, I, W, name):
     return B[o:o + int(np.prod(shape))].reshape(shape)
 
 
-# inlined: called with a literal k, a separate function would be compiled for every k
-@njit(inline="always")
-def _v1(B, I, k):
-    return array_view(B, I[4 * k], (I[4 * k + 1],))
-
-
-@njit(inline="always")
-def _v2(B, I, k):
-    return array_view(B, I[4 * k], (I[4 * k + 1], I[4 * k + 2]))
-
-
-@njit(inline="always")
-def _v3(B, I, k):
-    return array_view(B, I[4 * k], (I[4 * k + 1], I[4 * k + 2], I[4 * k + 3]))
-
-
+# The view functions below read field k's offset and shape from the header: I[4k] and
+# I[4k+1 : 4k+1+ndim] (written out, so that no function is compiled per literal k).
 @njit
 def bare(B):
     """B itself, without reference counting (so passing it around costs no atomic updates)."""
@@ -134,39 +120,98 @@ def bare(B):
 def body_views(F, I, W):
     F, I, W = bare(F), bare(I), bare(W)
     return Body(
-        _v1(F, I, 0), _v3(F, I, 1), _v3(F, I, 2), _v2(F, I, 3), _v2(W, I, 4), _v3(W, I, 5),
-        _v2(W, I, 6), _v2(W, I, 7), _v2(W, I, 8), _v3(W, I, 9), _v3(W, I, 10), _v1(W, I, 11),
-        _v1(W, I, 12), _v1(W, I, 13), _v1(W, I, 14), _v1(W, I, 15), _v2(W, I, 16))
+        array_view(F, I[0], (I[1],)),
+        array_view(F, I[4], (I[5], I[6], I[7])),
+        array_view(F, I[8], (I[9], I[10], I[11])),
+        array_view(F, I[12], (I[13], I[14])),
+        array_view(W, I[16], (I[17], I[18])),
+        array_view(W, I[20], (I[21], I[22], I[23])),
+        array_view(W, I[24], (I[25], I[26])),
+        array_view(W, I[28], (I[29], I[30])),
+        array_view(W, I[32], (I[33], I[34])),
+        array_view(W, I[36], (I[37], I[38], I[39])),
+        array_view(W, I[40], (I[41], I[42], I[43])),
+        array_view(W, I[44], (I[45],)),
+        array_view(W, I[48], (I[49],)),
+        array_view(W, I[52], (I[53],)),
+        array_view(W, I[56], (I[57],)),
+        array_view(W, I[60], (I[61],)),
+        array_view(W, I[64], (I[65], I[66])))
 
 
 @njit(inline="always")
 def cons_views(F, I, W):
     F, I, W = bare(F), bare(I), bare(W)
     return Cons(
-        _v1(I, I, 17), _v1(I, I, 18), _v1(I, I, 19), _v1(I, I, 20), _v1(I, I, 21),
-        _v2(F, I, 22), _v2(F, I, 23), _v3(F, I, 24), _v3(F, I, 25), _v1(F, I, 26),
-        _v2(W, I, 27), _v1(W, I, 28), _v2(W, I, 29), _v1(W, I, 30), _v1(W, I, 31),
-        _v1(I, I, 32), _v1(I, I, 33), _v1(W, I, 34), _v1(W, I, 35), _v1(I, I, 36))
+        array_view(I, I[68], (I[69],)),
+        array_view(I, I[72], (I[73],)),
+        array_view(I, I[76], (I[77],)),
+        array_view(I, I[80], (I[81],)),
+        array_view(I, I[84], (I[85],)),
+        array_view(F, I[88], (I[89], I[90])),
+        array_view(F, I[92], (I[93], I[94])),
+        array_view(F, I[96], (I[97], I[98], I[99])),
+        array_view(F, I[100], (I[101], I[102], I[103])),
+        array_view(F, I[104], (I[105],)),
+        array_view(W, I[108], (I[109], I[110])),
+        array_view(W, I[112], (I[113],)),
+        array_view(W, I[116], (I[117], I[118])),
+        array_view(W, I[120], (I[121],)),
+        array_view(W, I[124], (I[125],)),
+        array_view(I, I[128], (I[129],)),
+        array_view(I, I[132], (I[133],)),
+        array_view(W, I[136], (I[137],)),
+        array_view(W, I[140], (I[141],)),
+        array_view(I, I[144], (I[145],)))
 
 
 @njit(inline="always")
 def schur_views(F, I, W):
     F, I, W = bare(F), bare(I), bare(W)
     return Schur(
-        _v1(I, I, 37), _v1(I, I, 38), _v1(I, I, 39), _v1(I, I, 40), _v1(I, I, 41),
-        _v1(I, I, 42), _v2(W, I, 43), _v1(W, I, 44), _v1(W, I, 45), _v1(W, I, 46),
-        _v1(W, I, 47), _v1(W, I, 48), _v1(I, I, 49), _v1(I, I, 50), _v1(I, I, 51),
-        _v1(I, I, 52), _v1(I, I, 53), _v1(I, I, 54), _v1(I, I, 55), _v1(I, I, 56))
+        array_view(I, I[148], (I[149],)),
+        array_view(I, I[152], (I[153],)),
+        array_view(I, I[156], (I[157],)),
+        array_view(I, I[160], (I[161],)),
+        array_view(I, I[164], (I[165],)),
+        array_view(I, I[168], (I[169],)),
+        array_view(W, I[172], (I[173], I[174])),
+        array_view(W, I[176], (I[177],)),
+        array_view(W, I[180], (I[181],)),
+        array_view(W, I[184], (I[185],)),
+        array_view(W, I[188], (I[189],)),
+        array_view(W, I[192], (I[193],)),
+        array_view(I, I[196], (I[197],)),
+        array_view(I, I[200], (I[201],)),
+        array_view(I, I[204], (I[205],)),
+        array_view(I, I[208], (I[209],)),
+        array_view(I, I[212], (I[213],)),
+        array_view(I, I[216], (I[217],)),
+        array_view(I, I[220], (I[221],)),
+        array_view(I, I[224], (I[225],)))
 
 
 @njit(inline="always")
 def unpack_k(KI, KW):
     KI, KW = bare(KI), bare(KW)
-    return KSys(_v3(KI, KI, 0), _v2(KI, KI, 1), _v1(KI, KI, 2), _v1(KI, KI, 3),
-                _v1(KI, KI, 4), _v1(KI, KI, 5), _v1(KI, KI, 6), _v1(KI, KI, 7),
-                _v1(KI, KI, 8), _v1(KI, KI, 9),
-                _v1(KW, KI, 10), _v1(KW, KI, 11), _v1(KW, KI, 12), _v1(KW, KI, 13),
-                _v1(KW, KI, 14), _v1(KW, KI, 15), _v1(KW, KI, 16))
+    return KSys(
+        array_view(KI, KI[0], (KI[1], KI[2], KI[3])),
+        array_view(KI, KI[4], (KI[5], KI[6])),
+        array_view(KI, KI[8], (KI[9],)),
+        array_view(KI, KI[12], (KI[13],)),
+        array_view(KI, KI[16], (KI[17],)),
+        array_view(KI, KI[20], (KI[21],)),
+        array_view(KI, KI[24], (KI[25],)),
+        array_view(KI, KI[28], (KI[29],)),
+        array_view(KI, KI[32], (KI[33],)),
+        array_view(KI, KI[36], (KI[37],)),
+        array_view(KW, KI[40], (KI[41],)),
+        array_view(KW, KI[44], (KI[45],)),
+        array_view(KW, KI[48], (KI[49],)),
+        array_view(KW, KI[52], (KI[53],)),
+        array_view(KW, KI[56], (KI[57],)),
+        array_view(KW, KI[60], (KI[61],)),
+        array_view(KW, KI[64], (KI[65],)))
 
 
 def _check_layout():
@@ -471,9 +516,8 @@ def rhs_gamma_into(y, F, I, W, mp):
 @njit
 def rhs_standard(t, y, ydot, F, I, W, mp):
     """The whole right-hand side of the standard / Baumgarte methods (no Python parts)."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
-    _state(t, y, mp[0], bo, co)
-    return _after_standard(y, ydot, bo, co, sc, mp)
+    stage_state(t, y, mp[0], F, I, W)
+    return after_state_standard(y, ydot, F, I, W, mp)
 
 
 @njit
@@ -500,11 +544,10 @@ def stages_standard(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp):
     """Runge-Kutta stages s0 .. s1-1 with the standard / Baumgarte right-hand side (the
     ``ODEProblem.stages`` hook): out = y + h sum_j A[s, j] K[j], K[s] = f(t + C[s] h, out).
     Returns the first stage that did not succeed (s1 if all did)."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
     for s in range(s0, s1):
         rk_combine(y, h, A, K, s, out)
-        _state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], bo, co)
-        if _after_standard(out, K[s], bo, co, sc, mp) != OK:
+        stage_state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], F, I, W)
+        if after_state_standard(out, K[s], F, I, W, mp) != OK:
             return s
     return s1
 
@@ -615,9 +658,8 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
 
 @njit
 def rhs_penalty(t, y, ydot, F, I, W, KI, KW, mp):
-    bo, co = body_views(F, I, W), cons_views(F, I, W)
-    _state(t, y, mp[0], bo, co)
-    return _after_penalty(y, ydot, bo, co, unpack_k(KI, KW), mp)
+    stage_state(t, y, mp[0], F, I, W)
+    return after_state_penalty(y, ydot, F, I, W, KI, KW, mp)
 
 
 @njit
@@ -630,11 +672,10 @@ def after_state_penalty(y, ydot, F, I, W, KI, KW, mp):
 def stages_penalty(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, iterations):
     """:func:`stages_standard` for the penalty / augmented Lagrangian methods; adds the inner
     iterations to iterations[0]."""
-    bo, co, k = body_views(F, I, W), cons_views(F, I, W), unpack_k(KI, KW)
     for s in range(s0, s1):
         rk_combine(y, h, A, K, s, out)
-        _state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], bo, co)
-        it = _after_penalty(out, K[s], bo, co, k, mp)
+        stage_state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], F, I, W)
+        it = after_state_penalty(out, K[s], F, I, W, KI, KW, mp)
         if it < 0:
             return s
         iterations[0] += it
