@@ -48,28 +48,18 @@ def singular_error(t):
     return err
 
 
-def solve_constrained(ev, rhs_gamma: np.ndarray, keep=None, solver: str = "schur"):
-    """vdot, lam of [M, -D^T; D, 0][vdot; lam] = [g; rhs_gamma] (rows ``keep`` of D only),
-    for a Python method: dense or sparse SciPy linear algebra on ev's arrays."""
+def solve_kkt(ev, rhs_gamma: np.ndarray, keep=None):
+    """vdot, lam of [M, -D^T; D, 0][vdot; lam] = [g; rhs_gamma] (rows ``keep`` of D only) by a
+    dense pivoting LU of the whole augmented matrix (12.3): the solver="kkt" option."""
     D = ev.cv.D
     m_all = D.shape[0]
     if keep is not None:
         D = D[keep]
         rhs_gamma = rhs_gamma[keep]
-    Minv_g = ev.M.solve(ev.g)
     if D.shape[0] == 0:
-        return Minv_g, np.zeros(m_all)
-    if solver == "kkt":
-        lam = _kkt(ev, D, rhs_gamma)
-    else:
-        Dd = D.toarray() if sp.issparse(D) else D
-        S = Dd @ ev.M.solve(Dd.T)                                 # Eq. (12.5)
-        b = rhs_gamma - Dd @ Minv_g
-        try:
-            lam = la.cho_solve(la.cho_factor(S, check_finite=False), b, check_finite=False)
-        except la.LinAlgError:
-            lam = la.lstsq(S, b, check_finite=False)[0]           # minimum norm, redundant
-    vdot = Minv_g + ev.M.solve(D.T @ lam)                         # Eq. (12.4)
+        return ev.M.solve(ev.g), np.zeros(m_all)
+    lam = _kkt(ev, D, rhs_gamma)
+    vdot = ev.M.solve(ev.g + D.T @ lam)                           # Eq. (12.4)
     if keep is not None:
         full = np.zeros(m_all)
         full[keep] = lam
@@ -176,8 +166,8 @@ class Standard(Method):
         return code
 
     def accelerations(self, ev, t):
-        if self.solver == "kkt" or ev.system is None:
-            vdot, lam = solve_constrained(ev, self.rhs_gamma(ev), self.keep, self.solver)
+        if self.solver == "kkt":
+            vdot, lam = solve_kkt(ev, self.rhs_gamma(ev), self.keep)
             if not np.all(np.isfinite(vdot)):
                 raise singular_error(t)
             return MethodOutput(vdot, lam)
