@@ -412,6 +412,9 @@ def bench_work_precision(quick, repeat, exudyn, chain_sizes) -> dict:
             configs = [("rk45 standard", dict(rtol=t, atol=t * 1e-2)) for t in tolsc]
             configs += [("rk45 projection", dict(method="projection", rtol=t, atol=t * 1e-2))
                         for t in tolsc[:3]]
+            if n <= 64:
+                configs += [("rk4 standard", dict(integrator="rk4", step=h))
+                            for h in (4e-3, 2e-3, 1e-3)]
             reps = repeat if n <= 64 else 1
             ours = wp_ours(model, 1.0, ref, configs, reps)
             exu = []

@@ -95,9 +95,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
         q, v, correction = correct_initial_conditions(model, q, v, t0, hold_mask(model, hold),
                                                       system=eom.system)
 
-    mob = None
-    if model.n_eq and (6 * nb <= SPARSE_THRESHOLD or not eom.system.rows_independent(q, t0)):
-        mob = mobility(model, q, t0)
+    mob = _redundancy(model, eom, q, t0)
     redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
     redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
     messages = []
@@ -151,6 +149,35 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
                       method=meth.name, method_options=meth.parameters(),
                       integrator=integ.name, integrator_options=_integrator_options(integ),
                       correct_initial=correct_initial))
+
+
+#: above this many entries of D the dense rank analysis (SVD) is not attempted
+DENSE_MOBILITY_MAX = 4_000_000
+
+
+def _redundancy(model, eom, q, t0):
+    """The mobility analysis that names redundant constraint rows (None: none).
+
+    Small models: the SVD / pivoted-QR analysis of :func:`.kinematics.mobility`, as always.
+    Large ones (a dense D would not fit): a sparse Cholesky factorisation of D D^T that
+    leaves out dependent rows; only if it finds some and D is small enough for the dense
+    analysis is that run to name them."""
+    if not model.n_eq:
+        return None
+    nb = model.nb
+    if 6 * nb <= SPARSE_THRESHOLD:
+        return mobility(model, q, t0)
+    rows = eom.system.dependent_rows(q, t0)
+    if rows.size == 0:
+        return None
+    if model.n_eq * 6 * nb <= DENSE_MOBILITY_MAX:
+        return mobility(model, q, t0)
+    from .kinematics import Mobility
+    m = model.n_eq
+    labels = model.equation_labels
+    return Mobility(grubler=6 * nb - m, rank=m - rows.size, dof=6 * nb - (m - rows.size),
+                    n_equations=m, redundant=[(int(r),) + tuple(labels[r]) for r in rows],
+                    singular_values=None)
 
 
 def right_hand_side(model, method="standard", method_options: Optional[dict] = None):

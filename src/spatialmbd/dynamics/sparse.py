@@ -13,7 +13,8 @@ mechanism (a chain) the fill is O(N), so factorisation and solve are O(N).
 
 A pivot that is not positive (a singular or indefinite matrix: redundant constraints, a singular
 configuration) makes :func:`numeric` return False; the callers then fall back to a
-least-squares solve, as LAPACK's potrf failure did before.
+least-squares solve, as LAPACK's potrf failure did before. :func:`factor` with a drop tolerance
+instead leaves out the rows that depend on earlier ones (the redundancy test of large models).
 """
 from __future__ import annotations
 
@@ -186,12 +187,26 @@ def _row_patterns(Cp, Ci, parent, Lp, Li, Rp, Rj, Rpos):
 @njit
 def numeric(sym, Cx, Lx, x):
     """L L^T = C (values Cx of the upper triangle). Returns False on a pivot <= 0 or NaN."""
+    return factor(sym, Cx, Lx, x, 0.0, x[:0]) == 0
+
+
+@njit
+def factor(sym, Cx, Lx, x, drop_tol, dropped):
+    """The up-looking Cholesky factorisation of C = P A P^T.
+
+    drop_tol = 0: returns 0 on success, -1 on a pivot <= 0 or NaN. drop_tol > 0: a row k whose
+    pivot is <= drop_tol times its diagonal entry depends (to that tolerance) on the rows
+    before it in the elimination order; it is left out -- L_kk = inf, so it takes no part in
+    the other rows and ``solve`` gives it 0 -- and marked dropped[k] = 1 (permuted index).
+    Returns the number of rows left out."""
     Cp, Ci, Lp, Li, Rp, Rj, Rpos, perm = sym
     n = Lp.size - 1
+    count = 0
     for k in range(n):
         for p in range(Cp[k], Cp[k + 1]):
             x[Ci[p]] = Cx[p]
         d = x[k]
+        ckk = d
         x[k] = 0.0
         for t in range(Rp[k], Rp[k + 1]):
             i = Rj[t]
@@ -201,12 +216,17 @@ def numeric(sym, Cx, Lx, x):
                 x[Li[p]] -= Lx[p] * lki
             d -= lki * lki
             Lx[Rpos[t]] = lki
+        if drop_tol > 0.0 and not d > drop_tol * abs(ckk):
+            dropped[k] = 1
+            Lx[Lp[k]] = np.inf
+            count += 1
+            continue
         if not d > 0.0:
             for t in range(Rp[k], Rp[k + 1]):      # leave x clean
                 x[Rj[t]] = 0.0
-            return False
+            return -1
         Lx[Lp[k]] = math.sqrt(d)
-    return True
+    return count
 
 
 @njit
