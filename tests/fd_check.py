@@ -20,10 +20,11 @@ def random_triads(rng, n):
     return Q
 
 
-def random_geometry(rng, n):
+def random_geometry(rng, n, n_param=1):
+    """Random local geometry of n instances; parameters uniform in [0.5, 2] (n, n_param)."""
     return JointGeometry(s_i=rng.normal(size=(n, 3)), s_j=rng.normal(size=(n, 3)),
                          R_i=random_triads(rng, n), R_j=random_triads(rng, n),
-                         length=rng.uniform(0.5, 2.0, size=n))
+                         param=rng.uniform(0.5, 2.0, size=(n, n_param)))
 
 
 def random_state(rng, nb):

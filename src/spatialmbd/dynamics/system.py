@@ -32,7 +32,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..constraints.kernels import JointTable, evaluate_instances
+from ..constraints.kernels import JointRows, JointTable, evaluate_instances
 from ..integrators.explicit import rk_combine
 from ..jit import array_view, njit
 from ..rotations import rotate_p_scalar
@@ -52,7 +52,7 @@ BODY_FIELDS = (
 CONS_FIELDS = (
     ("kind", "I", 1), ("rows", "I", 1), ("bi", "I", 1), ("bj", "I", 1),
     ("coord", "I", 1), ("s_i", "F", 2), ("s_j", "F", 2), ("R_i", "F", 3),
-    ("R_j", "F", 3), ("length", "F", 1), ("law", "W", 2), ("phi", "W", 1),
+    ("R_j", "F", 3), ("param", "F", 2), ("law", "W", 2), ("phi", "W", 1),
     ("D", "W", 2), ("nu", "W", 1), ("gamma", "W", 1), ("row_bi", "I", 1),
     ("row_bj", "I", 1), ("lam", "W", 1), ("rg", "W", 1), ("drv", "I", 1),
 )
@@ -152,7 +152,7 @@ def cons_views(F, I, W):
         array_view(F, I[92], (I[93], I[94])),
         array_view(F, I[96], (I[97], I[98], I[99])),
         array_view(F, I[100], (I[101], I[102], I[103])),
-        array_view(F, I[104], (I[105],)),
+        array_view(F, I[104], (I[105], I[106])),
         array_view(W, I[108], (I[109], I[110])),
         array_view(W, I[112], (I[113],)),
         array_view(W, I[116], (I[117], I[118])),
@@ -313,7 +313,7 @@ def _state(t, y, normalize, bo, co):
     state_into(q, v, normalize != 0.0, bo.r, bo.A, bo.rdot, bo.omega, bo.p)
     body_terms(bo.A, bo.omega, bo.Jl, bo.Jl_inv, bo.weight, bo.J, bo.Jinv, bo.g)
     S = (bo.r, bo.A, bo.rdot, bo.omega, bo.p)
-    G = (co.bi, co.bj, co.s_i, co.s_j, co.R_i, co.R_j, co.length, co.law, co.coord)
+    G = JointRows(co.bi, co.bj, co.s_i, co.s_j, co.R_i, co.R_j, co.param, co.law, co.coord)
     evaluate_instances(co.kind, S, G, co.rows, (co.phi, co.D, co.nu, co.gamma))
 
 
@@ -847,7 +847,7 @@ class System:
         arrays = dict(
             mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
             weight=model.mass[:, None] * model.gravity[None, :],
-            s_i=G[2], s_j=G[3], R_i=G[4], R_j=G[5], length=G[6],
+            s_i=G.s_i, s_j=G.s_j, R_i=G.R_i, R_j=G.R_j, param=G.param,
             kind=table.kind, rows=table.rows, bi=G[0], bj=G[1], coord=G[8],
             row_bi=row_bi, row_bj=row_bj, keep=keep, drv=self.driver_rows, **inc,
             S_Cp=self.S.Cp, S_Ci=self.S.Ci, S_Lp=self.S.Lp, S_Li=self.S.Li, S_Rp=self.S.Rp,
@@ -876,7 +876,7 @@ class System:
         self.law = w("law")
         table = copy_module.copy(self.table)
         table.law = self.law                  # drivers write their (f, f', f'') here
-        table.G = table.G[:7] + (self.law,) + table.G[8:]
+        table.G = table.G._replace(law=self.law)
         self.table = table
         self.state = BodyState(r=w("r"), A=w("A"), rdot=w("rdot"), omega=w("omega"),
                                p=w("p"))

@@ -52,7 +52,19 @@ _GEOMETRY_ORDER = ("point", "axis", "reference", "point2", "axis2",
                    "point_i", "point_j", "axis_i", "axis_j", "ref_i", "ref_j")
 GEOMETRY_KEYS = tuple(k for k in _GEOMETRY_ORDER if k in GLOBAL_KEYS | LOCAL_KEYS) + tuple(
     sorted((GLOBAL_KEYS | LOCAL_KEYS) - set(_GEOMETRY_ORDER)))
-JOINT_KEYS = ("name", "type", "body_i", "body_j") + GEOMETRY_KEYS + ("length",)
+JOINT_KEYS = ("name", "type", "body_i", "body_j") + GEOMETRY_KEYS
+
+
+def joint_keys(jtype=None) -> tuple:
+    """The keys a joint entry may have: the common ones plus the parameters of its type (of
+    every registered type when the type is unknown), generated from the live registry."""
+    from ..constraints import JOINT_TYPES
+    types = [JOINT_TYPES[jtype]] if isinstance(jtype, str) and jtype in JOINT_TYPES else \
+        list(JOINT_TYPES.values())
+    extra = []
+    for cls in types:
+        extra += [par.name for par in cls.parameters if par.name not in extra]
+    return JOINT_KEYS + tuple(extra)
 DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
 SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "cylinder": ("type", "radius", "length", "center", "axis", "color"),
@@ -811,7 +823,8 @@ def _parse(P, data, default_name="model"):
         joints = []
     for i, d in enumerate(joints):
         path = ("joints", i)
-        if not _mapping(P, path, d, JOINT_KEYS, ("name", "type", "body_i", "body_j")):
+        if not _mapping(P, path, d, joint_keys(d.get("type") if isinstance(d, dict) else None),
+                        ("name", "type", "body_i", "body_j")):
             continue
         n0 = len(P)
         complete = all(k in d for k in ("name", "type", "body_i", "body_j"))
@@ -827,14 +840,17 @@ def _parse(P, data, default_name="model"):
         geometry = {k: d[k] for k in GEOMETRY_KEYS if k in d}
         for key, val in geometry.items():
             _vector(P, path + (key,), val, or_name=key in ("point_i", "point_j"))
-        if "length" in d:
-            _number(P, path + ("length",), d["length"], positive=True)
+        params = {}
+        if isinstance(d.get("type"), str) and d["type"] in JOINT_TYPES:
+            for par in JOINT_TYPES[d["type"]].parameters:
+                if par.name in d and _number(P, path + (par.name,), d[par.name],
+                                             positive=par.positive):
+                    params[par.name] = d[par.name]
         if len(P) != n0 or not complete or \
                 not {d["body_i"], d["body_j"]} <= ok_bodies | {GROUND}:
             continue        # problems here, or in a body it joins (reported there)
         try:
-            b.add_joint(d["type"], d["name"], d["body_i"], d["body_j"], length=d.get("length"),
-                        **geometry)
+            b.add_joint(d["type"], d["name"], d["body_i"], d["body_j"], **params, **geometry)
         except ModelError as exc:
             _relabel(P, path, f"joints[{d['name']!r}]", str(exc))
             continue
@@ -1208,8 +1224,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
             if key in spec.geometry and spec.geometry[key] is not None:
                 val = spec.geometry[key]
                 d[key] = val if isinstance(val, str) else _floats(val)
-        if spec.length is not None:
-            d["length"] = float(spec.length)
+        for key, value in spec.params.items():
+            d[key] = float(value)
         joints.append(d)
     if joints:
         out["joints"] = joints
