@@ -75,15 +75,6 @@ ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
 ANALYSIS_TYPES = ("dynamic", "kinematic")
 
-#: how each force parameter is written; parameters of force types added later default to "any"
-FORCE_PARAM_KINDS = {"body": "body", "body_i": "body", "body_j": "body", "joint": "joint",
-                     "point": "point", "point_i": "point", "point_j": "point",
-                     "direction": "vector", "frame": "string", "magnitude": "law",
-                     "actuator": "law", "stiffness": "number", "damping": "number",
-                     "natural_length": "number", "rest_angle": "number"}
-FORCE_REQUIRED = {"point_force": ("body", "direction"), "torque": ("body", "direction"),
-                  "spring_damper": ("body_i", "body_j"), "rotational_spring_damper": ("joint",)}
-
 # builder keyword -> place in the file, for relabelling the builder's messages
 _BODY_FIELDS = {"r": ("position",), "rdot": ("velocity",), "omega": ("angular_velocity",),
                 "omega_local": ("angular_velocity_local",),
@@ -909,7 +900,7 @@ def _parse(P, data, default_name="model"):
     forces = _section(data, "forces")
     if not _list(P, ("forces",), forces, "force elements"):
         forces = []
-    valid_types = [t for t in FORCE_TYPES if t != "user"]
+    valid_types = [t for t, cls in FORCE_TYPES.items() if cls.in_files]
     for i, d in enumerate(forces):
         path = ("forces", i)
         if not isinstance(d, dict):
@@ -920,18 +911,19 @@ def _parse(P, data, default_name="model"):
             P.add(path, "missing required key 'type' (force types: "
                         + ", ".join(valid_types) + ")")
             continue
-        if ftype == "user":
-            P.add(path + ("type",), "user forces take a Python callable and cannot be "
+        if isinstance(ftype, str) and ftype in FORCE_TYPES and not FORCE_TYPES[ftype].in_files:
+            P.add(path + ("type",), f"{ftype} forces take a Python callable (or other Python "
+                                    "objects) and cannot be "
                                     "described in a model file; add them in Python with "
-                                    "ModelBuilder.add_force('user', ...) after load_builder()")
+                                    f"ModelBuilder.add_force({ftype!r}, ...) after load_builder()")
             continue
         if ftype not in FORCE_TYPES:
             P.add(path + ("type",), f"unknown force type {_name(ftype)}"
                                     f"{_suggest(ftype, valid_types)}; valid types: "
                                     + ", ".join(valid_types))
             continue
-        allowed = ("name", "type") + tuple(FORCE_TYPES[ftype].allowed)
-        required = ("name",) + FORCE_REQUIRED.get(ftype, ())
+        allowed = ("name", "type") + FORCE_TYPES[ftype].allowed()
+        required = ("name",) + tuple(FORCE_TYPES[ftype].required)
         _mapping(P, path, d, allowed, required)
         n0 = len(P)
         complete = all(k in d for k in required)
@@ -941,7 +933,7 @@ def _parse(P, data, default_name="model"):
         for key, val in d.items():
             if key in ("name", "type") or key not in allowed:
                 continue
-            kind = FORCE_PARAM_KINDS.get(key, "any")
+            kind = FORCE_TYPES[ftype].parameters.get(key, "any")
             where = path + (key,)
             if kind == "body":
                 if _reference(P, where, val, declared_bodies, "body", (GROUND,)):
@@ -953,6 +945,8 @@ def _parse(P, data, default_name="model"):
                 _vector(P, where, val, or_name=True)
             elif kind == "vector":
                 _vector(P, where, val)
+            elif kind == "matrix":
+                _matrix(P, where, val)
             elif kind == "string":
                 _string(P, where, val)
             elif kind == "number":
@@ -1239,12 +1233,14 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         drivers.append(d)
     if drivers:
         out["drivers"] = drivers
+    from ..forces import FORCE_TYPES
     forces = []
     for k, spec in enumerate(s["forces"].values()):
-        if spec.type == "user":
-            P.add(("forces", k), f"force {spec.name!r} is a user force (a Python callable) and "
-                                 "cannot be written to a model file; add it in Python with "
-                                 "ModelBuilder.add_force('user', ...) after load_builder()")
+        if not FORCE_TYPES[spec.type].in_files:
+            P.add(("forces", k), f"force {spec.name!r} is a {spec.type} force (it holds Python "
+                                 "objects) and cannot be written to a model file; add it in "
+                                 f"Python with ModelBuilder.add_force({spec.type!r}, ...) after "
+                                 "load_builder()")
             continue
         d = {"name": spec.name, "type": spec.type}
         d.update({key: _plain(val, P, ("forces", k, key))
