@@ -152,10 +152,13 @@ class ConstraintType:
 
     @classmethod
     def doc(cls) -> str:
-        """The first line of the type's docstring (or of its module's)."""
+        """The first sentence of the type's docstring (or of its module's)."""
         import sys
         text = cls.__doc__ or sys.modules[cls.__module__].__doc__ or ""
-        return text.strip().split("\n")[0]
+        import re
+        first = " ".join(text.strip().split("\n\n")[0].split())
+        end = re.search(r"(?<!Eq)(?<!Eqs)(?<!sec)\.\s+(?=[A-Z])", first)
+        return first if end is None else first[:end.start() + 1]
 
     @classmethod
     def resolve_parameters(cls, given: dict, P_i: np.ndarray, P_j: np.ndarray,

@@ -46,6 +46,8 @@ def kernel_p2(S, G, k, row, out):
 
 @register
 class Normal1(ConstraintType):
+    """n1: the vector u_i of body i stays normal to u_j of body j, Eq. (8.5)."""
+
     name = "n1"
     n_eq = 1
     eq_labels = ("n1",)
@@ -55,6 +57,8 @@ class Normal1(ConstraintType):
 
 @register
 class Normal2(ConstraintType):
+    """n2: the vector u_i of body i stays normal to d from P_i to P_j, Eq. (8.6)."""
+
     name = "n2"
     n_eq = 1
     eq_labels = ("n2",)
@@ -64,6 +68,8 @@ class Normal2(ConstraintType):
 
 @register
 class Parallel1(ConstraintType):
+    """p1: the vector u_i of body i stays parallel to u_j of body j (two dot products), Eq. (8.9)."""
+
     name = "p1"
     n_eq = 2
     eq_labels = ("p1.a", "p1.b")
@@ -73,6 +79,8 @@ class Parallel1(ConstraintType):
 
 @register
 class Parallel2(ConstraintType):
+    """p2: the vector d from P_i to P_j stays parallel to u_i of body i (two dot products)."""
+
     name = "p2"
     n_eq = 2
     eq_labels = ("p2.a", "p2.b")

@@ -84,6 +84,9 @@ class _Driver(ConstraintType):
 
 @register
 class AngleDriver(_Driver):
+    """Prescribed rotation angle of a revolute, cylindrical or screw joint (rad), wrapped so f may
+    grow past pi."""
+
     name = "angle"
     eq_labels = ("angle",)
     angle_based = True
@@ -92,6 +95,9 @@ class AngleDriver(_Driver):
 
 @register
 class TranslationDriver(_Driver):
+    """Prescribed translation of a translational, cylindrical or screw joint along its axis
+    (m)."""
+
     name = "translation"
     eq_labels = ("translation",)
     kernel = staticmethod(kernel_translation)
@@ -99,7 +105,9 @@ class TranslationDriver(_Driver):
 
 @register
 class CoordinateDriver(_Driver):
-    """Prescribed body coordinate; ``coordinate`` holds indices into COORDINATES (n,)."""
+    """Prescribed body coordinate x, y, z (m) or e0..e3 of a body.
+
+    ``coordinate`` holds indices into COORDINATES (n,)."""
 
     name = "coordinate"
     eq_labels = ("coordinate",)

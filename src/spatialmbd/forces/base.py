@@ -43,7 +43,10 @@ class ForceType(abc.ABC):
     def doc(cls) -> str:
         import sys
         text = cls.__doc__ or sys.modules[cls.__module__].__doc__ or ""
-        return text.strip().split("\n")[0]
+        import re
+        first = " ".join(text.strip().split("\n\n")[0].split())
+        end = re.search(r"(?<!Eq)(?<!Eqs)(?<!sec)\.\s+(?=[A-Z])", first)
+        return first if end is None else first[:end.start() + 1]
 
     def __init__(self, names):
         self.names = tuple(names)
