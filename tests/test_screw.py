@@ -13,7 +13,7 @@ from spatialmbd.kinematics import kinematic_analysis
 from spatialmbd.motion import ConstantVelocity
 from spatialmbd.simulate import simulate
 
-from fd_check import derivative_errors, random_geometry, random_state
+from fd_check import WrapJump, derivative_errors, random_geometry, random_state
 from test_constraints import NB, PAIRS, angle_well_defined
 
 
@@ -24,10 +24,15 @@ def test_screw_kernel_matches_finite_differences():
         geom = random_geometry(rng, len(PAIRS), 1)
         geom.param[:, 0] *= rng.choice([-1.0, 1.0], size=len(PAIRS))   # both thread hands
         group = cls([f"s{k}" for k in range(len(PAIRS))], PAIRS[:, 0], PAIRS[:, 1], geom)
-        q0, v = random_state(rng, NB)
-        while not angle_well_defined(group, q0):
+        while True:
             q0, v = random_state(rng, NB)
-        e1, e2, scale = derivative_errors(group, q0, v, t0=0.0)
+            if not angle_well_defined(group, q0):
+                continue
+            try:
+                e1, e2, scale = derivative_errors(group, q0, v, t0=0.0)
+                break
+            except WrapJump:            # the thread's wrap inside the stencil: draw again
+                pass
         assert e1 < 1e-8 * scale and e2 < 1e-6 * scale, (e1, e2)
 
 
