@@ -213,6 +213,8 @@ def _compiled_rhs(model, eom, meth, track_work):
     status = meth.status
 
     def finish(t, y, ydot, code):
+        if code < 0 and model.force_groups and not np.all(np.isfinite(system.g)):
+            eom._raise_non_finite(system.state, t)     # names the force element
         if code < 0:
             code = status(code, system, t, y, ydot)
         if code < 0:
@@ -234,7 +236,7 @@ def _compiled_rhs(model, eom, meth, track_work):
         return rhs
 
     F, I, W = system.F, system.I, system.W
-    forces = model.force_groups
+    forces = system.python_forces            # the compiled ones are inside the kernels
     state = system.state
 
     def rhs(t, y):

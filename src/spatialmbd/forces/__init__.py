@@ -17,8 +17,9 @@ import numpy as np
 from .base import FORCE_TYPES, ForceType, register
 
 for _info in sorted(pkgutil.iter_modules([os.path.dirname(__file__)]), key=lambda m: m.name):
-    if _info.name != "base":
+    if _info.name not in ("base", "kernels", "kernel_tools"):
         importlib.import_module(f"{__name__}.{_info.name}")
+from . import kernels  # noqa: E402,F401  (the dispatch, generated from the types just registered)
 
 
 @dataclass
