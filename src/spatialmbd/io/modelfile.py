@@ -409,7 +409,7 @@ class Analysis:
     t_end: float = 1.0
     output_step: Optional[float] = None
     t_eval: Optional[list] = None
-    method: str = "standard"
+    method: str = "projection"
     method_options: dict = field(default_factory=dict)
     integrator: str = "rk45"
     step: Optional[float] = None
