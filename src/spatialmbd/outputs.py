@@ -677,16 +677,32 @@ def column_units(columns: Iterable[str], units: Optional[dict] = None) -> dict:
            **{c: "rad/s^2" for c in ("alphax", "alphay", "alphaz")},
            **{c: "N" for c in ("fx", "fy", "fz")}, **{c: "N m" for c in ("mx", "my", "mz")},
            "t": "s"}
+    # the output quantities whose unit does not depend on the element type
+    by_quantity: dict = {}
+    for table in QUANTITIES.values():
+        for q, u in table.items():
+            by_quantity.setdefault(q, set()).add(u)
+            if u in ("rad", "m"):
+                by_quantity.setdefault(q + "_rate", set()).add(u + "/s")
+    known = {q: next(iter(u)) for q, u in by_quantity.items() if len(u) == 1 and "|" not in
+             next(iter(u))}
     out = {}
     for c in columns:
+        last = c.rsplit(".", 1)[-1]
         if c in units:
             out[c] = units[c]
         elif c == "t":
             out[c] = "s"
         elif c.startswith("energy."):
             out[c] = "J"
-        elif c.rsplit(".", 1)[-1] in std and not c.startswith(("violation.", "newton.")):
-            out[c] = std[c.rsplit(".", 1)[-1]]
+        elif c.startswith(("violation.", "newton.")):
+            continue
+        elif ".imu." in c and last in QUANTITIES["imu"]:
+            out[c] = QUANTITIES["imu"][last]
+        elif last in std:
+            out[c] = std[last]
+        elif last in known and "." in c:
+            out[c] = known[last]
     return out
 
 

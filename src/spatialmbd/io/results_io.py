@@ -214,7 +214,9 @@ def to_dataframe(results):
         ordered["violation.phi_squared"] = ordered["violation.position"] ** 2
         order = [c for c in ordered if not c.startswith("energy.")] + \
                 [c for c in ordered if c.startswith("energy.")]
-        return pd.DataFrame({c: ordered[c] for c in order})
+        out = pd.DataFrame({c: ordered[c] for c in order})
+        out.attrs["units"] = dict(df.attrs.get("units", {}))
+        return out
     cols = {"t": t}
     cols.update(_body_columns(model, results.q, results.v, results.vdot))
     for name, d in results.points.items():
@@ -226,7 +228,11 @@ def to_dataframe(results):
     cols["violation.velocity"] = viol["velocity"]
     cols["violation.phi_squared"] = viol["position"] ** 2
     cols["newton.iterations"] = np.asarray(results.newton_iterations)
-    return pd.DataFrame(cols)
+    from ..outputs import compute_outputs, output_units
+    cols.update(compute_outputs(results))           # the requested outputs (docs/outputs.md)
+    out = pd.DataFrame(cols)
+    out.attrs["units"] = output_units(results)
+    return out
 
 
 def _is_reaction(column: str, model) -> bool:
@@ -332,7 +338,9 @@ def _metadata(results, analysis) -> dict:
         message=results.message, model=model_dict, model_note=note,
         analysis=_analysis_dict(analysis), body_names=list(model.body_names),
         equation_labels=[list(x) for x in model.equation_labels],
-        point_names=list(model.points), scene=static_scene(model))
+        point_names=list(model.points), scene=static_scene(model),
+        outputs=[r.to_dict() for r in getattr(results, "output_requests", None) or []
+                 if hasattr(r, "to_dict")])
     if kind == "dynamic":
         meta.update(settings=results.settings, counters=results.counters,
                     wall_time=results.wall_time, messages=list(results.messages),
@@ -375,6 +383,7 @@ def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
                 _dataset(f, name, np.asarray(arr))
             tab = f.create_group("table")
             tab.attrs["columns"] = json.dumps([str(c) for c in df.columns])
+            tab.attrs["units"] = json.dumps(column_units_of(df))
             for c in df.columns:
                 _dataset(tab, str(c), df[c].to_numpy())
             grp = f.create_group("metadata")
@@ -506,7 +515,17 @@ def _read_table(f, path):
         raise ValueError(f"{path}: no /table group")
     tab = f["table"]
     cols = json.loads(tab.attrs["columns"])
-    return pd.DataFrame({c: tab[c][()] for c in cols})
+    df = pd.DataFrame({c: tab[c][()] for c in cols})
+    if "units" in tab.attrs:
+        df.attrs["units"] = json.loads(tab.attrs["units"])
+    return df
+
+
+def column_units_of(df) -> dict:
+    """{column: unit} of a results table: the standard columns by their names, the requested
+    outputs from ``df.attrs["units"]`` (docs/outputs.md)."""
+    from ..outputs import column_units
+    return column_units(df.columns, df.attrs.get("units"))
 
 
 def load_results(path) -> LoadedResults:
