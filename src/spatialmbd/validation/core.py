@@ -134,15 +134,10 @@ def reference_dir() -> Path:
 
 
 def adams_dir() -> Path:
-    """The ADAMS decks and tables: <reference>/adams, else ../shared/benchdata/... ."""
+    """The ADAMS decks and tables: <reference>/adams."""
     d = reference_dir() / "adams"
     if d.is_dir():
         return d
-    root = repo_root()
-    if root is not None:
-        alt = root.parent / "shared" / "benchdata" / "chrono_adams_joints"
-        if alt.is_dir():
-            return alt
     raise FileNotFoundError(f"ADAMS reference files not found in {d}")
 
 
