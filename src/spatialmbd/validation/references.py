@@ -126,7 +126,7 @@ def derive(adams_dir: Path) -> dict:
                             a01.gravity)
     T_point = 4 * math.sqrt(1.0 / g) * float(ellipk(0.5))
     refs["iftomm_a01"] = {
-        "source": "IFToMM benchmark A01 (the IFToMM multibody benchmark library): 1 kg, 1 m, from "
+        "source": "IFToMM multibody benchmark A01: 1 kg, 1 m, from "
                   "the horizontal at x = +1 m, gravity 9.81 m/s^2 along -y",
         "how": ("exact large-amplitude pendulum, T = 4 sqrt(I_O / (m g d)) K(1/2) with "
                 "I_O = m L^2 + I_c; the model's point mass has I_c = 1e-6 kg m^2"),
@@ -169,7 +169,7 @@ def derive(adams_dir: Path) -> dict:
     Ic = float(nfb.bodies["crank0"].inertia[2, 2])
     N, m, L = 2, 1.0, 1.0
     refs["iftomm_a02"] = {
-        "source": "IFToMM benchmark A02, N = 2 (the IFToMM multibody benchmark library)",
+        "source": "IFToMM multibody benchmark A02, N = 2",
         "how": ("parallelogram branch: I phi'' = K sin phi, I = (N+1)(I_c + m L^2/4) + N m L^2 "
                 "with the model's bar inertia I_c (problems.md: I_c = m L^2/12 gives "
                 "m L^2 ((N+1)/3 + N)), K = m g L ((N+1)/2 + N); from phi = 0, phi' = -1 rad/s "
@@ -181,14 +181,14 @@ def derive(adams_dir: Path) -> dict:
     }
 
     refs["iftomm_a04"] = {
-        "source": "IFToMM benchmark A04 Bricard mechanism (the IFToMM multibody benchmark library)",
+        "source": "IFToMM multibody benchmark A04 Bricard mechanism",
         "how": "published: Gruebler-Kutzbach 0 DoF, actual mobility 1 (one redundant equation)",
         "precision": "exact integers",
         "grubler": 0, "dof": 1, "redundant_equations": 1,
     }
 
     refs["iftomm_a05"] = {
-        "source": "IFToMM benchmark A05 flyball governor (the IFToMM multibody benchmark library)",
+        "source": "IFToMM multibody benchmark A05 flyball governor",
         "how": ("no torque about the shaft axis: angular momentum about z conserved; "
                 "mechanical energy + elastic energy - damper work conserved"),
         "precision": "invariants (exact)",
