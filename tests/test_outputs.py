@@ -428,3 +428,42 @@ def test_progress_lines_in_logs_and_bar_on_terminals(monkeypatch):
         prog(k / 30)
     prog.close()
     assert prog.bar is not None and "\r" in term.getvalue()     # tqdm's bar
+
+
+def test_point_force_torque_and_user_force_outputs():
+    """A free body without gravity pushed by a point force (global x, 2 N at a body point),
+    a torque (0.5 N m about body z) and a user force (-c rdot): power = f . v_P, n . omega,
+    -c |rdot|^2."""
+    c = 0.7
+
+    def drag(t, q, v):
+        return -c * v[:, :3], np.zeros((len(q), 3))
+
+    b = ModelBuilder("pushed", gravity=(0, 0, 0))
+    b.add_body("puck", 2.0, (0.1, 0.2, 0.25), r=(0, 0, 0), rdot=(0.1, 0.2, 0),
+               omega=(0.3, 0, 0.5), points={"edge": (0.2, 0.1, 0)})
+    b.add_force("point_force", "push", body="puck", point="edge", direction=(1, 0, 0),
+                magnitude=2.0)
+    b.add_force("torque", "twist", body="puck", direction=(0, 0, 1), magnitude=0.5,
+                frame="body")
+    b.add_force("user", "drag", function=drag)
+    model = b.compile()
+    res = simulate(model, 1.0, rtol=1e-9, atol=1e-11, output_step=0.05, outputs="forces")
+    out = res.outputs()
+    vP = res.point("puck.edge")["rdot"]
+    np.testing.assert_allclose(out["push.fx"], 2.0)
+    np.testing.assert_allclose(out["push.power"], 2.0 * vP[:, 0], atol=1e-12)
+    from spatialmbd.rotations import A_from_p
+    z_body = A_from_p(res.q[:, 0, 3:])[:, :, 2]
+    np.testing.assert_allclose(out[["twist.mx", "twist.my", "twist.mz"]].to_numpy(),
+                               0.5 * z_body, atol=1e-12)
+    np.testing.assert_allclose(out["twist.power"],
+                               0.5 * np.einsum("ni,ni->n", z_body, res.v[:, 0, 3:]), atol=1e-12)
+    np.testing.assert_allclose(out["drag.power"], -c * np.sum(res.v[:, 0, :3] ** 2, axis=1),
+                               atol=1e-12)
+    # the three powers are all the power there is: they integrate to the kinetic energy
+    power = (out["push.power"] + out["twist.power"] + out["drag.power"]).to_numpy()
+    en = res.energy()["kinetic"]
+    h = res.t[1] - res.t[0]
+    work = np.concatenate([[0], np.cumsum(h / 2 * (power[1:] + power[:-1]))])
+    np.testing.assert_allclose(work, en - en[0], atol=2e-3 * np.abs(en - en[0]).max())
