@@ -357,6 +357,12 @@ def test_outputs_section_of_a_model_file_round_trip(tmp_path):
     assert loaded.metadata["outputs"][1] == {"type": "force", "of": "spiral"}
     m2, a2 = loaded.load_model()
     assert a2.outputs == analysis.outputs
+    xr = pytest.importorskip("xarray")
+    from spatialmbd.outputs import to_xarray
+    ds = to_xarray(loaded)                                        # no model needed
+    assert isinstance(ds, xr.Dataset) and list(ds["body"].values) == ["link"]
+    np.testing.assert_allclose(ds["q"].values, res.q)
+    assert ds["spiral.torque"].attrs["units"] == "N m"
 
 
 def test_outputs_section_problems_are_reported(tmp_path):

@@ -18,6 +18,13 @@ DataFrame with one row per output time and self-explaining columns (SI units):
     violation.phi_squared                Phi^T Phi (as plotted in the text's Fig. 15.2)
     energy.kinetic .. energy.error       dynamic only, J (see Results.energy)
     newton.iterations                    kinematic only: Newton iterations at each time
+    <prefix>.<quantity>                  the requested outputs: joint coordinates, force
+                                         elements, drivers, momentum, energy, IMU
+                                         (:mod:`spatialmbd.outputs`, docs/outputs.md)
+
+The table's ``attrs["units"]`` maps the requested outputs to their units (HDF5 keeps every
+column's unit, see below). The naming scheme and this layout are documented once, for users,
+in docs/outputs.md.
 
 CSV (``.csv``)
 --------------
@@ -34,10 +41,12 @@ Written with h5py; every object is a plain dataset, so no PyTables is needed::
     /lam (nt, m)  /work (nt,)                          dynamic analyses
     /newton_iterations (nt,)  /residual (nt,)          kinematic analyses
     /table/<column>          one 1-D dataset per table column (names as above);
-                             attrs["columns"]: JSON list giving the column order
+                             attrs["columns"]: JSON list giving the column order,
+                             attrs["units"]: JSON {column: unit}
     /metadata/<key>          JSON text (scalar string datasets): model (the model-file dict of
                              spatialmbd.io.modelfile.model_to_dict, with the analysis section),
-                             analysis, settings, counters, status, message, messages,
+                             analysis, outputs (the requests), settings, counters, status,
+                             message, messages,
                              wall_time, correction, redundant_joints, body_names,
                              equation_labels, scene (static animation geometry), version
 
