@@ -401,6 +401,17 @@ def test_cli_plot_against_any_column(tmp_path, capsys):
     np.testing.assert_allclose(line.get_ydata(), loaded.table["pivot.angle_rate"])
     assert main(["plot", str(h5), "--x", "pivot.angel", "-y", "pivot.angle_rate"]) == 2
     assert "did you mean pivot.angle" in capsys.readouterr().err
+    # outputs requested on the command line, on top of the file's
+    h5b = tmp_path / "q.h5"
+    assert main(["run", str(path), "-q", "--outputs", "energy", "imu:link.tip", "-o",
+                 str(h5b)]) == 0
+    cols = load_results(h5b).table.columns
+    assert "system.kinetic" in cols and "pivot.angle" in cols and "link.tip.imu.wx" in cols
+    assert main(["run", str(path), "-q", "--outputs", "joint:pivt"]) == 2
+    assert "did you mean 'pivot'" in capsys.readouterr().err
+    assert main(["info", str(path)]) == 0
+    assert "outputs: joint pivot, force spiral, momentum link, imu link.tip" in \
+        capsys.readouterr().out
     # the old spelling -q QUANTITY still works, with a deprecation warning
     with pytest.warns(DeprecationWarning, match="use -y"):
         assert main(["plot", str(h5), "-q", "pivot.angle", "-o", str(tmp_path / "a.png")]) == 0

@@ -266,6 +266,8 @@ def cmd_run(args) -> int:
     from .io.results_io import save_results, to_dataframe
     model, analysis = _load(args.model)
     analysis, notes = _apply_overrides(analysis, args)
+    if getattr(args, "outputs", None):
+        analysis = _with_outputs(model, analysis, args.outputs)
     outs = _output_paths(args, pathlib.Path(args.model).stem, ".csv", RESULT_SUFFIXES)
     if not args.quiet:
         for note in notes:
@@ -282,6 +284,28 @@ def cmd_run(args) -> int:
         _err(_failure_line(results))
         return 1
     return 0
+
+
+def _with_outputs(model, analysis, tokens):
+    """``analysis`` with the requests of ``--outputs`` added: shorthands (joints, drivers,
+    forces, bodies, momentum, energy, all) or KIND:NAME (joint:pivot, imu:link.tip)."""
+    from .outputs import KINDS, parse_outputs
+    extra = []
+    for token in tokens:
+        if ":" in token:
+            kind, _, of = token.partition(":")
+            if kind not in KINDS:
+                raise UsageError(f"--outputs {token}: {kind!r} is not one of "
+                                 + ", ".join(KINDS))
+            extra.append({"type": kind, "of": of} if of else {"type": kind})
+        else:
+            extra.append(token)
+    requests = list(getattr(analysis, "outputs", None) or []) + extra
+    try:
+        parse_outputs(model, requests)
+    except ModelError as exc:
+        raise UsageError(f"--outputs: {exc}") from None
+    return dataclasses.replace(analysis, outputs=requests)
 
 
 def cmd_info(args) -> int:
@@ -320,6 +344,11 @@ def cmd_info(args) -> int:
     for name, spec in forces.items():
         lines.append(f"  {name:16s} {spec.type}")
     lines.append("analysis: " + _describe_analysis(analysis))
+    requests = getattr(analysis, "outputs", None)
+    if requests:
+        from .outputs import parse_outputs
+        lines.append("outputs: " + ", ".join(
+            f"{r.kind} {r.of}" if r.of else r.kind for r in parse_outputs(model, requests)))
     lines.append("mobility:")
     lines.append(textwrap.indent(mobility(model).report(), "  "))
     print("\n".join(lines))
@@ -559,12 +588,17 @@ def build_parser() -> argparse.ArgumentParser:
                 spatialmbd run pendulum.yaml --method baumgarte --integrator rk4 --step 1e-3
                 spatialmbd run pendulum.yaml --t-end 2 --output-step 0.01 -o p.csv -o p.h5
                 spatialmbd run model.yaml --quiet -o results.h5 && echo ok
+                spatialmbd run slider_crank.yaml --outputs joints drivers -o crank.h5
                 """)
     p.add_argument("model", metavar="MODEL", help="model file (.yaml, .yml or .json)")
     _add_analysis_options(p)
     p.add_argument("-o", "--output", action="append", metavar="OUT",
                    help="results file, .csv or .h5 (repeat for several); default "
                         "<model stem>.csv in the current directory")
+    p.add_argument("--outputs", nargs="+", metavar="REQ",
+                   help="also record these outputs (added to the file's outputs section): "
+                        "joints, drivers, forces, bodies, momentum, energy, all, or KIND:NAME "
+                        "such as joint:pivot, force:spring, imu:link.tip (docs/outputs.md)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar, no summary (errors are still reported)")
     p.set_defaults(func=cmd_run)
