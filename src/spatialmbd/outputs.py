@@ -412,7 +412,10 @@ def _shift(theta, zero):
 
 # ============================================================================ force elements
 def force_outputs(results, element: str) -> dict:
-    """Outputs of one force element over time (quantities by type: :data:`QUANTITIES`)."""
+    """Outputs of one force element over time (quantities by type: :data:`QUANTITIES`).
+
+    Each element is evaluated by its own force law (the methods the dynamics uses), so the
+    outputs are exactly the forces that acted in the analysis."""
     return _force(results, results.model, element)
 
 
@@ -425,25 +428,25 @@ def _force_group(model, element):
                      f"{', '.join(names) or 'none'}")
 
 
-def _states(results):
+def _states(results) -> list:
     from .state import BodyState
-    for k in range(len(results.t)):
-        yield k, BodyState.from_qv(results.q[k], results.v[k], results.t[k])
+    return [BodyState.from_qv(results.q[k], results.v[k], results.t[k])
+            for k in range(len(results.t))]
 
 
-def _force(results, model, element: str) -> dict:
+def _force(results, model, element: str, states=None) -> dict:
     g, i = _force_group(model, element)
     nt = len(results.t)
     kind = g.name
     if kind not in QUANTITIES:
         raise ModelError(f"force element {element!r}: no outputs defined for type {kind!r}")
     cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
-    for k, state in _states(results):
+    for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
         if kind == "spring_damper":
             # the element's own evaluation: Eqs. (11.5)-(11.10)
-            _, _, f, _, ldot, _ = g.forces(state, t)
-            _, _, length, _, _ = g._kinematics(state)
+            si, sj, f, _, ldot, _ = g.forces(state, t)
+            length = np.linalg.norm(state.r[g.bj] + sj - state.r[g.bi] - si, axis=1)
             cols["length"][k], cols["length_rate"][k] = length[i], ldot[i]
             cols["deflection"][k] = length[i] - g.l0[i]
             cols["force"][k] = f[i]
@@ -613,12 +616,13 @@ def compute_outputs(results, requests=None) -> dict:
     if not reqs:
         return {}
     tr = _Track(results)
+    states = _states(results) if any(r.kind == "force" for r in reqs) else None
     cols: dict = {}
     for req in reqs:
         if req.kind == "joint":
             part = _joint(tr, model, req.of)
         elif req.kind == "force":
-            part = _force(results, model, req.of)
+            part = _force(results, model, req.of, states)
         elif req.kind == "driver":
             part = _driver(tr, results, req.of)
         elif req.kind == "momentum":
