@@ -1,8 +1,6 @@
 """The documentation: the reference builds (a broken reference fails), the worked examples of
 the pages run, and nothing user-visible points outside the repository."""
-import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path

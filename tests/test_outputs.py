@@ -5,7 +5,7 @@ import pytest
 from spatialmbd import ModelBuilder, models
 from spatialmbd.errors import ModelError
 from spatialmbd.kinematics import kinematic_analysis
-from spatialmbd.motion import ConstantVelocity, SmoothStep
+from spatialmbd.motion import SmoothStep
 from spatialmbd.outputs import Output, compute_outputs, parse_outputs
 from spatialmbd.simulate import simulate
 
