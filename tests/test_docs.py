@@ -103,3 +103,12 @@ def test_element_reference_is_generated_from_the_registries():
         "regenerate: python -m spatialmbd.io.elements_doc > docs/elements.md"
     for name in list(JOINT_TYPES) + list(FORCE_TYPES):
         assert f"| `{name}` |" in text, name
+
+
+def test_outputs_example_script_runs(tmp_path, capsys):
+    import runpy
+    script = runpy.run_path(str(ROOT / "examples" / "outputs_slider_crank.py"))
+    stroke_error, work, change = script["main"](tmp_path)
+    assert stroke_error < 1e-9                                   # m, against the closed form
+    assert np.abs(work - change).max() < 1e-4 * np.abs(change).max()
+    assert (tmp_path / "slider_crank_outputs.png").stat().st_size > 1000
