@@ -215,6 +215,8 @@ def test_spring_damper_outputs_follow_the_spring_law():
     np.testing.assert_allclose(out["spring.deflection"], x - l0, atol=1e-12)
     np.testing.assert_allclose(out["spring.force"], k * (x - l0) + c * xd, atol=1e-9)
     np.testing.assert_allclose(out["spring.power"], -(k * (x - l0) + c * xd) * xd, atol=1e-9)
+    np.testing.assert_allclose(out["spring.energy"], 0.5 * k * (x - l0) ** 2, atol=1e-12)
+    np.testing.assert_allclose(out["spring.energy"], res.energy()["elastic"], atol=1e-12)
     np.testing.assert_allclose(out["rail.translation"], x - 1.0, atol=1e-12)
     # the spring does work -int f ldot = -(elastic energy change) - damper losses: check the
     # power against the kinetic energy change (the only body is the mass)
@@ -240,6 +242,21 @@ def test_rotational_spring_outputs():
     tau = -(k * (th - 0.3) + c * thd)
     np.testing.assert_allclose(out["spiral.torque"], tau, atol=1e-9)
     np.testing.assert_allclose(out["spiral.power"], tau * thd, atol=1e-9)
+    np.testing.assert_allclose(out["spiral.energy"], 0.5 * k * (th - 0.3) ** 2, atol=1e-12)
+
+
+def test_outputs_of_a_kinematic_analysis_from_a_model_file():
+    from spatialmbd.io.modelfile import load_model, model_to_dict
+    from spatialmbd.io.results_io import to_dataframe
+    data = model_to_dict(models.slider_crank().compile(),
+                         {"type": "kinematic", "t_end": 0.5, "output_step": 0.05})
+    data["outputs"] = ["joints", "drivers"]
+    model, analysis = load_model(data)
+    kin = analysis.run(model)
+    df = to_dataframe(kin)
+    np.testing.assert_allclose(df["A.angle"], 6.0 * df["t"], atol=1e-9)
+    np.testing.assert_allclose(df["crank_drive.coordinate_rate"], 6.0, atol=1e-9)
+    assert df["crank_drive.effort"].isna().all() and df.attrs["units"]["D.translation"] == "m"
 
 
 def test_driver_effort_sign_and_power_integrate_to_the_energy_change():

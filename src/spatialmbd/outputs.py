@@ -56,7 +56,7 @@ A spring-damper's ``force`` is its tension f = k (l - l0) + c ldot + f_a (positi
 two points together; Eq. 11.10), ``deflection`` = l - l0; a rotational spring-damper's
 ``torque`` is the moment it applies on body j about u (on body i: minus that), ``deflection``
 = theta - theta0 wrapped to (-pi, pi]. ``power`` is always the power delivered TO the bodies
-(W): negative for a damper.
+(W): negative for a damper. ``energy`` is the elastic energy stored in a spring (J).
 
 A driver's ``effort`` is the generalized force it exerts along its coordinate (N for a
 translation or an x, y, z coordinate, N m for an angle; for e0..e3 the generalized force
@@ -88,9 +88,9 @@ QUANTITIES = {
               "angle_i": "rad", "angle_j": "rad", "rx": "rad", "ry": "rad", "rz": "rad",
               "dx": "m", "dy": "m", "dz": "m"},
     "spring_damper": {"length": "m", "length_rate": "m/s", "deflection": "m", "force": "N",
-                      "power": "W"},
+                      "power": "W", "energy": "J"},
     "rotational_spring_damper": {"angle": "rad", "angle_rate": "rad/s", "deflection": "rad",
-                                 "torque": "N m", "power": "W"},
+                                 "torque": "N m", "power": "W", "energy": "J"},
     "point_force": {"fx": "N", "fy": "N", "fz": "N", "power": "W"},
     "torque": {"mx": "N m", "my": "N m", "mz": "N m", "power": "W"},
     "user": {"power": "W"},
@@ -451,11 +451,13 @@ def _force(results, model, element: str, states=None) -> dict:
             cols["deflection"][k] = length[i] - g.l0[i]
             cols["force"][k] = f[i]
             cols["power"][k] = -f[i] * ldot[i]      # f u on i, -f u on j: -f ldot
+            cols["energy"][k] = 0.5 * g.k[i] * (length[i] - g.l0[i]) ** 2
         elif kind == "rotational_spring_damper":
             tau, _, dtheta, thetad, _ = g._torque(state, t)
             cols["angle_rate"][k], cols["deflection"][k] = thetad[i], dtheta[i]
             cols["torque"][k] = tau[i]
             cols["power"][k] = tau[i] * thetad[i]   # generalized force tau D_theta: tau thetadot
+            cols["energy"][k] = 0.5 * g.k[i] * dtheta[i] ** 2
         elif kind == "point_force":
             f = g._vectors(state, t)[i]
             b = g.body[i]
