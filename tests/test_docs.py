@@ -94,17 +94,6 @@ def test_nothing_user_visible_refers_outside_the_repository():
     assert not bad, "\n".join(bad)
 
 
-def test_element_reference_is_generated_from_the_registries():
-    from spatialmbd.constraints import JOINT_TYPES
-    from spatialmbd.forces import FORCE_TYPES
-    from spatialmbd.io.elements_doc import element_reference
-    text = element_reference()
-    assert (DOCS / "elements.md").read_text() == text, \
-        "regenerate: python -m spatialmbd.io.elements_doc > docs/elements.md"
-    for name in list(JOINT_TYPES) + list(FORCE_TYPES):
-        assert f"| `{name}` |" in text, name
-
-
 def test_outputs_example_script_runs(tmp_path, capsys):
     import runpy
     script = runpy.run_path(str(ROOT / "examples" / "outputs_slider_crank.py"))

@@ -501,3 +501,49 @@ def test_point_force_torque_and_user_force_outputs():
     h = res.t[1] - res.t[0]
     work = np.concatenate([[0], np.cumsum(h / 2 * (power[1:] + power[:-1]))])
     np.testing.assert_allclose(work, en - en[0], atol=2e-3 * np.abs(en - en[0]).max())
+
+
+def test_bushing_outputs_obey_newton_euler(monkeypatch):
+    """A mass held at its centre of mass by a bushing to the ground (axes = global), no
+    gravity: the force and moment the bushing reports on the mass are m rddot and
+    J omegadot + omega x J omega; its power integrates to the kinetic energy change and its
+    energy is 1/2 delta^T K delta + 1/2 theta^T K_r theta."""
+    from spatialmbd import outputs as outputs_module
+    m, J = 3.0, np.diag([0.2, 0.3, 0.4])
+    k, c, kr, cr = (300.0, 500.0, 700.0), (2.0, 1.0, 3.0), (20.0, 30.0, 40.0), (0.1, 0.2, 0.1)
+    b = ModelBuilder("mount", gravity=(0, 0, 0))
+    b.add_body("mass", m, (0.2, 0.3, 0.4), r=(0, 0, -0.5), rdot=(0.05, -0.02, 0.03),
+               omega=(0.4, -0.3, 0.6))
+    b.add_force("bushing", "mount", body_i="ground", body_j="mass", point_i=(0, 0, -0.5),
+                stiffness=k, damping=c, rotational_stiffness=kr, rotational_damping=cr)
+    model = b.compile()
+    res = simulate(model, 0.5, rtol=1e-10, atol=1e-12, output_step=0.002, outputs="forces")
+    out = res.outputs()
+    delta = res.q[:, 0, :3] - np.array([0, 0, -0.5])
+    np.testing.assert_allclose(out[["mount.dx", "mount.dy", "mount.dz"]], delta, atol=1e-12)
+    f = out[["mount.fx", "mount.fy", "mount.fz"]].to_numpy()
+    np.testing.assert_allclose(f, m * res.vdot[:, 0, :3], atol=1e-8)
+    from spatialmbd.rotations import A_from_p
+    A = A_from_p(res.q[:, 0, 3:])
+    Jg = A @ J @ np.swapaxes(A, 1, 2)
+    w, wd = res.v[:, 0, 3:], res.vdot[:, 0, 3:]
+    moment = np.einsum("nij,nj->ni", Jg, wd) + np.cross(w, np.einsum("nij,nj->ni", Jg, w))
+    np.testing.assert_allclose(out[["mount.mx", "mount.my", "mount.mz"]], moment, atol=1e-8)
+    theta = out[["mount.rx", "mount.ry", "mount.rz"]].to_numpy()
+    np.testing.assert_allclose(out["mount.energy"],
+                               0.5 * (delta**2 @ np.array(k) + theta**2 @ np.array(kr)),
+                               atol=1e-12)
+    kin = res.energy()["kinetic"]
+    power = out["mount.power"].to_numpy()
+    h = res.t[1] - res.t[0]
+    # composite Simpson over pairs of steps: the work at the even output times
+    work = np.concatenate([[0], np.cumsum(h / 3 * (power[:-2:2] + 4 * power[1:-1:2]
+                                                    + power[2::2]))])
+    change = kin[::2][:work.size] - kin[0]
+    np.testing.assert_allclose(work, change, atol=1e-6 * np.abs(change).max())
+    # a force type without outputs of its own (one element): power and energy of the group
+    monkeypatch.delitem(outputs_module.QUANTITIES, "bushing")
+    generic = res.outputs()
+    assert list(generic.columns) == ["t", "mount.power", "mount.energy"]
+    np.testing.assert_allclose(generic["mount.power"], out["mount.power"], atol=1e-10)
+    np.testing.assert_allclose(generic["mount.energy"], out["mount.energy"], atol=1e-12)

@@ -56,7 +56,11 @@ A spring-damper's ``force`` is its tension f = k (l - l0) + c ldot + f_a (positi
 two points together; Eq. 11.10), ``deflection`` = l - l0; a rotational spring-damper's
 ``torque`` is the moment it applies on body j about u (on body i: minus that), ``deflection``
 = theta - theta0 wrapped to (-pi, pi]. ``power`` is always the power delivered TO the bodies
-(W): negative for a damper. ``energy`` is the elastic energy stored in a spring (J).
+(W): negative for a damper. ``energy`` is the elastic energy stored in a spring (J). A
+bushing reports its deflections dx, dy, dz and rotation vector rx, ry, rz (bushing axes of
+body i) and the force fx, fy, fz and moment mx, my, mz it applies on body j, in the same axes.
+Force types without outputs of their own report power and energy when the model has one
+element of that type.
 
 A driver's ``effort`` is the generalized force it exerts along its coordinate (N for a
 translation or an x, y, z coordinate, N m for an angle; for e0..e3 the generalized force
@@ -94,6 +98,11 @@ QUANTITIES = {
     "point_force": {"fx": "N", "fy": "N", "fz": "N", "power": "W"},
     "torque": {"mx": "N m", "my": "N m", "mz": "N m", "power": "W"},
     "user": {"power": "W"},
+    "bushing": {"dx": "m", "dy": "m", "dz": "m", "rx": "rad", "ry": "rad", "rz": "rad",
+                "fx": "N", "fy": "N", "fz": "N", "mx": "N m", "my": "N m", "mz": "N m",
+                "power": "W", "energy": "J"},
+    #: any other force type (one element of its type in the model): power and energy
+    "*": {"power": "W", "energy": "J"},
     "driver": {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s",
                "effort": "N | N m", "power": "W"},
     "momentum": {"px": "N s", "py": "N s", "pz": "N s",
@@ -108,6 +117,7 @@ JOINT_COORDINATES = {
     "revolute": ("angle",),
     "translational": ("translation",),
     "cylindrical": ("angle", "translation"),
+    "screw": ("angle", "translation"),
     "planar": ("angle", "translation_a", "translation_b"),
     "universal": ("angle_i", "angle_j"),
     "spherical": ("rx", "ry", "rz"),
@@ -228,7 +238,8 @@ def _expand(model, word: str) -> list:
             return [Output("joint", n) for n in model.joint_names]
         if kind == "driver":
             return [Output("driver", n) for n in model.driver_names]
-        return [Output("force", n) for g in model.force_groups for n in g.names]
+        return [Output("force", n) for g in model.force_groups if _force_kind(g) is not None
+                for n in g.names]
     if word == "bodies":
         return [Output(k, b) for b in model.body_names for k in ("momentum", "energy")]
     if word == "all":
@@ -359,7 +370,7 @@ def _joint(tr: _Track, model, joint: str) -> dict:
     coords = JOINT_COORDINATES.get(kind, GENERIC_COORDINATES)
     if "angle" in coords:
         out["angle"], out["angle_rate"] = _angle(*a_i, *b_i, *a_j)
-    if kind in ("translational", "cylindrical"):
+    if kind in ("translational", "cylindrical", "screw"):
         out["translation"], out["translation_rate"] = along(u_i)
     if kind == "planar":
         out["translation_a"], out["translation_a_rate"] = along(a_i)
@@ -428,6 +439,14 @@ def _force_group(model, element):
                      f"{', '.join(names) or 'none'}")
 
 
+def _force_kind(g):
+    """The QUANTITIES key of a force group: its type, "*" (another type, one element), or
+    None (another type with several elements: they cannot be told apart)."""
+    if g.name in QUANTITIES:
+        return g.name
+    return "*" if g.n == 1 else None
+
+
 def _states(results) -> list:
     from .state import BodyState
     return [BodyState.from_qv(results.q[k], results.v[k], results.t[k])
@@ -437,9 +456,10 @@ def _states(results) -> list:
 def _force(results, model, element: str, states=None) -> dict:
     g, i = _force_group(model, element)
     nt = len(results.t)
-    kind = g.name
-    if kind not in QUANTITIES:
-        raise ModelError(f"force element {element!r}: no outputs defined for type {kind!r}")
+    kind = _force_kind(g)
+    if kind is None:
+        raise ModelError(f"force element {element!r}: no outputs for elements of type "
+                         f"{g.name!r} when the model has several of them")
     cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
     for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
@@ -469,6 +489,24 @@ def _force(results, model, element: str, states=None) -> dict:
             n = g._vectors(state, t)[i]
             cols["mx"][k], cols["my"][k], cols["mz"][k] = n
             cols["power"][k] = n @ state.omega[g.body[i]]
+        elif kind == "bushing":
+            # bushing axes of body i; the force and moment the bushing applies ON body j
+            _, _, _, delta, deltadot, theta, thetadot, JinvT = g._deflections(state)
+            fl = g.Kt[i] * delta[i] + g.Ct[i] * deltadot[i]
+            ml = JinvT[i] @ (g.Kr[i] * theta[i] + g.Cr[i] * thetadot[i])
+            for c, axis in enumerate("xyz"):
+                cols["d" + axis][k], cols["r" + axis][k] = delta[i, c], theta[i, c]
+                cols["f" + axis][k], cols["m" + axis][k] = -fl[c], -ml[c]
+            cols["power"][k] = -(deltadot[i] @ fl
+                                 + thetadot[i] @ (g.Kr[i] * theta[i] + g.Cr[i] * thetadot[i]))
+            cols["energy"][k] = 0.5 * (g.Kt[i] @ delta[i] ** 2 + g.Kr[i] @ theta[i] ** 2)
+        elif kind == "*":
+            # the only element of its type: its generalized forces on every body, Eq. (10.6)
+            gen = np.zeros((state.r.shape[0], 6))
+            g.evaluate(state, t, gen)
+            v = np.concatenate([state.rdot, state.omega], axis=1)
+            cols["power"][k] = float(np.sum(gen[:-1] * v[:-1]))
+            cols["energy"][k] = g.potential_energy(state, t)
         elif kind == "user":
             f, n = g.functions[i](t, results.q[k], results.v[k])
             v = np.asarray(results.v[k])
@@ -654,7 +692,7 @@ def output_units(results, requests=None) -> dict:
                 units[f"{req.prefix}.{n}_rate"] = u + "/s"
         elif req.kind == "force":
             g, _ = _force_group(model, req.of)
-            for n, u in QUANTITIES[g.name].items():
+            for n, u in QUANTITIES[_force_kind(g) or "*"].items():
                 units[f"{req.prefix}.{n}"] = u
         elif req.kind == "driver":
             g, _, _ = model.element(req.of)
