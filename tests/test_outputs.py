@@ -547,3 +547,22 @@ def test_bushing_outputs_obey_newton_euler(monkeypatch):
     assert list(generic.columns) == ["t", "mount.power", "mount.energy"]
     np.testing.assert_allclose(generic["mount.power"], out["mount.power"], atol=1e-10)
     np.testing.assert_allclose(generic["mount.energy"], out["mount.energy"], atol=1e-12)
+
+
+def test_screw_joint_coordinates_follow_the_thread():
+    """A nut falling on a vertical screw of pitch h (m/rev): translation = z - z0 = 1/2 a t^2
+    with a = -m g / (m + I_z (2 pi / h)^2) (energy), angle = 2 pi translation / h."""
+    m, Iz, g, h = 2.0, 0.05, 9.81, 0.5
+    b = ModelBuilder("nut", gravity=(0, 0, -g))
+    b.add_body("nut", mass=m, inertia=(0.03, 0.03, Iz), r=(0, 0, 1.0))
+    b.add_joint("screw", "thread", "ground", "nut", point=(0, 0, 1.0), axis=(0, 0, 1),
+                pitch=h)
+    res = simulate(b.compile(), 1.2, rtol=1e-10, atol=1e-12, output_step=0.05,
+                   outputs="joints")
+    out = res.outputs()
+    a = -m * g / (m + Iz * (2 * np.pi / h) ** 2)
+    np.testing.assert_allclose(out["thread.translation"], 0.5 * a * res.t**2, atol=1e-8)
+    np.testing.assert_allclose(out["thread.translation_rate"], a * res.t, atol=1e-8)
+    np.testing.assert_allclose(out["thread.angle"], 2 * np.pi * 0.5 * a * res.t**2 / h,
+                               atol=1e-7)                         # several turns: unwrapped
+    assert out["thread.angle"].min() < -4 * np.pi
