@@ -259,14 +259,14 @@ def test_examples_list_and_write(tmp_path, capsys):
 def test_plot(tmp_path, pendulum_h5, capsys):
     # every format is checked in test_plotting.py; here the command line
     outs = [tmp_path / "fig.svg", tmp_path / "fig.png"]
-    assert main(["plot", str(pendulum_h5), "-q", "pendulum.z", "-q", "energy.error",
+    assert main(["plot", str(pendulum_h5), "-y", "pendulum.z", "-y", "energy.error",
                  "-o", str(outs[0]), "-o", str(outs[1]), "--title", "pendulum"]) == 0
     assert capsys.readouterr().out.splitlines() == [f"figure written to {o}" for o in outs]
     svg = outs[0].read_text()
     assert svg.lstrip().startswith("<?xml") and "<svg" in svg and "pendulum" in svg
     assert outs[1].read_bytes()[:4] == b"\x89PNG" and outs[1].stat().st_size > 1000
     capsys.readouterr()
-    assert main(["plot", str(pendulum_h5), "-q", "pendulum.w", "-o",
+    assert main(["plot", str(pendulum_h5), "-y", "pendulum.w", "-o",
                  str(tmp_path / "w.png")]) == 2
     assert "did you mean" in capsys.readouterr().err
     assert main(["plot", str(pendulum_h5), "-o", str(tmp_path / "fig.gif")]) == 2

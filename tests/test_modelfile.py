@@ -536,7 +536,7 @@ def test_absent_analysis_gives_documented_defaults():
     _, an = load_builder(data)
     assert an == Analysis()
     assert (an.type, an.t_end, an.output_step, an.method, an.integrator, an.correct_initial,
-            an.hold) == ("dynamic", 1.0, None, "standard", "rk45", True, None)
+            an.hold) == ("dynamic", 1.0, None, "projection", "rk45", True, None)
     assert (an.step, an.rtol, an.atol, an.method_options, an.integrator_options) == \
         (None, None, None, {}, {})
 

@@ -2,7 +2,7 @@
 
     spatialmbd run MODEL [options]        run the analysis of a model file, write the results
     spatialmbd info MODEL                 bodies, joints, drivers, forces, degrees of freedom
-    spatialmbd plot RESULTS -q Q -o FIG   time plots from a results file
+    spatialmbd plot RESULTS -y Q -o FIG   plots from a results file (--x: against any column)
     spatialmbd animate IN -o FILE.html    offline HTML animation (results file or model file)
     spatialmbd examples [NAME]            list the example models, or write one as a model file
     spatialmbd demo                       the chapter 15 study (figure and table)
@@ -102,6 +102,21 @@ def _positive(text: str) -> float:
     if not value > 0 or value != value or value == float("inf"):
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
     return value
+
+
+class _QuietOrQuantity(argparse.Action):
+    """``-q`` of ``plot``: quiet, as in every other command; ``-q QUANTITY ...`` (its old
+    meaning) still selects quantities, with a DeprecationWarning."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if not values:
+            namespace.quiet = True
+            return
+        message = ("`spatialmbd plot -q QUANTITY` is deprecated: -q means quiet in every "
+                   "command; use -y QUANTITY (or --quantity)")
+        warnings.warn(message, DeprecationWarning, stacklevel=2)
+        print(f"warning: {message}", file=sys.stderr)
+        namespace.quantity = list(namespace.quantity or []) + list(values)
 
 
 def _add_analysis_options(parser: argparse.ArgumentParser) -> None:
@@ -251,6 +266,8 @@ def cmd_run(args) -> int:
     from .io.results_io import save_results, to_dataframe
     model, analysis = _load(args.model)
     analysis, notes = _apply_overrides(analysis, args)
+    if getattr(args, "outputs", None):
+        analysis = _with_outputs(model, analysis, args.outputs)
     outs = _output_paths(args, pathlib.Path(args.model).stem, ".csv", RESULT_SUFFIXES)
     if not args.quiet:
         for note in notes:
@@ -267,6 +284,28 @@ def cmd_run(args) -> int:
         _err(_failure_line(results))
         return 1
     return 0
+
+
+def _with_outputs(model, analysis, tokens):
+    """``analysis`` with the requests of ``--outputs`` added: shorthands (joints, drivers,
+    forces, bodies, momentum, energy, all) or KIND:NAME (joint:pivot, imu:link.tip)."""
+    from .outputs import KINDS, parse_outputs
+    extra = []
+    for token in tokens:
+        if ":" in token:
+            kind, _, of = token.partition(":")
+            if kind not in KINDS:
+                raise UsageError(f"--outputs {token}: {kind!r} is not one of "
+                                 + ", ".join(KINDS))
+            extra.append({"type": kind, "of": of} if of else {"type": kind})
+        else:
+            extra.append(token)
+    requests = list(getattr(analysis, "outputs", None) or []) + extra
+    try:
+        parse_outputs(model, requests)
+    except ModelError as exc:
+        raise UsageError(f"--outputs: {exc}") from None
+    return dataclasses.replace(analysis, outputs=requests)
 
 
 def cmd_info(args) -> int:
@@ -305,6 +344,11 @@ def cmd_info(args) -> int:
     for name, spec in forces.items():
         lines.append(f"  {name:16s} {spec.type}")
     lines.append("analysis: " + _describe_analysis(analysis))
+    requests = getattr(analysis, "outputs", None)
+    if requests:
+        from .outputs import parse_outputs
+        lines.append("outputs: " + ", ".join(
+            f"{r.kind} {r.of}" if r.of else r.kind for r in parse_outputs(model, requests)))
     lines.append("mobility:")
     lines.append(textwrap.indent(mobility(model).report(), "  "))
     print("\n".join(lines))
@@ -347,7 +391,7 @@ def cmd_plot(args) -> int:
         raise UsageError(f"{len(labels)} --labels for {len(loaded)} results files")
     log = True if args.log else (False if args.linear else None)
     fig = plot_results(loaded if len(loaded) > 1 else loaded[0], args.quantity or None,
-                       labels=labels, log=log, title=args.title)
+                       labels=labels, log=log, title=args.title, x=args.x)
     from .plotting import save_figure
     for out in outs:
         save_figure(fig, out)
@@ -512,7 +556,7 @@ def build_parser() -> argparse.ArgumentParser:
             spatialmbd examples pendulum_ch15 --write . # write pendulum_ch15.yaml
             spatialmbd info pendulum_ch15.yaml          # bodies, joints, degrees of freedom
             spatialmbd run pendulum_ch15.yaml -o pendulum.h5
-            spatialmbd plot pendulum.h5 -q pendulum.z energy.error -o pendulum.png
+            spatialmbd plot pendulum.h5 -y pendulum.z energy.error -o pendulum.png
             spatialmbd animate pendulum.h5 -o pendulum.html
             spatialmbd <command> --help                 # options of a command
 
@@ -544,12 +588,17 @@ def build_parser() -> argparse.ArgumentParser:
                 spatialmbd run pendulum.yaml --method baumgarte --integrator rk4 --step 1e-3
                 spatialmbd run pendulum.yaml --t-end 2 --output-step 0.01 -o p.csv -o p.h5
                 spatialmbd run model.yaml --quiet -o results.h5 && echo ok
+                spatialmbd run slider_crank.yaml --outputs joints drivers -o crank.h5
                 """)
     p.add_argument("model", metavar="MODEL", help="model file (.yaml, .yml or .json)")
     _add_analysis_options(p)
     p.add_argument("-o", "--output", action="append", metavar="OUT",
                    help="results file, .csv or .h5 (repeat for several); default "
                         "<model stem>.csv in the current directory")
+    p.add_argument("--outputs", nargs="+", metavar="REQ",
+                   help="also record these outputs (added to the file's outputs section): "
+                        "joints, drivers, forces, bodies, momentum, energy, all, or KIND:NAME "
+                        "such as joint:pivot, force:spring, imu:link.tip (docs/outputs.md)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar, no summary (errors are still reported)")
     p.set_defaults(func=cmd_run)
@@ -568,19 +617,32 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("plot", "plot quantities of a results file against time",
                 "Plot columns of one or more results files (.h5 or .csv) against time. A "
                 "QUANTITY is a column name (pendulum.z, pivot.pendulum.fz, energy.error, "
-                "violation.position, ...), a pattern (pendulum.*, *.fz), a body name (its "
-                "x, y, z), a joint name (its reaction forces), 'energy' or 'violation'. "
-                "Columns of one kind share a panel. Default: body positions, energy error and "
+                "violation.position, and the requested outputs such as pivot.angle or "
+                "spring.force: see docs/outputs.md), a pattern (pendulum.*, *.fz), a body "
+                "name (its x, y, z), a joint name (its reaction forces), 'energy' or "
+                "'violation'. Columns of one kind share a panel; --x puts any column on the "
+                "horizontal axis instead of time. Default: body positions, energy error and "
                 "constraint violation. The figure format follows the extension: .png, .svg "
                 "or .pdf (default <results stem>.png in the current directory).",
                 """
-                spatialmbd plot pendulum.h5 -q pendulum.z energy.error -o pendulum.png
-                spatialmbd plot pendulum.h5 -q 'pendulum.*' -q '*.fz' -o p.pdf
-                spatialmbd plot a.h5 b.h5 --labels standard baumgarte -q violation --log -o v.svg
+                spatialmbd plot pendulum.h5 -y pendulum.z energy.error -o pendulum.png
+                spatialmbd plot pendulum.h5 -y 'pendulum.*' -y '*.fz' -o p.pdf
+                spatialmbd plot a.h5 b.h5 --labels standard baumgarte -y violation --log -o v.svg
+                spatialmbd plot pendulum.h5 --x pivot.angle -y pivot.angle_rate -o phase.png
+                spatialmbd plot crank.h5 --x crank_drive.coordinate -y D.translation -o s.png
                 """)
     p.add_argument("results", nargs="+", metavar="RESULTS", help="results file(s), .h5 or .csv")
-    p.add_argument("-q", "--quantity", action="extend", nargs="+", metavar="QUANTITY",
-                   help="what to plot (repeatable; patterns allowed)")
+    p.add_argument("-y", "--y", "--quantity", dest="quantity", action="extend", nargs="+",
+                   metavar="QUANTITY",
+                   help="what to plot (repeatable; patterns allowed; several series per "
+                        "figure)")
+    p.add_argument("--x", metavar="QUANTITY",
+                   help="the column on the horizontal axis (default t): phase plots, "
+                        "force against deflection, a joint coordinate against the crank angle")
+    p.add_argument("-q", dest="legacy_q", action=_QuietOrQuantity, nargs="*",
+                   metavar="QUANTITY",
+                   help="quiet, as in every command (-q QUANTITY ... is the deprecated "
+                        "spelling of -y)")
     p.add_argument("-o", "--output", action="append", metavar="FIG",
                    help="figure file .png, .svg or .pdf (repeat for several)")
     p.add_argument("--labels", nargs="+", metavar="LABEL", help="legend labels of the files")
@@ -590,7 +652,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="linear y axes everywhere (default: log for violations only)")
     p.add_argument("--title", help="figure title")
     p.add_argument("--quiet", action="store_true", help="print nothing")
-    p.set_defaults(func=cmd_plot)
+    p.set_defaults(func=cmd_plot, quantity=None)
 
     p = command("animate", "write an offline HTML animation",
                 "Write a self-contained HTML animation (no network needed) of an HDF5 results "
@@ -625,7 +687,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--write", metavar="DIR", help="write the model file(s) into DIR")
     p.add_argument("--format", choices=("yaml", "json"), default="yaml",
                    help="model file format (default yaml)")
-    p.add_argument("--quiet", action="store_true", help="print nothing")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=cmd_examples)
 
     p = command("demo", "run the chapter 15 study (figure and table)",
@@ -639,7 +701,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--outdir", default="ch15_study", metavar="DIR",
                    help="output directory (default ./ch15_study)")
     p.add_argument("--quick", action="store_true", help="shorter runs (a quick check)")
-    p.add_argument("--quiet", action="store_true", help="print nothing")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=cmd_demo)
 
     p = command("validate", "run the validation suite",
@@ -656,7 +718,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the complete version (longer runs, every output instant)")
     p.add_argument("--out", metavar="PATH",
                    help="also write the table to PATH (a directory, or a .md/.txt file)")
-    p.add_argument("--quiet", action="store_true", help="print only failures")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only failures")
     p.set_defaults(func=cmd_validate)
     return parser
 

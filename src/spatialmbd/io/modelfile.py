@@ -43,7 +43,7 @@ YAML_SUFFIXES = (".yaml", ".yml")
 JSON_SUFFIXES = (".json",)
 
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
-            "ground_shapes", "analysis")
+            "ground_shapes", "analysis", "outputs")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
              "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color")
 ORIENTATION_KEYS = ("euler_parameters", "euler_zxz", "euler_zxz_deg", "bryant", "bryant_deg",
@@ -412,7 +412,7 @@ class Analysis:
     t_end: float = 1.0
     output_step: Optional[float] = None
     t_eval: Optional[list] = None
-    method: str = "standard"
+    method: str = "projection"
     method_options: dict = field(default_factory=dict)
     integrator: str = "rk45"
     step: Optional[float] = None
@@ -421,14 +421,21 @@ class Analysis:
     integrator_options: dict = field(default_factory=dict)
     correct_initial: bool = True
     hold: Optional[dict] = None
+    #: the model file's top-level ``outputs:`` section: what to record besides the standard
+    #: columns (:mod:`spatialmbd.outputs`; list of request dicts or shorthand strings)
+    outputs: list = field(default_factory=list)
 
     def run(self, model, progress=False):
         """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``."""
         if self.type == "kinematic":
             from ..kinematics import kinematic_analysis
             from ..simulate import output_times
-            return kinematic_analysis(model, output_times(self.t_end, self.output_step,
-                                                          self.t_eval))
+            from ..outputs import parse_outputs
+            requests = parse_outputs(model, self.outputs)
+            res = kinematic_analysis(model, output_times(self.t_end, self.output_step,
+                                                         self.t_eval))
+            res.output_requests = requests
+            return res
         if self.type != "dynamic":
             raise ModelError(f"analysis type {self.type!r} is not one of {ANALYSIS_TYPES}")
         from ..simulate import simulate
@@ -438,7 +445,7 @@ class Analysis:
                         method_options=dict(self.method_options),
                         integrator_options=dict(self.integrator_options),
                         correct_initial=self.correct_initial, hold=self.hold,
-                        progress=progress)
+                        progress=progress, outputs=list(self.outputs))
 
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""
@@ -976,7 +983,28 @@ def _parse(P, data, default_name="model"):
         analysis = Analysis()
     else:
         analysis = _parse_analysis(P, ("analysis",), data["analysis"], declared_bodies)
+    if analysis is not None:
+        analysis.outputs = _parse_outputs_section(P, data)
     return b, analysis
+
+
+def _parse_outputs_section(P, data) -> list:
+    """The top-level ``outputs:`` list (docs/outputs.md): shape and keys checked here, element
+    names once the model is compiled (:func:`load_model`)."""
+    from ..outputs import Output
+    items = _section(data, "outputs")
+    out = []
+    if not _list(P, ("outputs",), items, "output requests"):
+        return out
+    for k, item in enumerate(items):
+        if isinstance(item, str):
+            out.append(item)
+            continue
+        try:
+            out.append(Output.from_dict(item).to_dict())
+        except ModelError as exc:
+            P.add(("outputs", k), str(exc))
+    return out
 
 
 # ============================================================================ reading files
@@ -1122,6 +1150,13 @@ def load_model(path_or_dict) -> tuple[Model, Analysis]:
     except ModelError as exc:
         source = None if isinstance(path_or_dict, dict) else path_or_dict
         raise ModelFileError([str(exc)], source) from None
+    if analysis is not None and analysis.outputs:
+        from ..outputs import parse_outputs
+        try:
+            parse_outputs(model, analysis.outputs)
+        except ModelError as exc:
+            source = None if isinstance(path_or_dict, dict) else path_or_dict
+            raise ModelFileError([f"outputs: {exc}"], source) from None
     return model, analysis
 
 
@@ -1253,6 +1288,7 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
     if len(P):
         raise P.error(heading=f"model {s['name']!r} cannot be written to a model file")
     if analysis is not None:
+        outputs = list(getattr(analysis, "outputs", None) or [])
         if isinstance(analysis, dict):
             analysis = Analysis.from_dict(analysis, list(s["bodies"]))
         elif not isinstance(analysis, Analysis):
@@ -1261,6 +1297,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         else:
             analysis = Analysis.from_dict(analysis.to_dict(), list(s["bodies"]))
         out["analysis"] = analysis.to_dict()
+        if outputs:
+            out["outputs"] = _plain(outputs)
     return out
 
 
