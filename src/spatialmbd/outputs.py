@@ -464,42 +464,51 @@ def _force(results, model, element: str, states=None) -> dict:
     for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
         if kind == "spring_damper":
-            # the element's own evaluation: Eqs. (11.5)-(11.10)
-            si, sj, f, _, ldot, _ = g.forces(state, t)
-            length = np.linalg.norm(state.r[g.bj] + sj - state.r[g.bi] - si, axis=1)
-            cols["length"][k], cols["length_rate"][k] = length[i], ldot[i]
-            cols["deflection"][k] = length[i] - g.l0[i]
-            cols["force"][k] = f[i]
-            cols["power"][k] = -f[i] * ldot[i]      # f u on i, -f u on j: -f ldot
-            cols["energy"][k] = 0.5 * g.k[i] * (length[i] - g.l0[i]) ** 2
+            # Eqs. (11.5)-(11.10) for instance i
+            A_i, A_j = state.A[g.bi[i]], state.A[g.bj[i]]
+            si, sj = A_i @ g.s_i[i], A_j @ g.s_j[i]
+            lvec = state.r[g.bj[i]] + sj - state.r[g.bi[i]] - si
+            ldvec = (state.rdot[g.bj[i]] + np.cross(state.omega[g.bj[i]], sj)
+                     - state.rdot[g.bi[i]] - np.cross(state.omega[g.bi[i]], si))
+            length = float(np.linalg.norm(lvec))
+            ldot = float(lvec @ ldvec) / length
+            f = g.k[i] * (length - g.l0[i]) + g.c[i] * ldot + g.law_values(t)[i, 0]
+            cols["length"][k], cols["length_rate"][k] = length, ldot
+            cols["deflection"][k] = length - g.l0[i]
+            cols["force"][k] = f
+            cols["power"][k] = -f * ldot            # f u on i, -f u on j: -f ldot
+            cols["energy"][k] = 0.5 * g.k[i] * (length - g.l0[i]) ** 2
         elif kind == "rotational_spring_damper":
-            tau, _, dtheta, thetad, _ = g._torque(state, t)
-            cols["angle_rate"][k], cols["deflection"][k] = thetad[i], dtheta[i]
-            cols["torque"][k] = tau[i]
-            cols["power"][k] = tau[i] * thetad[i]   # generalized force tau D_theta: tau thetadot
-            cols["energy"][k] = 0.5 * g.k[i] * dtheta[i] ** 2
-        elif kind == "point_force":
-            f = g._vectors(state, t)[i]
+            from .constraints.primitives import relative_angle
+            theta, _, thetad, _ = relative_angle(state, g.bi[i:i + 1], g.bj[i:i + 1],
+                                                 g.R_i[i:i + 1], g.R_j[i:i + 1])
+            dtheta = float(np.remainder(theta[0] - g.theta0[i] + np.pi, 2 * np.pi) - np.pi)
+            tau = -(g.k[i] * dtheta + g.c[i] * thetad[0] + g.law_values(t)[i, 0])
+            cols["angle_rate"][k], cols["deflection"][k] = thetad[0], dtheta
+            cols["torque"][k] = tau
+            cols["power"][k] = tau * thetad[0]      # generalized force tau D_theta: tau thetadot
+            cols["energy"][k] = 0.5 * g.k[i] * dtheta ** 2
+        elif kind in ("point_force", "torque"):
             b = g.body[i]
-            s = state.A[b] @ g.point[i]
-            vP = state.rdot[b] + np.cross(state.omega[b], s)
-            cols["fx"][k], cols["fy"][k], cols["fz"][k] = f
-            cols["power"][k] = f @ vP
-        elif kind == "torque":
-            n = g._vectors(state, t)[i]
-            cols["mx"][k], cols["my"][k], cols["mz"][k] = n
-            cols["power"][k] = n @ state.omega[g.body[i]]
+            direction = state.A[b] @ g.direction[i] if g.in_body[i] else g.direction[i]
+            vec = g.law_values(t)[i, 0] * direction
+            if kind == "point_force":
+                s = state.A[b] @ g.point[i]
+                vP = state.rdot[b] + np.cross(state.omega[b], s)
+                cols["fx"][k], cols["fy"][k], cols["fz"][k] = vec
+                cols["power"][k] = vec @ vP
+            else:
+                cols["mx"][k], cols["my"][k], cols["mz"][k] = vec
+                cols["power"][k] = vec @ state.omega[b]
         elif kind == "bushing":
             # bushing axes of body i; the force and moment the bushing applies ON body j
-            _, _, _, delta, deltadot, theta, thetadot, JinvT = g._deflections(state)
-            fl = g.Kt[i] * delta[i] + g.Ct[i] * deltadot[i]
-            ml = JinvT[i] @ (g.Kr[i] * theta[i] + g.Cr[i] * thetadot[i])
+            delta, deltadot, theta, thetadot, fl, ml = g.deflections(state, i)
             for c, axis in enumerate("xyz"):
-                cols["d" + axis][k], cols["r" + axis][k] = delta[i, c], theta[i, c]
+                cols["d" + axis][k], cols["r" + axis][k] = delta[c], theta[c]
                 cols["f" + axis][k], cols["m" + axis][k] = -fl[c], -ml[c]
-            cols["power"][k] = -(deltadot[i] @ fl
-                                 + thetadot[i] @ (g.Kr[i] * theta[i] + g.Cr[i] * thetadot[i]))
-            cols["energy"][k] = 0.5 * (g.Kt[i] @ delta[i] ** 2 + g.Kr[i] @ theta[i] ** 2)
+            cols["power"][k] = -(deltadot @ fl
+                                 + thetadot @ (g.Kr[i] * theta + g.Cr[i] * thetadot))
+            cols["energy"][k] = 0.5 * (g.Kt[i] @ delta ** 2 + g.Kr[i] @ theta ** 2)
         elif kind == "*":
             # the only element of its type: its generalized forces on every body, Eq. (10.6)
             gen = np.zeros((state.r.shape[0], 6))

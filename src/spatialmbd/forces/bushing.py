@@ -236,6 +236,23 @@ class Bushing(ForceType):
                    cols["F_i"], cols["F_j"], *([_three(s, key) for s in specs]
                                                for key, _ in _PAIRS))
 
+    def deflections(self, state, i: int):
+        """Instance i: delta, deltadot, theta, thetadot and the force and moment in bushing
+        axes of i, fl = K_t delta + C_t deltadot and ml = J_l^-T (K_r theta + C_r thetadot)
+        (the kernel's quantities, for outputs)."""
+        b_i, b_j = self.bi[i], self.bj[i]
+        E_i, E_j = state.A[b_i] @ self.F_i[i], state.A[b_j] @ self.F_j[i]
+        si, sj = state.A[b_i] @ self.s_i[i], state.A[b_j] @ self.s_j[i]
+        w_i, w_j = state.omega[b_i], state.omega[b_j]
+        d = state.r[b_j] + sj - state.r[b_i] - si
+        ddot = state.rdot[b_j] + np.cross(w_j, sj) - state.rdot[b_i] - np.cross(w_i, si)
+        delta, deltadot = E_i.T @ d, E_i.T @ (ddot - np.cross(w_i, d))
+        theta = rotation_vector(E_i.T @ E_j)[0]
+        thetadot = left_jacobian_inverse_T_apply(-theta, E_i.T @ (w_j - w_i))[0]
+        fl = self.Kt[i] * delta + self.Ct[i] * deltadot
+        ml = left_jacobian_inverse_T_apply(theta, self.Kr[i] * theta + self.Cr[i] * thetadot)[0]
+        return delta, deltadot, theta, thetadot, fl, ml
+
     def columns(self):
         return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.F_i,
                     R_j=self.F_j, param=np.concatenate([self.Kt, self.Ct, self.Kr, self.Cr],
