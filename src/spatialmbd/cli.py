@@ -386,7 +386,9 @@ def cmd_animate(args) -> int:
             status = 1
         title = args.title or f"spatialmbd: {model.name}"
     for out in outs:
-        write_animation(results, out, model=model, title=title, max_frames=args.max_frames)
+        write_animation(results, out, model=model, title=title, max_frames=args.max_frames,
+                        reactions=getattr(args, "reactions", False),
+                        renderer=getattr(args, "renderer", "auto"))
         if not args.quiet:
             print(f"animation written to {out}")
     if status:
@@ -607,6 +609,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-frames", type=int, default=1000, metavar="N",
                    help="at most N frames, evenly spread (default 1000)")
     p.add_argument("--title", help="page title")
+    p.add_argument("--renderer", choices=("auto", "canvas"), default="auto",
+                   help="auto: WebGL (three.js embedded) with the Canvas renderer as fallback; "
+                        "canvas: Canvas only, a much smaller page")
+    p.add_argument("--reactions", action="store_true",
+                   help="draw the joint reaction forces as arrows (model files only)")
     _add_analysis_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=cmd_animate)

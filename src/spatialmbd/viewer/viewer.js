@@ -398,7 +398,9 @@
     springs.forEach(function (sp) {
       var P = attach(sp.body_i, sp.point_i || [0, 0, 0], poses);
       var Q = attach(sp.body_j, sp.point_j || [0, 0, 0], poses);
-      var R = sp.radius > 0 ? sp.radius : 0.035 * refSize, col = sp.color || '#6b7280';
+      // default coil radius: slender (a tenth of the length), never wider than the scene allows
+      var R = sp.radius > 0 ? sp.radius : Math.min(0.035 * refSize, 0.1 * norm(sub(Q, P)));
+      var col = sp.color || '#6b7280';
       var kind = sp.kind || 'spring';
       if (kind === 'link') {
         out.segments.push([P, Q, 2 * wire, col]);
