@@ -296,3 +296,11 @@ def test_cli_import_and_run(tmp_path, capsys):
     assert "tendon 'cable'" in capsys.readouterr().err
     assert main(["import", str(bad), "--lenient", "-q", "-o", str(tmp_path / "bad.yaml")]) == 0
     assert main(["info", str(EXAMPLES / "double_pendulum.xml")]) == 0
+
+
+def test_example_script_runs(tmp_path):
+    import runpy
+    script = runpy.run_path(str(EXAMPLES / "import_four_bar.py"))
+    out = script["main"](tmp_path, t_end=0.05)
+    assert out["results"].status == "success"
+    assert out["yaml"].is_file() and out["html"].stat().st_size > 500_000  # WebGL page
