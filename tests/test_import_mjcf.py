@@ -25,8 +25,7 @@ mujoco = pytest.importorskip("mujoco")
 
 from spatialmbd.errors import ModelError  # noqa: E402
 from spatialmbd.importers import read_mjcf  # noqa: E402
-from spatialmbd.importers.massprops import (capsule, combine, cylinder,  # noqa: E402
-                                            shape_mass_properties, sphere)
+from spatialmbd.importers.massprops import shape_mass_properties  # noqa: E402
 from spatialmbd.importers.mjcf import MJCFImportWarning  # noqa: E402
 from spatialmbd.io.modelfile import load_builder, model_to_dict, save_model  # noqa: E402
 from spatialmbd.simulate import simulate  # noqa: E402
@@ -140,53 +139,6 @@ def test_mass_properties_of_shapes_match_mujoco_compiler():
         mp = shape_mass_properties(shape, 700.0)
         assert mp.mass == pytest.approx(m.body_mass[body], rel=1e-12)
         np.testing.assert_allclose(np.diag(mp.inertia), m.body_inertia[body], rtol=1e-12)
-
-
-def test_capsule_is_cylinder_plus_sphere_split():
-    # independent check: a capsule of zero length is a sphere; the two caps together are a
-    # sphere whose halves moved apart by L (parallel-axis theorem with the half-sphere centroid)
-    rho, r = 1200.0, 0.07
-    np.testing.assert_allclose(capsule(rho, r, 0.0).inertia, sphere(rho, r).inertia, rtol=1e-12)
-    L = 0.4
-    cap, cyl, ball = capsule(rho, r, L), cylinder(rho, r, L), sphere(rho, r)
-    assert cap.mass == pytest.approx(cyl.mass + ball.mass, rel=1e-14)
-    # axial moment: no parallel-axis term
-    assert cap.inertia[2, 2] == pytest.approx(cyl.inertia[2, 2] + ball.inertia[2, 2], rel=1e-14)
-    # transverse: sphere's own + m_s ((L/2)^2 + 2 (L/2) (3 r / 8))  (each half at L/2 + 3r/8)
-    extra = ball.mass * ((L / 2) ** 2 + 2 * (L / 2) * 3 * r / 8)
-    assert cap.inertia[0, 0] == pytest.approx(cyl.inertia[0, 0] + ball.inertia[0, 0] + extra,
-                                              rel=1e-12)
-
-
-def test_shapes_rotated_and_combined():
-    # two unit-density cubes side by side make one 2 x 1 x 1 box
-    a = shape_mass_properties(dict(type="box", size=[1, 1, 1], center=[-0.5, 0, 0]), 1.0)
-    b = shape_mass_properties(dict(type="box", size=[1, 1, 1], center=[0.5, 0, 0]), 1.0)
-    both = combine([a, b])
-    whole = shape_mass_properties(dict(type="box", size=[2, 1, 1]), 1.0)
-    assert both.mass == pytest.approx(2.0)
-    np.testing.assert_allclose(both.com, 0, atol=1e-15)
-    np.testing.assert_allclose(both.inertia, whole.inertia, rtol=1e-12)
-    # a cylinder along x has its axial moment about x
-    c = shape_mass_properties(dict(type="cylinder", radius=0.2, length=1.0, axis=[1, 0, 0]), 3.0)
-    assert c.inertia[0, 0] == pytest.approx(c.mass * 0.2**2 / 2, rel=1e-12)
-    with pytest.raises(ModelError, match="density"):
-        shape_mass_properties(dict(type="sphere", radius=1.0), -1.0)
-
-
-def test_mesh_mass_properties_through_trimesh():
-    pytest.importorskip("trimesh")
-    # a unit cube as a closed triangle mesh: the box formula
-    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
-    f = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-         [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
-    mp = shape_mass_properties(dict(type="mesh", vertices=v, faces=f), 500.0)
-    box = shape_mass_properties(dict(type="box", size=[1, 1, 1]), 500.0)
-    assert mp.mass == pytest.approx(500.0)
-    np.testing.assert_allclose(mp.com, 0.5)
-    np.testing.assert_allclose(mp.inertia, box.inertia, atol=1e-9)
-    with pytest.raises(ModelError, match="watertight"):
-        shape_mass_properties(dict(type="mesh", vertices=v, faces=f[:-1]), 500.0)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -25,8 +25,8 @@ import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["MassProperties", "shape_mass_properties", "combine", "box", "cylinder", "sphere",
-           "capsule", "mesh"]
+__all__ = ["MassProperties", "shape_mass_properties", "combine", "body_mass_properties", "box",
+           "cylinder", "sphere", "capsule", "mesh"]
 
 
 @dataclass(frozen=True)
@@ -154,3 +154,30 @@ def combine(parts) -> MassProperties:
         d = np.asarray(p.com) - com
         inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
     return MassProperties(float(mass), com, 0.5 * (inertia + inertia.T))
+
+
+def body_mass_properties(shapes, density: float, what: str = "body",
+                         tolerance: float = 1e-9) -> tuple:
+    """(mass kg, inertia (3, 3) kg m^2) of a body made of ``shapes`` (body axes) at ``density``
+    (kg/m^3, one number, or one per shape), for ``ModelBuilder.add_body`` and model files.
+
+    The body's reference point is its centre of mass, so the shapes' centre of mass must be at
+    the body origin (within ``tolerance`` times their size): otherwise a ModelError says by how
+    much to move them.
+    """
+    shapes = list(shapes or [])
+    if not shapes:
+        raise ModelError(f"{what}: a density needs shapes to compute the mass properties from")
+    densities = np.broadcast_to(np.asarray(density, dtype=float), (len(shapes),))
+    parts = [shape_mass_properties(s, float(rho)) for s, rho in zip(shapes, densities)]
+    total = combine(parts)
+    size = max(1e-300, max(float(np.linalg.norm(np.asarray(s.get("center", (0, 0, 0)),
+                                                            dtype=float))) for s in shapes),
+               max(float(np.max(np.diag(p.inertia))) / p.mass for p in parts) ** 0.5)
+    if np.linalg.norm(total.com) > tolerance * size:
+        c = [float(f"{x:.6g}") + 0.0 for x in total.com]
+        raise ModelError(f"{what}: the centre of mass of its shapes is at {c} m in body axes, "
+                         "not at the body origin (a body's position is its centre of mass); "
+                         f"move every shape centre by {[0.0 - x for x in c]} and its position by "
+                         f"{c} in body axes")
+    return total.mass, total.inertia

@@ -127,11 +127,8 @@ def _geom_shapes(mujoco, m, d, g, R, c) -> list:
         return [dict(type="cylinder", radius=float(size[0]), length=float(2 * size[1]),
                      center=_clean(center), axis=_clean(zaxis), **extra)]
     if kind == G.mjGEOM_CAPSULE:
-        ends = [center + s * size[1] * zaxis for s in (-1, 1)]
-        return ([dict(type="cylinder", radius=float(size[0]), length=float(2 * size[1]),
-                      center=_clean(center), axis=_clean(zaxis), **extra)]
-                + [dict(type="sphere", radius=float(size[0]), center=_clean(e), **extra)
-                   for e in ends])
+        return [dict(type="capsule", radius=float(size[0]), length=float(2 * size[1]),
+                     center=_clean(center), axis=_clean(zaxis), **extra)]
     if kind == G.mjGEOM_BOX or kind == G.mjGEOM_ELLIPSOID:
         return [dict(type="box", size=(2 * size[:3]).tolist(), center=_clean(center),
                      p=_clean(p_from_A(Rg)), **extra)]

@@ -19,8 +19,9 @@ Scene dictionary
              global components.  A static body may give r as (3,) and p as (4,).
 shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x, y, z],
              "p": [e0, e1, e2, e3] (optional)}``, ``{"type": "cylinder", "radius", "length",
-             "center", "axis"}``, ``{"type": "sphere", "radius", "center"}``; each may carry its own
-             ``"color"``.
+             "center", "axis"}``, ``{"type": "sphere", "radius", "center"}``, ``{"type":
+             "capsule", "radius", "length" (between the caps' centres), "center", "axis"}`` (drawn
+             as a cylinder and two spheres); each may carry its own ``"color"``.
 ``joints``   optional list of ``{"name", "type", "body": index or -1 (ground), "point_local"}``.
 ``springs``  optional list of force elements drawn between two attachment points:
              ``{"name", "kind": "spring" | "damper" | "spring_damper" | "link", "body_i",
@@ -153,12 +154,26 @@ def _shape(shape: Any, what: str) -> dict:
     elif kind == "sphere":
         out["radius"] = _positive(shape.get("radius"), what + ".radius")
     else:
-        raise ValueError(f"{what}: unknown shape type {kind!r} (use 'box', 'cylinder' or "
-                         "'sphere')")
+        raise ValueError(f"{what}: unknown shape type {kind!r} (use 'box', 'cylinder', "
+                         "'sphere' or 'capsule')")
     out["center"] = _vec(shape.get("center", (0.0, 0.0, 0.0)), 3, what + ".center")
     if shape.get("color") is not None:
         out["color"] = _color(shape["color"], what + ".color")
     return out
+
+
+def _capsule(shape: dict, what: str) -> list:
+    """A capsule (cylinder of ``length`` between two hemispherical caps of ``radius``) as a
+    cylinder and two spheres."""
+    radius = _positive(shape.get("radius"), what + ".radius")
+    length = _positive(shape.get("length"), what + ".length")
+    axis = np.asarray(_unit(shape.get("axis", (0.0, 0.0, 1.0)), 3, what + ".axis"))
+    center = np.asarray(_vec(shape.get("center", (0.0, 0.0, 0.0)), 3, what + ".center"))
+    extra = {"color": shape["color"]} if shape.get("color") is not None else {}
+    return ([dict(type="cylinder", radius=radius, length=length, axis=axis, center=center,
+                  **extra)]
+            + [dict(type="sphere", radius=radius, center=center + s * 0.5 * length * axis,
+                    **extra) for s in (-1.0, 1.0)])
 
 
 def _shapes(shapes: Any, what: str) -> list:
@@ -166,7 +181,12 @@ def _shapes(shapes: Any, what: str) -> list:
         return []
     if isinstance(shapes, dict):
         shapes = [shapes]
-    return [_shape(s, f"{what}[{i}]") for i, s in enumerate(shapes)]
+    out = []
+    for i, s in enumerate(shapes):
+        parts = _capsule(s, f"{what}[{i}]") if isinstance(s, dict) and s.get("type") == \
+            "capsule" else [s]
+        out += [_shape(part, f"{what}[{i}]") for part in parts]
+    return out
 
 
 def _trajectory(value: Any, n_frames: int, width: int, what: str) -> np.ndarray:
