@@ -671,6 +671,17 @@ def test_browser_webgl_renderer_draws_the_scene(browser, tmp_path):
     patch = img[int(tip[1]) - 80:int(tip[1]) - 5, int(tip[0]) - 8:int(tip[0]) + 9].reshape(-1, 3)
     assert ((patch[:, 0] > 150) & (patch[:, 1] < 90) & (patch[:, 2] < 90)).sum() > 30
     assert browser.errors(session) == []
+    # the GPU goes away mid-session: the Canvas renderer takes over, the scene stays visible
+    browser.evaluate(session, "document.getElementById('gl-canvas').getContext('webgl2')"
+                              ".getExtension('WEBGL_lose_context').loseContext()")
+    deadline = time.monotonic() + 5
+    while browser.evaluate(session, "spatialmbdViewer.renderer()") != "canvas":
+        assert time.monotonic() < deadline, "no fallback after the WebGL context was lost"
+        time.sleep(0.05)
+    browser.evaluate(session, "spatialmbdViewer.setTime(0.5)")
+    assert "context was lost" in browser.evaluate(session, "spatialmbdViewer.fallbackReason()")
+    _check_scene_shown(browser, session, "canvas", "canvas_after_context_loss")
+    assert browser.errors(session) == []
     browser.close_page(session)
 
 

@@ -835,6 +835,12 @@
         ground: raw.ground || []
       });
       rendererName = 'webgl';
+      // a GPU reset or driver failure later on: continue with the Canvas renderer
+      glView.canvas.addEventListener('webglcontextlost', function (ev) {
+        ev.preventDefault();
+        fallBack('the WebGL context was lost');
+        requestRender();
+      });
     } catch (e) {
       fallBack(e);
     }
