@@ -248,6 +248,10 @@ def test_cli_import_and_run(tmp_path, capsys):
     assert "tendon 'cable'" in capsys.readouterr().err
     assert main(["import", str(bad), "--lenient", "-q", "-o", str(tmp_path / "bad.yaml")]) == 0
     assert main(["info", str(EXAMPLES / "double_pendulum.xml")]) == 0
+    csv = tmp_path / "dp.csv"
+    assert main(["run", str(EXAMPLES / "double_pendulum.xml"), "--t-end", "0.02", "-q",
+                 "-o", str(csv)]) == 0
+    assert csv.stat().st_size > 0
 
 
 def test_example_script_runs(tmp_path):

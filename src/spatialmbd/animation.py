@@ -162,8 +162,10 @@ def _reaction_arrows(results, model, idx) -> list:
     """Reaction force on body i of every joint, as arrows at the joint point (one scale)."""
     if model is None or not hasattr(results, "reactions") or getattr(results, "lam",
                                                                        None) is None:
-        raise ValueError("reaction arrows need dynamic results with their model (Results from "
-                         "simulate); these results carry no multipliers")
+        raise ValueError("reaction arrows need the Results of a dynamic analysis with their "
+                         "model (from simulate); these results cannot give the joint reactions "
+                         "(a results file or a kinematic analysis): animate the model file "
+                         "with --reactions instead")
     index = {name: k for k, name in enumerate(model.body_names)}
     arrows = []
     for name, reaction in results.reactions().items():
