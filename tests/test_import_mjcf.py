@@ -226,6 +226,16 @@ def test_hinge_spring_damper_imported_exactly():
     assert size > 0.05 and err < 1e-8, (err, size)
 
 
+def test_urdf_link_without_inertial_is_reported():
+    urdf = """<robot name="r"><link name="base"/>
+      <link name="l1"><collision><geometry><box size="0.1 0.1 0.4"/></geometry></collision>
+      </link><joint name="j" type="continuous"><parent link="base"/><child link="l1"/>
+      <axis xyz="0 1 0"/></joint></robot>"""
+    with pytest.warns(MJCFImportWarning, match=r"URDF link 'l1' has no <inertial>: its mass 4 kg"):
+        imported = read_mjcf(urdf)
+    assert imported.builder.bodies["l1"].mass == pytest.approx(1000 * 0.1 * 0.1 * 0.4)
+
+
 def test_massless_body_and_missing_file_are_model_errors(tmp_path):
     xml = """<mujoco><worldbody><body name="ghost"><freejoint/><site name="s"/></body>
       </worldbody></mujoco>"""

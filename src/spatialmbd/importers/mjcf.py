@@ -75,6 +75,20 @@ def _mujoco():
     return mujoco
 
 
+def _urdf_links_without_inertial(source) -> set:
+    """Names of the URDF links that have no <inertial> element (empty for MJCF)."""
+    import xml.etree.ElementTree as ET
+    text = str(source)
+    try:
+        root = ET.fromstring(text) if text.lstrip().startswith("<") else \
+            ET.parse(str(source)).getroot()
+    except (ET.ParseError, OSError):
+        return set()
+    if root.tag != "robot":
+        return set()
+    return {link.get("name") for link in root.iter("link") if link.find("inertial") is None}
+
+
 def _compile(source) -> tuple:
     mujoco = _mujoco()
     text = str(source)
@@ -203,6 +217,19 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
             shown = ", ".join(repr(x) for x in colliding[:8])
             more = f" and {len(colliding) - 8} more" if len(colliding) > 8 else ""
             inactive.append(f"collisions of geoms {shown}{more} (no contact yet)")
+
+    # URDF links without <inertial>: MuJoCo fills their mass from the geoms at its default
+    # density (1000 kg/m^3), an assumption the file does not make -- say so
+    bare = _urdf_links_without_inertial(source)
+    for b in range(1, m.nbody):
+        nm = mujoco.mj_id2name(m, OBJ.mjOBJ_BODY, b)
+        if nm in bare and m.body_weldid[b] != 0 and m.body_mass[b] > 0:
+            has_mesh = any(m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH
+                           for g in range(m.ngeom) if m.geom_bodyid[g] == b)
+            inactive.append(f"URDF link {nm!r} has no <inertial>: its mass "
+                            f"{float(m.body_mass[b]):.6g} kg and inertia were computed by "
+                            "MuJoCo from its collision " + ("mesh " if has_mesh else "")
+                            + "geometry at 1000 kg/m^3 (give an <inertial> element)")
 
     # ----------------------------------------------------------------- bodies (weld groups)
     roots = [b for b in range(1, m.nbody) if m.body_weldid[b] == b]
@@ -365,9 +392,9 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
         warnings.warn(text + " -- left out", MJCFImportWarning, stacklevel=2)
         left_out += unsupported
     if inactive:
-        warnings.warn("left out (they act only when reached or touching; spatialmbd has no "
-                      "limits or contact yet): " + "; ".join(inactive), MJCFImportWarning,
-                      stacklevel=2)
+        warnings.warn("note (limits and contacts are left out: they act only when reached or "
+                      "touching, and spatialmbd has neither yet): " + "; ".join(inactive),
+                      MJCFImportWarning, stacklevel=2)
         left_out += inactive
     return MJCFImport(builder=builder, groups=groups, left_out=left_out, mj_model=m)
 
