@@ -238,6 +238,17 @@ def test_springs_arrows_points_embedded():
                                force, rtol=1e-7)
 
 
+def test_capsule_drawn_as_cylinder_and_two_spheres():
+    scene = {"t": [0.0], "bodies": [{"name": "c", "r": [0, 0, 0], "p": [1, 0, 0, 0], "shapes": [
+        {"type": "capsule", "radius": 0.1, "length": 0.6, "axis": [2, 0, 0],
+         "center": [0, 1, 0], "color": "#112233"}]}]}
+    shapes = _embedded_scene(animation_html(scene, renderer="canvas"))["bodies"][0]["shapes"]
+    assert [s["type"] for s in shapes] == ["cylinder", "sphere", "sphere"]
+    assert shapes[0]["axis"] == [1, 0, 0] and shapes[0]["length"] == 0.6
+    assert [s["center"] for s in shapes[1:]] == [[-0.3, 1, 0], [0.3, 1, 0]]
+    assert all(s["radius"] == 0.1 and s["color"] == "#112233" for s in shapes)
+
+
 def _box_inertia(mass, size):
     lx, ly, lz = size
     return mass / 12.0 * np.array([ly**2 + lz**2, lz**2 + lx**2, lx**2 + ly**2])

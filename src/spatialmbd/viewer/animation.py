@@ -352,7 +352,7 @@ def animation_html(scene: dict, *, title: str = "spatialmbd animation",
     """Return the complete offline HTML page animating ``scene`` (see the module docstring).
 
     renderer: "auto" (WebGL through the embedded three.js bundle, ~0.55 MB, with the Canvas
-    renderer as automatic fallback) or "canvas" (Canvas-2D only, no bundle: a page of ~40 kB
+    renderer as automatic fallback) or "canvas" (Canvas-2D only, no bundle: a page of ~50 kB
     plus the data).
     """
     if renderer not in RENDERERS:

@@ -338,7 +338,7 @@
   // springs, dampers, massless links, arrows and points: world-space primitives per frame
   // (segments [a, b, radius, colour], cones [base, tip, radius, colour], dots [p, radius, colour])
   // ------------------------------------------------------------------------------------------
-  var wire = 0.006 * refSize;
+  var wire = 0.006 * refSize, wireRadius = wire;
   function sampleAt(arr, width, fr) {
     var n = Math.floor(arr.length / width);
     if (n === 0) { return null; }
@@ -354,6 +354,7 @@
   function helix(out, P, Q, radius, turns, color) {
     var d = sub(Q, P), L = norm(d);
     if (!(L > 0)) { return; }
+    var wire = Math.min(wireRadius, 0.12 * radius);   // a thin wire on small coils
     var u = scale(d, 1 / L), B = basisWithAxis(u);
     var e1 = [B[0], B[3], B[6]], e2 = [B[1], B[4], B[7]];   // columns: normal to u
     var lead = 0.12 * L, n = Math.max(8, Math.round(16 * turns)), prev = add(P, scale(u, lead));
@@ -399,7 +400,7 @@
       var P = attach(sp.body_i, sp.point_i || [0, 0, 0], poses);
       var Q = attach(sp.body_j, sp.point_j || [0, 0, 0], poses);
       // default coil radius: slender (a tenth of the length), never wider than the scene allows
-      var R = sp.radius > 0 ? sp.radius : Math.min(0.035 * refSize, 0.1 * norm(sub(Q, P)));
+      var R = sp.radius > 0 ? sp.radius : Math.min(0.035 * refSize, 0.08 * norm(sub(Q, P)));
       var col = sp.color || '#6b7280';
       var kind = sp.kind || 'spring';
       if (kind === 'link') {
