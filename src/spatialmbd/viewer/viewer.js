@@ -775,20 +775,22 @@
         label(ax[2], s[0], s[1], ax[1]);
       }
     });
-    // joint markers (drawn on top so hidden joints stay visible)
+    // joint markers (drawn on top so hidden joints stay visible); smaller when there are many,
+    // so that hundreds of joints do not hide the bodies
+    var mr = joints.length <= 50 ? 4.5 : Math.max(1.5, 4.5 * Math.sqrt(50 / joints.length));
     joints.forEach(function (j) {
       var c = toCam(fr, jointPoint(j, poses));
       if (!(c[2] > fr.near)) { return; }
       var s = project(fr, c);
       ctx.beginPath();
       if (j.body < 0) {
-        ctx.rect(s[0] - 4.5, s[1] - 4.5, 9, 9);
+        ctx.rect(s[0] - mr, s[1] - mr, 2 * mr, 2 * mr);
       } else {
-        ctx.arc(s[0], s[1], 4.5, 0, 2 * Math.PI);
+        ctx.arc(s[0], s[1], mr, 0, 2 * Math.PI);
       }
       ctx.fillStyle = '#ffc21a';
       ctx.fill();
-      ctx.lineWidth = 1.5;
+      ctx.lineWidth = mr > 3 ? 1.5 : 0.75;
       ctx.strokeStyle = '#4a3600';
       ctx.stroke();
       if (showLabels) {
