@@ -236,6 +236,21 @@ def test_urdf_link_without_inertial_is_reported():
     assert imported.builder.bodies["l1"].mass == pytest.approx(1000 * 0.1 * 0.1 * 0.4)
 
 
+def test_names_shared_across_kinds_are_made_unique_and_keyframes_noted():
+    # MJCF names are unique per kind; ours are unique across bodies, joints and forces
+    xml = """<mujoco><compiler angle="radian"/><worldbody>
+      <body name="arm"><joint name="arm" type="hinge" axis="0 1 0" damping="0.1"/>
+        <geom type="box" pos="0.1 0 0" size="0.1 0.01 0.01"/></body></worldbody>
+      <equality><weld name="arm_spring" body1="arm"/></equality>
+      <keyframe><key name="home" qpos="0.3"/></keyframe></mujoco>"""
+    with pytest.warns(MJCFImportWarning, match=r"keyframes \['home'\] are not used"):
+        builder = read_mjcf(xml, strict=False).builder
+    assert list(builder.bodies) == ["arm"]
+    assert list(builder.joints) == ["arm_", "arm_spring_"]     # joints are named first
+    assert list(builder.forces) == ["arm_spring"]
+    assert builder.forces["arm_spring"].params["joint"] == "arm_"
+
+
 def test_massless_body_and_missing_file_are_model_errors(tmp_path):
     xml = """<mujoco><worldbody><body name="ghost"><freejoint/><site name="s"/></body>
       </worldbody></mujoco>"""

@@ -181,6 +181,13 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
     def jname(j):
         return _name(mujoco, m, OBJ.mjOBJ_JOINT, j, f"joint{j}")
 
+    def fresh(name):
+        """``name``, made unique: MJCF names are unique per kind only, ours across kinds."""
+        while name in used:
+            name += "_"
+        used.add(name)
+        return name
+
     # ----------------------------------------------------------------- features left out
     for t in range(m.ntendon):
         unsupported.append(f"tendon {_name(mujoco, m, OBJ.mjOBJ_TENDON, t, f'tendon{t}')!r}")
@@ -206,6 +213,10 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
         if springy and int(m.jnt_type[j]) != int(J.mjJNT_HINGE):
             unsupported.append(f"stiffness/damping of {J(int(m.jnt_type[j])).name[6:].lower()} "
                                f"joint {jname(j)!r} (only hinge springs map exactly)")
+    if m.nkey:
+        keys = [_name(mujoco, m, OBJ.mjOBJ_KEY, k, f"key{k}") for k in range(m.nkey)]
+        inactive.append(f"keyframes {keys} are not used: the model starts from qpos0 (MuJoCo's "
+                        "reference configuration), at rest")
     contact_on = not (m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT))
     if contact_on:
         colliding = [_name(mujoco, m, OBJ.mjOBJ_GEOM, g,
@@ -308,21 +319,25 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
             geometry = {"point": anchors[0].tolist()}
             if kind != "spherical":
                 geometry["axis"] = axes[0].tolist()
-            builder.add_joint(kind, names[0], parent, child, **geometry)
+            joint_name = fresh(names[0])
+            builder.add_joint(kind, joint_name, parent, child, **geometry)
         elif (types == [int(J.mjJNT_HINGE)] * 2 and same_point
               and abs(axes[0] @ axes[1]) < 1e-9):
-            builder.add_joint("universal", "_".join(names), parent, child,
+            joint_name = fresh("_".join(names))
+            builder.add_joint("universal", joint_name, parent, child,
                               point=anchors[0].tolist(), axis=axes[0].tolist(),
                               axis2=axes[1].tolist())
         elif (all(t == int(J.mjJNT_HINGE) for t in types) and len(types) >= 3 and same_point
               and np.linalg.matrix_rank(np.array(axes), tol=1e-6) == 3):
-            builder.add_joint("spherical", "_".join(names), parent, child,
+            joint_name = fresh("_".join(names))
+            builder.add_joint("spherical", joint_name, parent, child,
                               point=anchors[0].tolist())
         elif (sorted(types) == sorted([int(J.mjJNT_HINGE), int(J.mjJNT_SLIDE)])
               and np.linalg.norm(np.cross(axes[0], axes[1])) < 1e-9
               and np.linalg.norm(np.cross(anchors[1] - anchors[0], axes[0])) < 1e-9):
             h = types.index(int(J.mjJNT_HINGE))
-            builder.add_joint("cylindrical", "_".join(names), parent, child,
+            joint_name = fresh("_".join(names))
+            builder.add_joint("cylindrical", joint_name, parent, child,
                               point=anchors[h].tolist(), axis=axes[h].tolist())
         else:
             unsupported.append(f"joints {names} of body {child!r} (this combination has no "
@@ -333,8 +348,8 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
             if t == int(J.mjJNT_HINGE) and len(jids) == 1 and (k != 0 or c != 0):
                 q0 = float(m.qpos0[m.jnt_qposadr[j]])
                 rest = float(m.qpos_spring[m.jnt_qposadr[j]]) - q0
-                builder.add_force("rotational_spring_damper", f"{jn}_spring", joint=jn,
-                                  stiffness=k, damping=c, rest_angle=rest)
+                builder.add_force("rotational_spring_damper", fresh(f"{jn}_spring"),
+                                  joint=joint_name, stiffness=k, damping=c, rest_angle=rest)
             elif t == int(J.mjJNT_HINGE) and (k != 0 or c != 0):
                 unsupported.append(f"stiffness/damping of joint {jn!r} (part of a combined "
                                    "joint)")
@@ -378,7 +393,7 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
             # welded as in the reference configuration (MuJoCo's relpose there: the residual
             # check below makes sure it is)
             geometry = {"point": np.asarray(x1, dtype=float).tolist()}
-        builder.add_joint(kind, ename, bi, bj, **geometry)
+        builder.add_joint(kind, fresh(ename), bi, bj, **geometry)
     # loop closures must hold at qpos0, or they would be assembled differently
     _check_equalities_hold(mujoco, m, d, unsupported)
 
@@ -393,7 +408,8 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
         left_out += unsupported
     if inactive:
         warnings.warn("note (limits and contacts are left out: they act only when reached or "
-                      "touching, and spatialmbd has neither yet): " + "; ".join(inactive),
+                      "touching, and spatialmbd has neither yet; keyframes are not used): "
+                      + "; ".join(inactive),
                       MJCFImportWarning, stacklevel=2)
         left_out += inactive
     return MJCFImport(builder=builder, groups=groups, left_out=left_out, mj_model=m)
