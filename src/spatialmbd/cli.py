@@ -4,6 +4,7 @@
     spatialmbd info MODEL                 bodies, joints, drivers, forces, degrees of freedom
     spatialmbd plot RESULTS -y Q -o FIG   plots from a results file (--x: against any column)
     spatialmbd animate IN -o FILE.html    offline HTML animation (results file or model file)
+    spatialmbd import FILE.xml -o M.yaml  MJCF / URDF -> model file (extra spatialmbd[mjcf])
     spatialmbd examples [NAME]            list the example models, or write one as a model file
     spatialmbd demo                       the chapter 15 study (figure and table)
     spatialmbd validate [--full]          the validation suite
@@ -67,8 +68,42 @@ def _load(path: str):
         raise UsageError(f"no such model file: {path}")
     if p.is_dir():
         raise UsageError(f"{path} is a directory, not a model file")
+    if p.suffix.lower() in MJCF_SUFFIXES:        # MJCF / URDF: imported, default analysis
+        from .io.modelfile import load_model, model_to_dict
+        return load_model(model_to_dict(_import_mjcf(p, lenient=False)))
     from .io.modelfile import load_model
     return load_model(p)
+
+
+MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
+
+
+def _import_mjcf(path, lenient: bool):
+    """ModelBuilder of an MJCF/URDF file; what is left out is printed as a warning."""
+    from .importers import import_mjcf
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        builder = import_mjcf(path, strict=not lenient)
+    for w in caught:
+        _err(f"warning: {w.message}")
+    return builder
+
+
+def cmd_import(args) -> int:
+    src = pathlib.Path(args.input)
+    if not src.is_file():
+        raise UsageError(f"no such MJCF/URDF file: {args.input}")
+    builder = _import_mjcf(src, lenient=args.lenient)
+    from .io.modelfile import save_model
+    out = pathlib.Path(args.output or (src.stem + ".yaml"))
+    if out.suffix.lower() not in (".yaml", ".yml", ".json"):
+        raise UsageError(f"output file {str(out)!r}: the name must end in .yaml, .yml or .json")
+    save_model(builder, out, header=f"imported from {src.name} by spatialmbd import "
+                                    "(MuJoCo's compiler)")
+    if not args.quiet:
+        print(f"{len(builder.bodies)} bodies, {len(builder.joints)} joints, "
+              f"{len(builder.forces)} force elements: model written to {out}")
+    return 0
 
 
 def _check_name(kind: str, name: str) -> str:
@@ -430,7 +465,9 @@ def cmd_animate(args) -> int:
             status = 1
         title = args.title or f"spatialmbd: {model.name}"
     for out in outs:
-        write_animation(results, out, model=model, title=title, max_frames=args.max_frames)
+        write_animation(results, out, model=model, title=title, max_frames=args.max_frames,
+                        reactions=getattr(args, "reactions", False),
+                        renderer=getattr(args, "renderer", "auto"))
         if not args.quiet:
             print(f"animation written to {out}")
     if status:
@@ -669,9 +706,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-frames", type=int, default=1000, metavar="N",
                    help="at most N frames, evenly spread (default 1000)")
     p.add_argument("--title", help="page title")
+    p.add_argument("--renderer", choices=("auto", "canvas"), default="auto",
+                   help="auto: WebGL (three.js embedded) with the Canvas renderer as fallback; "
+                        "canvas: Canvas only, a much smaller page")
+    p.add_argument("--reactions", action="store_true",
+                   help="draw the joint reaction forces as arrows (model files only)")
     _add_analysis_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=cmd_animate)
+
+    p = command("import", "convert an MJCF or URDF file to a spatialmbd model file",
+                "Read an MJCF (.xml) or URDF (.urdf) file with MuJoCo's compiler (optional "
+                "extra: pip install 'spatialmbd[mjcf]') and write the equivalent model file: "
+                "bodies with their mass properties, hinge/slide/ball joints as revolute/"
+                "translational/spherical joints, connect/weld equalities as exact spherical/"
+                "fixed joints. Features with no exact counterpart (tendons, actuators, joint "
+                "couplings, contact pairs, ...) are an error naming them, or with --lenient a "
+                "warning. `run`, `info` and `animate` also accept these files directly.",
+                """
+                spatialmbd import robot.urdf -o robot.yaml
+                spatialmbd import scene.xml --lenient -o scene.yaml
+                spatialmbd run four_bar.xml --t-end 2 -o four_bar.h5
+                """)
+    p.add_argument("input", metavar="FILE", help="MJCF (.xml) or URDF (.urdf) file")
+    p.add_argument("-o", "--output", metavar="MODEL.yaml",
+                   help="model file to write (.yaml, .yml or .json); default <stem>.yaml")
+    p.add_argument("--lenient", action="store_true",
+                   help="leave out features with no exact counterpart, with a warning")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but warnings")
+    p.set_defaults(func=cmd_import)
 
     p = command("examples", "list the example models or write one as a model file",
                 "Without NAME: list the example models. With NAME: describe it; with --write "

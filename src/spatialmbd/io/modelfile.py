@@ -45,7 +45,8 @@ JSON_SUFFIXES = (".json",)
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
             "ground_shapes", "analysis", "outputs")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
-             "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color")
+             "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color",
+             "density")
 ORIENTATION_KEYS = ("euler_parameters", "euler_zxz", "euler_zxz_deg", "bryant", "bryant_deg",
                     "matrix")
 _GEOMETRY_ORDER = ("point", "axis", "reference", "point2", "axis2",
@@ -68,8 +69,10 @@ def joint_keys(jtype=None) -> tuple:
 DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
 SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "cylinder": ("type", "radius", "length", "center", "axis", "color"),
-              "sphere": ("type", "radius", "center", "color")}
-SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+              "sphere": ("type", "radius", "center", "color"),
+              "capsule": ("type", "radius", "length", "center", "axis", "color")}
+SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",),
+                  "capsule": ("radius", "length")}
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
                  "correct_initial", "hold")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
@@ -340,6 +343,32 @@ def _shape(P, path, value) -> bool:
     if "color" in value:
         _color(P, tuple(path) + ("color",), value["color"])
     return len(P) == n0
+
+
+def _density_body(P, path, d: dict) -> dict:
+    """A body given by ``density`` (kg/m^3) and ``shapes``: the same body with the mass and
+    inertia of its shapes (boxes, cylinders, spheres, capsules exactly)."""
+    from ..importers.massprops import body_mass_properties
+    if "mass" in d or "inertia" in d:
+        P.add(path, "give density (with shapes) or mass and inertia, not both")
+        return d
+    scratch = _Problems()    # the shapes themselves are checked (and reported) with the body
+    if not (_number(P, path + ("density",), d["density"], positive=True)
+            and _list(scratch, path + ("shapes",), d.get("shapes"), "shapes") and d["shapes"]
+            and all(_shape(scratch, path + ("shapes", k), s)
+                    for k, s in enumerate(d["shapes"]))):
+        if not scratch and not d.get("shapes"):
+            P.add(path + ("shapes",), "a body given by its density needs shapes")
+        return d
+    try:
+        mass, inertia = body_mass_properties(d["shapes"], float(d["density"]),
+                                             f"bodies[{d.get('name')!r}]")
+    except ModelError as exc:
+        P.add(path, str(exc))
+        return d
+    out = {k: v for k, v in d.items() if k != "density"}
+    out["mass"], out["inertia"] = mass, inertia.tolist()
+    return out
 
 
 def _color(P, path, value) -> bool:
@@ -713,9 +742,13 @@ def _parse(P, data, default_name="model"):
         bodies = []
     for i, d in enumerate(bodies):
         path = ("bodies", i)
-        if not _mapping(P, path, d, BODY_KEYS, ("name", "mass", "inertia")):
+        by_density = isinstance(d, dict) and "density" in d
+        if not _mapping(P, path, d, BODY_KEYS,
+                        ("name", "shapes") if by_density else ("name", "mass", "inertia")):
             continue
         n0 = len(P)             # unknown keys (reported) do not stop the builder's checks
+        if by_density:          # mass properties from the shapes (importers.massprops)
+            d = _density_body(P, path, d)
         complete = all(k in d for k in ("name", "mass", "inertia"))
         if "name" in d and _string(P, path + ("name",), d["name"], "a body name (string)"):
             declared_bodies.append(d["name"])
