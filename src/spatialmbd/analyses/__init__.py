@@ -13,7 +13,7 @@ driven coordinate increases.
 """
 from .inverse import InverseDynamicsResults, inverse_dynamics, prescribed_motion_model
 from .statics import QuasiStaticResults, StaticResults, quasi_static, static_equilibrium
-# linearize: added below
+from .linearize import LinearModel, ModalResults, linearize, modes
 
 __all__ = ["inverse_dynamics", "InverseDynamicsResults", "prescribed_motion_model",
            "static_equilibrium", "StaticResults", "quasi_static", "QuasiStaticResults",
