@@ -80,16 +80,45 @@ class InverseDynamicsResults:
     def lam(self):
         return self.results.lam
 
+    def as_user_force(self, drivers: Optional[Sequence[str]] = None):
+        """A callable f(t, q, v) -> (forces (nb, 3), torques (nb, 3)) applying the efforts of
+        ``drivers`` (default all) as the generalized forces D_k^T lam_k(t) of their rows, with
+        lam_k interpolated by a cubic spline over the output times: add it as a "user" force
+        to the model without those drivers to reproduce the motion by forward dynamics."""
+        from scipy.interpolate import CubicSpline
+        model = self.model
+        names = list(self.efforts.columns[1:]) if drivers is None else list(drivers)
+        splines = {n: CubicSpline(self.t, self.efforts[n].to_numpy()) for n in names}
+        members = []
+        for g in model.constraint_groups:
+            if g.rheonomic:
+                for k, n in enumerate(g.names):
+                    if n in splines:
+                        members.append((g, k, n))
+        nb = model.nb
+
+        def force(t, q, v):
+            state = BodyState.from_qv(q, v, t)
+            gen = np.zeros((nb + 1, 6))
+            for g, k, n in members:
+                Dk = g.evaluate(state, t).D[k, 0]                   # (12,) over v_i, v_j
+                lam = float(splines[n](t))
+                gen[g.body_i[k]] += lam * Dk[:6]
+                gen[g.body_j[k]] += lam * Dk[6:]
+            return gen[:nb, :3], gen[:nb, 3:]
+        return force
+
     def reactions_table(self):
         """Reactions of every joint as a DataFrame (see common.reactions_frame)."""
         return reactions_frame(self.reactions, self.t)
 
     def energy(self):
         """Energy balance as a DataFrame: kinetic, potential (gravity + springs), work of the
-        driver efforts and of the non-conservative force elements (Simpson's rule over the
-        output times), and error = Delta(T + V) - W_efforts - W_nonconservative (J)."""
+        driver efforts and of the non-conservative force elements (integral of the cubic
+        spline through the powers at the output times), and
+        error = Delta(T + V) - W_efforts - W_nonconservative (J)."""
         import pandas as pd
-        from scipy.integrate import cumulative_simpson
+        from scipy.interpolate import CubicSpline
         model, res = self.model, self.results
         nt = len(self.t)
         T = np.array([kinetic_energy(model, res.q[k], res.v[k]) for k in range(nt)])
@@ -98,8 +127,11 @@ class InverseDynamicsResults:
         P_nc = np.zeros(nt)
         for k, state in enumerate(res.states()):
             P_nc[k] = sum(g.nonconservative_power(state, self.t[k]) for g in model.force_groups)
-        W_eff = cumulative_simpson(P_eff, x=self.t, initial=0.0) if nt > 2 else np.zeros(nt)
-        W_nc = cumulative_simpson(P_nc, x=self.t, initial=0.0) if nt > 2 else np.zeros(nt)
+        def work(P):                        # integral of the cubic spline through the powers
+            if nt < 4:
+                return np.zeros(nt)
+            return CubicSpline(self.t, P).antiderivative()(self.t)
+        W_eff, W_nc = work(P_eff), work(P_nc)
         error = (T + V) - (T[0] + V[0] if nt else 0.0) - W_eff - W_nc
         return pd.DataFrame(dict(t=self.t, kinetic=T, potential=V, work_efforts=W_eff,
                                  work_nonconservative=W_nc, power_efforts=P_eff, error=error))
