@@ -1,0 +1,149 @@
+"""Linearization and modes against closed forms derived here."""
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from spatialmbd import ModelBuilder
+from spatialmbd.analyses import linearize, modes, static_equilibrium
+from spatialmbd.analyses.linearize import NotEquilibriumError
+from spatialmbd.models import HEAVY_TOP, heavy_top
+
+G = 9.81
+
+
+def double_pendulum(m=1.0, L=1.0):
+    """Two uniform rods (m, L) hanging along -z, revolute joints about global x."""
+    b = ModelBuilder("double_pendulum_rods", gravity=(0, 0, -G))
+    inertia = (m * L**2 / 12, m * L**2 / 12, 1e-6)
+    b.add_body("bar1", m, inertia, r=(0, 0, -L / 2))
+    b.add_body("bar2", m, inertia, r=(0, 0, -1.5 * L))
+    b.add_joint("revolute", "shoulder", "ground", "bar1", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_joint("revolute", "elbow", "bar1", "bar2", point=(0, 0, -L), axis=(1, 0, 0))
+    return b.compile()
+
+
+def test_double_pendulum_of_uniform_rods_matches_closed_form_frequencies():
+    """Small angles theta1, theta2 from the vertical: T gives M = m L^2 [[4/3, 1/2], [1/2, 1/3]],
+    V gives K = m g L diag(3/2, 1/2); det(K - w^2 M) = 0 is 7 l^2 - 42 l + 27 = 0 with
+    l = w^2 L / g."""
+    m, L = 1.0, 1.0
+    md = modes(double_pendulum(m, L))
+    lam = np.array([3 - np.sqrt(1008) / 14, 3 + np.sqrt(1008) / 14])
+    omega = np.sqrt(lam * G / L)
+    assert np.allclose(md.table["omega_n"], omega, rtol=1e-8)
+    assert np.allclose(md.frequencies_hz, omega / (2 * np.pi), rtol=1e-8)
+    assert list(md.table["kind"]) == ["oscillatory", "oscillatory"]
+    assert np.allclose(md.table["damping_ratio"], 0.0)
+    # mode shapes: theta2/theta1 from (K - w^2 M) phi = 0, first row
+    Mc = m * L**2 * np.array([[4 / 3, 1 / 2], [1 / 2, 1 / 3]])
+    Kc = m * G * L * np.diag([1.5, 0.5])
+    for k in range(2):
+        ratio = -(Kc[0, 0] - omega[k]**2 * Mc[0, 0]) / (Kc[0, 1] - omega[k]**2 * Mc[0, 1])
+        shape = md.shapes[:, k].real.reshape(2, 6)
+        assert shape[1, 3] / shape[0, 3] == pytest.approx(ratio, rel=1e-6)
+    # the same frequencies with partitioned coordinates, named after body coordinates
+    lin = linearize(double_pendulum(m, L), coordinates="partition")
+    assert all("." in c for c in lin.coordinates)
+    w2 = sla.eigh(lin.K, lin.M, eigvals_only=True)
+    assert np.allclose(np.sqrt(w2), omega, rtol=1e-8)
+
+
+def _top(spin):
+    return heavy_top(theta=0.0, spin=spin, precession=0.0).compile()
+
+
+def test_sleeping_top_stability_threshold_matches_gyroscopic_closed_form():
+    """Top on its tip, axis vertical, spin Omega. Small tilts x, y of the axis:
+    A x'' + C Omega y' - m g l x = 0, A y'' - C Omega x' - m g l y = 0 (A = I1 + m l^2 about
+    the tip, C = I3); x + i y = e^{i w t} needs A w^2 - C Omega w + m g l = 0: real w, stable,
+    iff C^2 Omega^2 > 4 A m g l."""
+    p = HEAVY_TOP
+    m, l, I1, C = p["mass"], p["l"], p["I1"], p["I3"]
+    A = I1 + m * l**2
+    critical = np.sqrt(4 * A * m * G * l) / C
+    assert modes(_top(1.02 * critical), steady=True).stable
+    below = modes(_top(0.98 * critical), steady=True)
+    assert not below.stable and (below.table["kind"] == "unstable").sum() == 1
+    spin = 50.0
+    md = modes(_top(spin), steady=True)
+    w = np.sort(np.roots([A, -C * spin, m * G * l]).real)
+    osc = np.sort(md.table.loc[md.table["kind"] == "oscillatory", "omega_n"].to_numpy())
+    assert np.allclose(osc, w, rtol=1e-7)
+    # the spin about the axis itself is a rigid-body mode
+    assert (md.table["kind"] == "rigid-body").sum() == 1
+
+
+def test_analytic_and_finite_difference_derivatives_agree():
+    lin_a = linearize(_top(37.0), steady=True)
+    lin_f = linearize(_top(37.0), steady=True, derivatives="fd")
+    assert np.abs(lin_a.A - lin_f.A).max() < 1e-6 * np.abs(lin_a.A).max()
+    assert np.abs(lin_a.C).max() > 0.1                          # gyroscopic terms present
+    # a tilted spinning rotor with spring, damper and gravity, off its principal axes
+    b = ModelBuilder("rotor", gravity=(0, 0, -G))
+    c, s = np.cos(0.3), np.sin(0.3)
+    b.add_body("rotor", 3.0, (0.2, 0.3, 0.4), r=(0, 0, 0), A=[[c, 0, s], [0, 1, 0], [-s, 0, c]],
+               omega=(0, 0, 8.0))
+    b.add_joint("revolute", "bearing", "ground", "rotor", point=(0, 0, 0), axis=(0, 0, 1))
+    b.add_force("rotational_spring_damper", "spring", joint="bearing", stiffness=5.0,
+                damping=0.4)
+    model = b.compile()
+    la = linearize(model, steady=True)
+    lf = linearize(model, steady=True, derivatives="fd")
+    for key in ("M", "C", "K"):
+        ref = max(np.abs(getattr(la, key)).max(), 1e-12)
+        assert np.abs(getattr(la, key) - getattr(lf, key)).max() < 1e-6 * ref, key
+    # one DoF: I_zz theta'' + c theta' + k theta = 0 (I_zz of the tilted body about z)
+    Izz = 0.2 * s**2 + 0.4 * c**2
+    assert la.M[0, 0] / la.K[0, 0] == pytest.approx(Izz / 5.0, rel=1e-8)
+    assert la.C[0, 0] / la.K[0, 0] == pytest.approx(0.4 / 5.0, rel=1e-6)
+
+
+def test_driver_effort_input_and_driver_output_give_the_static_compliance():
+    """Compound pendulum hanging at rest with its angle driver as the input: I_O theta'' +
+    m g (L/2) theta = tau, so the static gain y/u = C (-A^-1) B = 1 / (m g L / 2)."""
+    m, L = 2.0, 0.8
+    b = ModelBuilder("pendulum", gravity=(0, 0, -G))
+    b.add_body("rod", m, (m * L**2 / 12, m * L**2 / 12, 1e-4), r=(0, 0, -L / 2))
+    b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_driver("motor", "angle", 0.0, joint="pivot")
+    model = b.compile()
+    lin = linearize(model, inputs=["motor"], outputs=["motor", "rod.y", "motor.rate"])
+    assert lin.n == 1
+    gain = lin.C_out @ np.linalg.solve(-lin.A, lin.B)
+    assert gain[0, 0] == pytest.approx(1 / (m * G * L / 2), rel=1e-8)
+    # a rotation theta about +x moves the CoM at (0, 0, -L/2) by e_x x (0, 0, -L/2) theta =
+    # +(L/2) theta along y
+    assert gain[1, 0] == pytest.approx((L / 2) / (m * G * L / 2), rel=1e-8)
+    assert abs(gain[2, 0]) < 1e-12
+    w = np.sqrt(m * G * L / 2 / (m * L**2 / 3))
+    assert np.sort(np.abs(np.linalg.eigvals(lin.A).imag)) == pytest.approx([w, w], rel=1e-8)
+    frames = lin.frames()
+    assert list(frames["B"].columns) == ["motor"]
+
+
+def test_non_equilibrium_states_are_refused():
+    b = ModelBuilder("pendulum", gravity=(0, 0, -G))
+    b.add_body("rod", 1.0, (1 / 12, 1e-4, 1 / 12), r=(0, 0.5, 0))
+    b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    model = b.compile()
+    with pytest.raises(NotEquilibriumError, match="not an equilibrium.*static_equilibrium"):
+        linearize(model)
+    with pytest.raises(NotEquilibriumError, match="steady=True"):
+        linearize(_top(40.0))
+    # from the static solution it works: hanging pendulum, w^2 = m g (L/2) / (m L^2 / 3)
+    sol = static_equilibrium(model)
+    md = modes(model, sol.q, np.zeros(6))
+    assert md.table["omega_n"][0] == pytest.approx(np.sqrt(1.5 * G), rel=1e-7)
+
+
+def test_free_body_has_six_rigid_body_modes_and_mode_motion_is_animatable():
+    b = ModelBuilder("free", gravity=(0, 0, 0))
+    b.add_body("box", 2.0, (0.1, 0.2, 0.25))
+    md = modes(b.compile())
+    assert list(md.table["kind"]) == ["rigid-body"] * 6
+    md2 = modes(double_pendulum())
+    res = md2.motion(1, amplitude=1e-3)
+    viol = res.constraint_violation()["position"]
+    assert viol.max() < 1e-5                       # second order in the amplitude
+    # it moves: the largest shape entry swings by +-amplitude
+    assert np.ptp(res.q[:, :, :3], axis=0).max() > 1.5e-3
