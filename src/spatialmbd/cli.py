@@ -132,14 +132,20 @@ def _apply_overrides(analysis, args):
     """A copy of ``analysis`` with the command-line options applied; notes for the user."""
     notes = []
     changes = {}
-    kinematic = str(getattr(analysis, "type", "dynamic")).lower().startswith("kin")
+    kind = str(getattr(analysis, "type", "dynamic")).lower()
+    kinematic = kind != "dynamic"
     dynamic_only = [opt for opt, value in (("--method", args.method),
                                            ("--integrator", args.integrator),
                                            ("--step", args.step), ("--rtol", args.rtol),
                                            ("--atol", args.atol)) if value is not None]
     if kinematic and dynamic_only:
         raise UsageError(f"{', '.join(dynamic_only)}: only for dynamic analyses; this model "
-                         "file asks for a kinematic analysis")
+                         f"file asks for a{'n' if kind[0] in 'aeiou' else ''} {kind} "
+                         "analysis")
+    if kind in ("static", "modal") and (args.t_end is not None or
+                                        args.output_step is not None):
+        raise UsageError(f"--t-end/--output-step: a {kind} analysis is at one time (set "
+                         "'time' in the model file's analysis section)")
     if args.method is not None:
         _check_name("method", args.method)
         old = _name_of(analysis.method)
@@ -256,6 +262,8 @@ def cmd_run(args) -> int:
         for note in notes:
             print(f"note: {note}")
     results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet)
+    if getattr(analysis, "type", "dynamic") in ENGINEERING_TYPES:
+        return _write_engineering(results, analysis, outs, wall, warning_texts, args.quiet)
     table = to_dataframe(results)
     for out in outs:
         save_results(results, out, analysis=analysis, table=table)
@@ -266,6 +274,32 @@ def cmd_run(args) -> int:
     if results.status != "success":
         _err(_failure_line(results))
         return 1
+    return 0
+
+
+ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
+
+
+def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> int:
+    """Files and summary of an engineering analysis (spatialmbd.analyses): its table as CSV,
+    or HDF5 with the positions over time (modal analyses: CSV only, one row per mode)."""
+    from .io.results_io import save_results
+    table = results.to_dataframe()
+    for out in outs:
+        if out.suffix.lower() == ".csv":
+            table.to_csv(out, index=False)
+        elif analysis.type == "modal":
+            raise UsageError(f"output file {str(out)!r}: modal results are written as CSV "
+                             "(one row per mode); use a .csv name")
+        else:
+            save_results(results.results, out, analysis=analysis, table=table)
+    if not quiet:
+        print(results.summary())
+        print(f"wall time {wall:.3g} s")
+        for w in warning_texts:
+            print(f"warning: {w}")
+        for out in outs:
+            print(f"results written to {out} ({len(table)} rows, {len(table.columns)} columns)")
     return 0
 
 

@@ -131,25 +131,32 @@ def describe_direction(model, x: np.ndarray, count: int = 2) -> str:
         dr, dth = x[b, :3], x[b, 3:]
         name = model.body_names[b]
         if np.linalg.norm(dth) > 1e-9:
-            axis = dth / np.linalg.norm(dth)
+            axis = _clean(dth / np.linalg.norm(dth))
             # the point of the body that does not move: r + (dth x dr)/|dth|^2 (screw axis)
             along = float(axis @ dr)
             point = np.cross(dth, dr) / float(dth @ dth)   # on the screw axis, from the CoM
             text = (f"{name}: rotation about axis ({axis[0]:.3g}, {axis[1]:.3g}, "
                     f"{axis[2]:.3g})")
-            if np.linalg.norm(point) > 1e-6:
+            if np.linalg.norm(point) > 1e-9:
                 text += f" through the point {_fmt(point)} from its centre of mass"
             if abs(along) > 1e-6 * np.linalg.norm(dth):
                 text += f" with translation {along / np.linalg.norm(dth):.3g} m/rad along it"
             parts.append(text)
         else:
-            d = dr / np.linalg.norm(dr)
+            d = _clean(dr / np.linalg.norm(dr))
             parts.append(f"{name}: translation along ({d[0]:.3g}, {d[1]:.3g}, {d[2]:.3g})")
     return "; ".join(parts)
 
 
+def _clean(v, scale: float = 1.0):
+    """Components below 1e-9 of the scale shown as 0 (round-off in the directions)."""
+    v = np.array(v, dtype=float)
+    v[np.abs(v) < 1e-9 * max(scale, 1e-300)] = 0.0
+    return v + 0.0
+
+
 def _fmt(v) -> str:
-    return "(" + ", ".join(f"{c:.3g}" for c in v) + ") m"
+    return "(" + ", ".join(f"{c:.3g}" for c in _clean(v)) + ") m"
 
 
 def results_object(model, t, q, v, vdot, lam, *, work=None, redundant_joints=(),

@@ -430,6 +430,13 @@ class ModalResults:
         return pd.DataFrame(self.shapes.real, index=labels,
                             columns=[f"mode{k}" for k in range(self.shapes.shape[1])])
 
+    def to_dataframe(self):
+        """One row per mode: the table and the real parts of the shapes (columns
+        "shape.<body>.<x|y|z|rx|ry|rz>")."""
+        import pandas as pd
+        shapes = self.shapes_table().T.add_prefix("shape.").reset_index(drop=True)
+        return pd.concat([self.table.reset_index(drop=True), shapes], axis=1)
+
     def motion(self, mode: int, amplitude: float = 0.1, cycles: float = 2.0,
                points_per_cycle: int = 40):
         """A Results object animating one mode: q(t) = q* moved by amplitude * Re(shape
@@ -527,7 +534,8 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-6, **kwargs) -> ModalResu
     kinds = [kinds[k] for k in order]
     mag = np.abs(s_vals)
     omega_n = np.where(np.array(kinds) == "rigid-body", 0.0, mag)
-    zeta = np.where(omega_n > 0, 0.0 - s_vals.real / np.where(mag > 0, mag, 1), np.nan) + 0.0
+    zeta = np.where(omega_n > 0, 0.0 - s_vals.real / np.where(mag > 0, mag, 1), np.nan)
+    zeta[np.abs(zeta) < 1e-12] = 0.0                       # round-off of undamped systems
     table = pd.DataFrame(dict(
         real=s_vals.real, imag=s_vals.imag, omega_n=omega_n, frequency_hz=omega_n / (2 * np.pi),
         damped_frequency_hz=np.abs(s_vals.imag) / (2 * np.pi), damping_ratio=zeta, kind=kinds,

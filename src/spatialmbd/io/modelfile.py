@@ -59,9 +59,14 @@ SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "sphere": ("type", "radius", "center", "color")}
 SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
-                 "correct_initial", "hold")
+                 "correct_initial", "hold", "steady", "time")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
-ANALYSIS_TYPES = ("dynamic", "kinematic")
+#: engineering analyses (spatialmbd.analyses): inverse dynamics and quasi-static analysis over
+#: the output times; static equilibrium and modes at one time ("time", s, default 0)
+ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
+ANALYSIS_TYPES = ("dynamic", "kinematic") + ENGINEERING_TYPES
+#: types without output times
+SINGLE_TIME_TYPES = ("static", "modal")
 
 #: how each force parameter is written; parameters of force types added later default to "any"
 FORCE_PARAM_KINDS = {"body": "body", "body_i": "body", "body_j": "body", "joint": "joint",
@@ -418,9 +423,14 @@ class Analysis:
     integrator_options: dict = field(default_factory=dict)
     correct_initial: bool = True
     hold: Optional[dict] = None
+    steady: bool = False
+    time: float = 0.0
 
     def run(self, model, progress=False):
-        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``."""
+        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``;
+        the result objects of spatialmbd.analyses for the engineering types."""
+        if self.type in ENGINEERING_TYPES:
+            return self._run_engineering(model)
         if self.type == "kinematic":
             from ..kinematics import kinematic_analysis
             from ..simulate import output_times
@@ -437,9 +447,33 @@ class Analysis:
                         correct_initial=self.correct_initial, hold=self.hold,
                         progress=progress)
 
+    def _run_engineering(self, model):
+        """inverse: InverseDynamicsResults; static: StaticResults at ``time``; quasi_static:
+        QuasiStaticResults; modal: ModalResults about the static equilibrium at ``time`` (or,
+        with ``steady``, about the model's initial state as a steady motion)."""
+        from .. import analyses
+        from ..simulate import output_times
+        if self.type == "static":
+            return analyses.static_equilibrium(model, t=self.time)
+        if self.type == "modal":
+            if self.steady:
+                return analyses.modes(model, t=self.time, steady=True)
+            sol = analyses.static_equilibrium(model, t=self.time)
+            return analyses.modes(model, sol.q, np.zeros(6 * model.nb), self.time)
+        times = output_times(self.t_end, self.output_step, self.t_eval)
+        if self.type == "inverse":
+            return analyses.inverse_dynamics(model, times)
+        return analyses.quasi_static(model, times)
+
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""
         out: dict = {"type": self.type}
+        if self.type in SINGLE_TIME_TYPES:
+            if self.time:
+                out["time"] = float(self.time)
+            if self.type == "modal" and self.steady:
+                out["steady"] = True
+            return out
         if self.t_eval is not None:
             out["t_eval"] = [float(t) for t in self.t_eval]
         else:
@@ -531,6 +565,8 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
                 and a.t_eval is not None and float(d["t_end"]) != a.t_eval[-1]:
             P.add(tuple(path) + ("t_end",), f"t_end ({d['t_end']!r}) differs from the last "
                                             f"time of t_eval ({a.t_eval[-1]!r}); leave it out")
+    elif "t_end" not in d and kind in SINGLE_TIME_TYPES:
+        pass                                    # one time: "time" (s), default 0
     elif "t_end" not in d:
         P.add(path, "missing required key 't_end' (end time, s), or give t_eval")
     elif _number(P, tuple(path) + ("t_end",), d["t_end"], positive=True):
@@ -539,11 +575,30 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
         if _number(P, tuple(path) + ("output_step",), d["output_step"], positive=True):
             a.output_step = float(d["output_step"])
 
-    if kind == "kinematic":
+    for key, types in (("steady", ("modal",)), ("time", SINGLE_TIME_TYPES)):
+        if key in d and kind not in types:
+            P.add(tuple(path) + (key,), f"applies to {' and '.join(types)} analyses only "
+                                        f"(this analysis is {kind})")
+    if kind in SINGLE_TIME_TYPES:
+        for key in ("t_end", "output_step", "t_eval"):
+            if key in d:
+                P.add(tuple(path) + (key,), f"a {kind} analysis is at one time: give 'time' "
+                                            "(s) instead")
+    if "steady" in d and kind == "modal":
+        if isinstance(d["steady"], bool):
+            a.steady = d["steady"]
+        else:
+            P.add(tuple(path) + ("steady",), f"expected true or false, got "
+                                             f"{_describe(d['steady'])}")
+    if "time" in d and kind in SINGLE_TIME_TYPES:
+        if _number(P, tuple(path) + ("time",), d["time"], nonneg=True):
+            a.time = float(d["time"])
+
+    if kind != "dynamic":
         for key in DYNAMIC_ONLY:
             if key in d:
                 P.add(tuple(path) + (key,), "applies to dynamic analyses only (this analysis "
-                                            "is kinematic)")
+                                            f"is {kind})")
         return a
 
     if "method" in d:
