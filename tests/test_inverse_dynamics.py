@@ -104,16 +104,11 @@ def test_unbalanced_rotor_has_zero_drive_torque_and_closed_form_bearing_moment()
     assert np.allclose(res.reactions["bearing"].force_j, [[0, 0, 5.0 * G]], atol=1e-9)
 
 
-def test_slider_crank_crank_torque_equals_virtual_work_of_inertia_and_gravity():
-    """tau * thetadot = sum over bodies of (m a - m g) . v + omega . (J omegadot + omega x J
-    omega), from the kinematic analysis alone (no multipliers)."""
-    omega = 6.0
-    model = models.slider_crank(crank_speed=omega).compile()
-    t = np.linspace(0, 2 * np.pi / omega, 61)
-    res = inverse_dynamics(model, t)
-    kin = kinematic_analysis(model, t, tol=1e-12)
+def virtual_work_power(model, kin):
+    """sum over bodies of (m a - m g) . v + omega . (J omegadot + omega x J omega): the power
+    the single driver must deliver, from the kinematic analysis alone (no multipliers)."""
     from spatialmbd.rotations import A_from_p
-    power = np.zeros(t.size)
+    power = np.zeros(kin.t.size)
     for k in range(model.nb):
         m = model.mass[k]
         v, a = kin.v[:, k, :3], kin.vdot[:, k, :3]
@@ -124,6 +119,33 @@ def test_slider_crank_crank_torque_equals_virtual_work_of_inertia_and_gravity():
         Jwd = np.einsum("nij,nj->ni", J, wd)
         power += np.sum((m * a - m * model.gravity) * v, axis=1)
         power += np.sum(w * (Jwd + np.cross(w, Jw)), axis=1)
+    return power
+
+
+def test_bricard_with_redundant_joints_has_unique_torque_from_virtual_work():
+    """Bricard linkage (one redundant joint equation) driven at joint O: the redundancy is
+    among the joints, so the effort is still unique and equals the virtual-work torque."""
+    b = models.bricard()
+    b.add_driver("drive", "angle", ConstantVelocity(rate=0.8), joint="O")
+    model = b.compile()
+    t = np.linspace(0.0, 1.5, 16)
+    with pytest.warns(NonUniqueEffortsWarning, match="efforts are unique"):
+        res = inverse_dynamics(model, t)
+    assert res.unique
+    tau = virtual_work_power(model, kinematic_analysis(model, t, tol=1e-12)) / 0.8
+    assert np.abs(res.efforts["drive"].to_numpy() - tau).max() < 1e-8 * np.abs(tau).max()
+    assert not res.reactions["P5"].unique
+
+
+def test_slider_crank_crank_torque_equals_virtual_work_of_inertia_and_gravity():
+    """tau * thetadot = sum over bodies of (m a - m g) . v + omega . (J omegadot + omega x J
+    omega), from the kinematic analysis alone (no multipliers)."""
+    omega = 6.0
+    model = models.slider_crank(crank_speed=omega).compile()
+    t = np.linspace(0, 2 * np.pi / omega, 61)
+    res = inverse_dynamics(model, t)
+    kin = kinematic_analysis(model, t, tol=1e-12)
+    power = virtual_work_power(model, kin)
     tau = power / omega
     assert np.abs(res.efforts["crank_drive"].to_numpy() - tau).max() < 1e-9 * max(
         1.0, np.abs(tau).max())

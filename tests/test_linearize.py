@@ -149,3 +149,21 @@ def test_free_body_has_six_rigid_body_modes_and_mode_motion_is_animatable():
     # the rotation angle about x is 2 e1 to first order
     swing = np.ptp(2 * res.q[:, :, 4], axis=0).max()
     assert swing == pytest.approx(2e-3, rel=1e-2)
+
+
+def test_damped_pendulum_damping_ratio_matches_closed_form():
+    """Rod hanging from a pin with a rotational damper c and spring k:
+    I_O theta'' + c theta' + (k + m g L/2) theta = 0, so omega_n^2 = (k + m g L/2) / I_O and
+    zeta = c / (2 sqrt((k + m g L/2) I_O))."""
+    m, L, k, c = 1.5, 0.6, 4.0, 0.9
+    b = ModelBuilder("damped", gravity=(0, 0, -G))
+    b.add_body("rod", m, (m * L**2 / 12, m * L**2 / 12, 1e-4), r=(0, 0, -L / 2))
+    b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_force("rotational_spring_damper", "damper", joint="pivot", stiffness=k, damping=c)
+    md = modes(b.compile())
+    I_O = m * L**2 / 3
+    stiffness = k + m * G * L / 2
+    assert md.table["omega_n"][0] == pytest.approx(np.sqrt(stiffness / I_O), rel=1e-7)
+    assert md.table["damping_ratio"][0] == pytest.approx(c / (2 * np.sqrt(stiffness * I_O)),
+                                                         rel=1e-7)
+    assert md.table["kind"][0] == "oscillatory"

@@ -47,7 +47,9 @@ class InverseDynamicsResults:
     efforts: DataFrame (t and one column per driver, N or N m; sign: see the module doc);
     power: DataFrame (t and one column per driver, W = effort * d(coordinate)/dt);
     reactions: name -> JointReaction (spatialmbd.results) of every joint and driver;
-    unique: False if the efforts or reactions are minimum-norm choices (redundancy);
+    unique: False if the efforts are minimum-norm choices (redundant drivers); redundant
+        joints alone leave the efforts unique but not the reactions of their loop (then
+        JointReaction.unique is False for the joints named);
     results: a Results object (q, v, vdot, lam) for tables, files and the animation;
     units: driver name -> unit of its effort.
     """
@@ -256,19 +258,22 @@ def solve_multipliers(D: np.ndarray, b: np.ndarray, driver_mask: np.ndarray, W=N
     if W is None:
         W = left_null_space(D)
     if W.shape[1]:
+        # W has orthonormal columns: driver parts below 1e-9 are round-off (redundancy among
+        # the joints only), not a freedom of the efforts
         Sd = W[driver_mask]                              # driver rows of the free directions
-        c = -np.linalg.lstsq(Sd, lam[driver_mask], rcond=None)[0] if Sd.size else \
-            np.zeros(W.shape[1])
-        lam = lam + W @ c
-        # remaining freedom (directions that leave the driver efforts unchanged): joints
         if Sd.size:
-            _, s, Vt = np.linalg.svd(Sd)
-            r = int(np.sum(s > 1e-10 * (s[0] if s.size else 1.0)))
-            Z = W @ Vt[r:].T
+            U, s, Vt = np.linalg.svd(Sd)
+            r = int(np.sum(s > 1e-9))
         else:
-            Z = W
+            r, Vt = 0, np.eye(W.shape[1])
+        if r:
+            # minimum |lam_drivers| over lam + W c: c in the span of the first r directions
+            c = -Vt[:r].T @ ((U[:, :r].T @ lam[driver_mask]) / s[:r])
+            lam = lam + W @ c
+        # remaining freedom (directions that leave the driver efforts unchanged): joints
+        Z = W @ Vt[r:].T
         if Z.shape[1]:
-            lam = lam - Z @ np.linalg.lstsq(Z, lam, rcond=None)[0]
+            lam = lam - Z @ (Z.T @ lam)                  # Z orthonormal: minimum |lam|
     resid = float(np.abs(D.T @ lam - b).max()) if b.size else 0.0
     return lam, resid
 
@@ -308,11 +313,18 @@ def inverse_dynamics(model, t: Optional[Sequence[float]] = None, *, motion=None,
     mask[list(rows.values())] = True
     messages = []
     redundant = sorted({r[1] for r in mob.redundant})
-    unique = not redundant
+    unique = True
     if redundant:
-        text = (f"{mob.n_redundant} redundant constraint equation(s) (in {', '.join(redundant)})"
-                ": the efforts are the minimum-norm ones and the reactions of the joints "
-                "involved are not unique")
+        W = left_null_space(dense(model.assembler.evaluate(q, None, t[0]).D))
+        unique = not (W.shape[1] and np.linalg.norm(W[mask], 2) > 1e-9)
+        if unique:
+            text = (f"{mob.n_redundant} redundant constraint equation(s) among the joints (in "
+                    f"{', '.join(redundant)}): the driver efforts are unique, the reactions "
+                    "of the joints of the redundant loop are minimum-norm ones, not unique")
+        else:
+            text = (f"{mob.n_redundant} redundant constraint equation(s) (in "
+                    f"{', '.join(redundant)}): the drivers over-determine the motion; the "
+                    "efforts are the minimum-norm ones and NOT unique")
         messages.append(text)
         if warn:
             warnings.warn(text, NonUniqueEffortsWarning, stacklevel=2)

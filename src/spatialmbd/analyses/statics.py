@@ -470,7 +470,8 @@ def quasi_static(model, t: Optional[Sequence[float]] = None, *, t_end: Optional[
                  max_iter: int = 50, stability: bool = True) -> QuasiStaticResults:
     """Equilibria at the times t of a model with rheonomic drivers (Adams EQUILIBRIUM along a
     motion / Chrono DoStaticNonlinearRheonomic): each solved by :func:`static_equilibrium`
-    from the previous one. Efforts of the drivers (N m / N) hold the mechanism at rest."""
+    from the previous one. Efforts of the drivers (N m / N) hold the mechanism at rest.
+    stability=False: Newton only (no fallbacks, no stability), faster for long sequences."""
     from ..simulate import output_times
     if t is None:
         t = output_times(1.0 if t_end is None else t_end, output_step, None)
@@ -487,14 +488,12 @@ def quasi_static(model, t: Optional[Sequence[float]] = None, *, t_end: Optional[
             sol = static_equilibrium(model, q, tk, tol=tol, max_iter=max_iter)
             stable[k] = sol.stable
             kmin[k] = sol.stiffness.min() if sol.stiffness.size else np.nan
-        else:
-            step = default_step()
+            q, lam_k = sol.q, sol.lam
+        else:                                   # Newton only, no stability analysis
             loads = _Loads(model, tk)
-            fs = max(_scales(model, loads, q), 1e-9)
-            qq, ll, _ = _newton(model, loads, q, tk, 1.0, tol, max_iter, step, fs)
-            sol = type("S", (), dict(q=qq, lam=ll))
-        q = sol.q
-        Q[k], lam[k] = sol.q, sol.lam
+            q, lam_k, _ = _newton(model, loads, q, tk, 1.0, tol, max_iter, default_step(),
+                                  max(_scales(model, loads, q), 1e-9))
+        Q[k], lam[k] = q, lam_k
     import pandas as pd
     rows = driver_rows(model)
     res = results_object(model, t, Q, np.zeros((t.size, nb, 6)), np.zeros((t.size, nb, 6)),
