@@ -49,6 +49,15 @@ def test_inverted_pendulum_is_an_unstable_equilibrium_named_as_such():
         "rod: rotation about axis (-1, 0, 0)" in sol.unstable_directions[0]
 
 
+def test_seek_stable_leaves_the_inverted_position_for_the_hanging_one():
+    b = ModelBuilder("inverted", gravity=(0, 0, -G))
+    b.add_body("rod", 1.0, (1 / 12, 1 / 12, 1e-4), r=(0, 0, 0.5))
+    b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    sol = static_equilibrium(b.compile(), seek_stable=True)
+    assert sol.stable and np.allclose(sol.q[0, :3], [0, 0, -0.5], atol=1e-9)
+    assert "stable search" in sol.method
+
+
 def _rod_chain(phi0, L=1.0, m=1.0):
     nodes = np.zeros((len(phi0) + 1, 3))
     for k, p in enumerate(phi0):
@@ -139,3 +148,17 @@ def test_quasi_static_slider_crank_torque_against_virtual_work():
     x, _, _ = models.slider_crank_exact(th, omega)
     assert np.abs(qs.q[:, model.body_index("slider"), 0] - x).max() < 1e-9
     assert qs.stable.all()
+
+
+def test_translation_driver_effort_sign_holding_a_weight():
+    """A 3 kg slider on a vertical guide (axis +z) held by a translation driver: the effort
+    pushes it up along +z, positive (it would do positive work lifting the slider), 3 g N; with
+    the guide axis -z the same support is a negative effort."""
+    for axis, sign in (((0, 0, 1), 1.0), ((0, 0, -1), -1.0)):
+        b = ModelBuilder("lift", gravity=(0, 0, -G))
+        b.add_body("slider", 3.0, (0.1, 0.1, 0.1), r=(0, 0, 1.0))
+        b.add_joint("translational", "guide", "ground", "slider", point=(0, 0, 1.0), axis=axis)
+        b.add_driver("jack", "translation", 0.0, joint="guide")
+        sol = static_equilibrium(b.compile())
+        assert sol.efforts["jack"] == pytest.approx(sign * 3.0 * G, rel=1e-10)
+        assert sol.units["jack"] == "N"

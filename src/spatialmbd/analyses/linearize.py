@@ -474,13 +474,14 @@ class ModalResults:
         return "\n".join(lines)
 
 
-def modes(model_or_linear, *args, zero_tol: float = 1e-6, **kwargs) -> ModalResults:
+def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResults:
     """Vibration modes of a LinearModel, or of ``linearize(model, *args, **kwargs)``.
 
     Undamped, non-gyroscopic systems (C = 0): the symmetric problem K phi = omega^2 M phi
     (real shapes; omega^2 < 0 is an unstable, divergent direction). Otherwise the eigenvalues
     s of A: omega_n = |s|, damping ratio -Re(s)/|s|, damped frequency |Im s|. Eigenvalues with
-    |s| below zero_tol times the largest (or 1e-6 rad/s) are rigid-body modes.
+    |s|^2 below zero_tol times the largest |s|^2 (a stiffness 1e-8 of the largest: the accuracy
+    of the differenced stiffness), or |s| < 1e-6 rad/s, are rigid-body modes.
     """
     import pandas as pd
     lin = model_or_linear if isinstance(model_or_linear, LinearModel) else \
@@ -505,7 +506,7 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-6, **kwargs) -> ModalResu
         s_vals, Z = ev[idx], V[:n, idx]
     mag = np.abs(s_vals)
     big = mag.max() if mag.size else 0.0
-    zero = mag <= max(zero_tol * big, 1e-6)
+    zero = mag <= max(np.sqrt(zero_tol) * big, 1e-6)
     if zero.sum() > 1:
         # a rigid-body coordinate gives a double zero eigenvalue of A (a Jordan block with one
         # eigenvector): keep one mode per independent zero-frequency shape
@@ -521,7 +522,7 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-6, **kwargs) -> ModalResu
             shapes[:, k] = shapes[:, k] / shapes[j, k]
     kinds = []
     for s in s_vals:
-        if abs(s) <= max(zero_tol * big, 1e-6):
+        if abs(s) <= max(np.sqrt(zero_tol) * big, 1e-6):
             kinds.append("rigid-body")
         elif s.real > 1e-9 * max(abs(s), 1.0):
             kinds.append("unstable")

@@ -345,7 +345,8 @@ def localize(Z: np.ndarray) -> np.ndarray:
 def static_equilibrium(model, q_guess=None, t: float = 0.0, *, tol: float = 1e-9,
                        max_iter: int = 50, load_steps: Sequence[int] = (4, 16, 64),
                        minimise: bool = True, step: Optional[float] = None,
-                       zero_tol: float = 1e-7, _loads=None) -> StaticResults:
+                       zero_tol: float = 1e-7, seek_stable: bool = False,
+                       _loads=None) -> StaticResults:
     """Static equilibrium Q(q) + D^T lam = 0, Phi(q, t) = 0 near q_guess, and its stability.
 
     q_guess: (nb, 7) starting positions (default the model's q0). t: time (s) of the driver
@@ -354,6 +355,9 @@ def static_equilibrium(model, q_guess=None, t: float = 0.0, *, tol: float = 1e-9
         full load fails; minimise: then try the energy-minimisation fallback.
     step: central-difference step of the tangent stiffness (default eps^(1/3) ~ 6e-6).
     zero_tol: eigenvalues below zero_tol * max |eigenvalue| count as zero stiffness.
+    seek_stable: when the equilibrium found is unstable, push the mechanism off it along each
+        unstable direction (both senses), minimise the potential energy from there, and return
+        the stable equilibrium of lowest energy found (the unstable one if none is).
 
     Raises NoEquilibriumError (the loads push along an unsupported direction, e.g. a free body
     under gravity) or ConvergenceError when no equilibrium is found.
@@ -405,6 +409,32 @@ def static_equilibrium(model, q_guess=None, t: float = 0.0, *, tol: float = 1e-9
         messages.append(f"reduced stiffness asymmetric by {asym:.2g} (relative): non-"
                         "conservative loads (follower forces?) make it non-symmetric; the "
                         "eigenvalues of its symmetric part are reported")
+    if seek_stable and "unstable" in kinds:
+        best = None
+        for k in [k for k, c in enumerate(kinds) if c == "unstable"]:
+            d = dirs[:, k] / np.abs(dirs[:, k]).max()
+            for sign in (1.0, -1.0):
+                try:
+                    start, _ = solve_positions(model, perturb(q, 0.05 * sign * d), t)
+                    qm = _minimise(model, loads, start, t, tol, 200, step, force_scale,
+                                   size_scale)
+                    q2, lam2, it2 = _newton(model, loads, qm, t, 1.0, tol, max_iter, step,
+                                            force_scale)
+                except (ConvergenceError, SingularMatrixError):
+                    continue
+                w2, dirs2, kinds2, asym2 = _stability(model, loads, q2, lam2, t, step, zero_tol)
+                energy = potential_energy(model, q2, t)
+                if "unstable" not in kinds2 and (best is None or energy < best[0]):
+                    best = (energy, q2, lam2, it2, w2, dirs2, kinds2, asym2)
+        if best is None:
+            messages.append("no stable equilibrium found near the unstable one")
+        else:
+            messages.append("the equilibrium first found was unstable; moved off it along "
+                            "its unstable direction to a stable one")
+            _, q, lam, iterations, w, dirs, kinds, asym = best
+            method += " + stable search"
+            phi, D = _constraints(model, q, t)
+            residual = float(np.abs(loads(q, 1.0, t) + D.T @ lam).max())
     rows = driver_rows(model)
     res = results_object(model, [t], q[None], np.zeros((1, nb, 6)), np.zeros((1, nb, 6)),
                          lam[None], settings={"analysis": "static"})
