@@ -113,6 +113,9 @@ def test_free_body_under_gravity_has_no_equilibrium():
     b.add_body("ball", 1.0, (0.1, 0.1, 0.1))
     with pytest.raises(NoEquilibriumError, match=r"ball: translation along \(0, 0, -1\)"):
         static_equilibrium(b.compile(), load_steps=(), minimise=False)
+    # the fallbacks (load stepping, energy minimisation) do not hide it either
+    with pytest.raises(NoEquilibriumError, match="no equilibrium exists"):
+        static_equilibrium(b.compile())
 
 
 def test_load_stepping_finds_large_deflection_when_newton_alone_fails():
