@@ -167,3 +167,61 @@ def test_damped_pendulum_damping_ratio_matches_closed_form():
     assert md.table["damping_ratio"][0] == pytest.approx(c / (2 * np.sqrt(stiffness * I_O)),
                                                          rel=1e-7)
     assert md.table["kind"][0] == "oscillatory"
+
+
+def test_pendulum_on_a_driven_shaft_in_the_turning_frame():
+    """Rod (m, L) pinned at its top end to a shaft driven at Omega about z, swinging about the
+    shaft's x axis. With theta from the downward vertical, body axes x (pin), y, z (rod):
+    T = I_x theta'^2/2 + Omega^2 (I_y sin^2 + I_z cos^2)/2, V = -m g (L/2) cos(theta), so
+    about theta = 0: I_x theta'' + (m g L/2 - Omega^2 (I_y - I_z)) theta = 0 (moments about
+    the pin). A fixed frame cannot describe this relative equilibrium (warning); the frame
+    turning with the shaft gives the closed form."""
+    from spatialmbd.analyses.linearize import TurningNullSpaceWarning
+    from spatialmbd.motion import ConstantVelocity
+    m, L, Omega, axial = 2.0, 0.9, 3.0, 1e-3
+    b = ModelBuilder("shaft_pendulum", gravity=(0, 0, -G))
+    b.add_body("shaft", 1.0, (0.01, 0.01, 0.02), r=(0, 0, 0.5), omega=(0, 0, Omega))
+    b.add_body("rod", m, (m * L**2 / 12, m * L**2 / 12, axial), r=(0, 0, -L / 2),
+               omega=(0, 0, Omega))
+    b.add_joint("revolute", "spin", "ground", "shaft", point=(0, 0, 0.5), axis=(0, 0, 1))
+    b.add_joint("revolute", "pin", "shaft", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_driver("motor", "angle", ConstantVelocity(rate=Omega), joint="spin")
+    model = b.compile()
+    I_x = I_y = m * L**2 / 3
+    w2 = (m * G * L / 2 - Omega**2 * (I_y - axial)) / I_x
+    with pytest.warns(TurningNullSpaceWarning, match="frame_rate"):
+        linearize(model, steady=True)
+    md = modes(model, steady=True, frame_rate=(0, 0, Omega))
+    assert md.table["omega_n"][0] == pytest.approx(np.sqrt(w2), rel=1e-8)
+    # above Omega^2 = m g L / 2 / (I_y - I_z) the hanging position is unstable
+    b2 = model.to_builder()
+    fast = 1.05 * np.sqrt(m * G * L / 2 / (I_y - axial))
+    for name in ("shaft", "rod"):
+        b2.bodies[name].omega[:] = (0, 0, fast)
+    b2.drivers["motor"].law = ConstantVelocity(rate=fast)
+    assert not modes(b2.compile(), steady=True, frame_rate=(0, 0, fast)).stable
+
+
+def test_heavy_top_in_steady_precession_nutation_frequency_by_routh_reduction():
+    """Tilted top precessing steadily (models.heavy_top): with the conserved momenta
+    a = C w3 and b = A Omega sin^2(theta0) + a cos(theta0), theta obeys A theta'' = -V'(theta),
+    V = (b - a cos)^2 / (2 A sin^2) + m g l cos; the nutation frequency is sqrt(V''/A). In the
+    frame turning at the precession rate the linear model is constant and gives it."""
+    p = HEAVY_TOP
+    m, l, I1, C = p["mass"], p["l"], p["I1"], p["I3"]
+    A = I1 + m * l**2
+    th0, spin = p["theta"], p["spin"]
+    qa, qb, qc = A * np.cos(th0), -C * spin, m * G * l
+    Omega = (-qb - np.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa)       # as models.heavy_top
+    a = C * spin
+    b = A * Omega * np.sin(th0)**2 + a * np.cos(th0)
+
+    def V(th):
+        return (b - a * np.cos(th))**2 / (2 * A * np.sin(th)**2) + m * G * l * np.cos(th)
+    h = 1e-4
+    assert abs(V(th0 + h) - V(th0 - h)) / (2 * h) < 1e-5                # steady: V' = 0
+    w_nut = np.sqrt((V(th0 + h) - 2 * V(th0) + V(th0 - h)) / h**2 / A)
+    md = modes(heavy_top().compile(), steady=True, frame_rate=(0, 0, Omega))
+    osc = md.table[md.table["kind"] == "oscillatory"]
+    assert len(osc) == 1
+    assert osc["omega_n"].iloc[0] == pytest.approx(w_nut, rel=1e-6)

@@ -21,9 +21,15 @@ body velocity coordinates); premultiplying by N^T removes dlam:
                                         K_r = N^T (R_x - R_v W - M W') N,  B_r = N^T B_q.
 
 At an equilibrium W = 0 and K_r is the reduced tangent stiffness of statics.py (including the
-constraint-curvature term lam^T d2Phi). For a steady motion N is frozen at the instant; this is
-exact when the null space of D does not turn along the motion (a rotor about a fixed axis, a top
-spinning about the vertical); otherwise a warning says how fast it turns.
+constraint-curvature term lam^T d2Phi). For a steady motion the basis may follow a frame turning
+at omega_f (``frame_rate``): N(t) = R_f(t) N, N' = Om N, N'' = Om^2 N with Om = blockdiag(
+omega_f~) on every 3-vector, and dx = N z gives
+
+    C_r = N^T (2 M Om + (R_v - M W)) N,   K_r = N^T (M Om^2 + (R_v - M W) Om + K2) N,
+
+constant for a relative equilibrium. A fixed frame (default) is exact when the null space of D
+does not turn along the motion (a rotor about a fixed axis, a top spinning about the vertical);
+otherwise a warning says how fast it turns relative to the chosen frame.
 
 Derivatives: M, the gyroscopic term and their q-dependence analytic; force elements and the
 constraint term D^T lam by central differences (step eps^(1/3), checked against half the step).
@@ -245,7 +251,8 @@ def _partition_basis(D: np.ndarray, labels):
 def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
               inputs: Sequence[str] = (), outputs: Sequence[str] = (),
               coordinates: str = "nullspace", derivatives: str = "analytic",
-              step: Optional[float] = None, tol: float = 1e-6) -> LinearModel:
+              step: Optional[float] = None, tol: float = 1e-6,
+              frame_rate: Optional[Sequence[float]] = None) -> LinearModel:
     """Linear model about (q, v, t) (defaults: the model's q0, v0).
 
     steady: False -- (q, v) must be an equilibrium (v = 0, no unbalanced force; else
@@ -262,6 +269,11 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     derivatives: "analytic" (analytic where the kernels have them) or "fd" (all central
         differences, step ``step``; default eps^(1/3)).
     tol: relative size of the unbalanced force below which the state counts as equilibrium.
+    frame_rate: (3,) rad/s, steady motions only: the coordinates z follow a frame turning at
+        this rate about an axis through the origin (N(t) = R_f(t) N). For a relative
+        equilibrium -- the whole mechanism turning steadily, e.g. a pendulum on a driven shaft,
+        a flyball governor -- the linear model is then constant and its frequencies are those
+        seen in the turning frame. Default: a fixed frame.
     """
     from ..dynamics.eom import EquationsOfMotion
     nb = model.nb
@@ -367,20 +379,38 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     else:
         N, rank = null_space(D)
         zlabels = [f"z{k}" for k in range(N.shape[1])]
-    if steady and N.shape[1]:
+    # basis moving with the frame: N(t) = R_f(t) N, N' = Om N, N'' = Om^2 N
+    Om = np.zeros((6 * nb, 6 * nb))
+    if frame_rate is not None:
+        if not steady:
+            raise ModelError("linearize: frame_rate applies to steady motions (steady=True)")
+        wf = np.asarray(frame_rate, dtype=float).reshape(-1)
+        if wf.size != 3 or not np.all(np.isfinite(wf)):
+            raise ModelError(f"linearize: frame_rate must be 3 finite numbers (rad/s), got "
+                             f"{frame_rate!r}")
+        for k in range(2 * nb):
+            Om[3 * k:3 * k + 3, 3 * k:3 * k + 3] = skew(wf)
+    Ndot, Nddot = Om @ N, Om @ Om @ N
+    if steady and N.shape[1] and m:
         h = 1e-6
         Dp = dense(model.assembler.evaluate(perturb(qv, h * v), None, t + h).D)[keep]
         Dm = dense(model.assembler.evaluate(perturb(qv, -h * v), None, t - h).D)[keep]
-        turn = np.linalg.norm(np.linalg.lstsq(D, (Dp - Dm) / (2 * h) @ N, rcond=None)[0], 2) \
-            if m else 0.0
-        spin = max(float(np.abs(w).max()), 1e-300)
-        if turn > 1e-6 * max(spin, 1.0):
-            text = (f"the null space of D turns along the steady motion at {turn:.3g} rad/s: "
-                    "the linearization freezes it at this instant (approximate; exact for "
-                    "motions with a constant null space)")
+        # rate at which the null space leaves itself, -D^+ D' N, against the frame's rotation
+        out_of = -np.linalg.lstsq(D, (Dp - Dm) / (2 * h) @ N, rcond=None)[0]
+        modelled = Ndot - N @ (N.T @ Ndot)
+        turn = float(np.linalg.norm(out_of - modelled, 2))
+        spin = max(float(np.abs(w).max()), 1.0)
+        if turn > 1e-6 * spin:
+            text = (f"the null space of D turns along the steady motion at {turn:.3g} rad/s "
+                    + ("relative to the frame_rate given" if frame_rate is not None else "")
+                    + ": the linearization freezes it at this instant (approximate). For a "
+                    "mechanism turning steadily as a whole (a relative equilibrium) pass its "
+                    "rate as frame_rate")
             messages.append(text)
             warnings.warn(text, TurningNullSpaceWarning, stacklevel=2)
-    Mr, Cr, Kr = N.T @ M @ N, N.T @ C2 @ N, N.T @ K2 @ N
+    Mr = N.T @ M @ N
+    Cr = N.T @ (2 * M @ Ndot + C2 @ N)
+    Kr = N.T @ (M @ Nddot + C2 @ Ndot + K2 @ N)
     Br = N.T @ B_q
     n = N.shape[1]
     Minv = np.linalg.inv(Mr) if n else np.zeros((0, 0))
