@@ -53,12 +53,15 @@ def test_inverse_dynamics_to_hdf5(tmp_path):
 
 def test_analysis_sections_are_checked_and_round_trip():
     for data in ({"type": "static"}, {"type": "modal", "steady": True, "time": 0.5},
+                 {"type": "modal", "steady": True, "frame_rate": [0, 0, 3.0]},
                  {"type": "inverse", "t_end": 1.0, "output_step": 0.1},
                  {"type": "quasi_static", "t_end": 2.0}):
         a = Analysis.from_dict(data)
         assert Analysis.from_dict(a.to_dict()) == a
     with pytest.raises(ModelFileError, match="one time"):
         Analysis.from_dict({"type": "static", "t_end": 1.0})
+    with pytest.raises(ModelFileError, match="steady: true only"):
+        Analysis.from_dict({"type": "modal", "frame_rate": [0, 0, 1]})
     with pytest.raises(ModelFileError, match="modal analyses only"):
         Analysis.from_dict({"type": "inverse", "t_end": 1.0, "steady": True})
     with pytest.raises(ModelFileError, match="dynamic analyses only"):

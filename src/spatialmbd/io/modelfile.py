@@ -59,7 +59,7 @@ SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "sphere": ("type", "radius", "center", "color")}
 SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
-                 "correct_initial", "hold", "steady", "time")
+                 "correct_initial", "hold", "steady", "time", "frame_rate")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
 #: engineering analyses (spatialmbd.analyses): inverse dynamics and quasi-static analysis over
 #: the output times; static equilibrium and modes at one time ("time", s, default 0)
@@ -425,6 +425,7 @@ class Analysis:
     hold: Optional[dict] = None
     steady: bool = False
     time: float = 0.0
+    frame_rate: Optional[list] = None
 
     def run(self, model, progress=False):
         """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``;
@@ -457,7 +458,8 @@ class Analysis:
             return analyses.static_equilibrium(model, t=self.time)
         if self.type == "modal":
             if self.steady:
-                return analyses.modes(model, t=self.time, steady=True)
+                return analyses.modes(model, t=self.time, steady=True,
+                                      frame_rate=self.frame_rate)
             sol = analyses.static_equilibrium(model, t=self.time)
             return analyses.modes(model, sol.q, np.zeros(6 * model.nb), self.time)
         times = output_times(self.t_end, self.output_step, self.t_eval)
@@ -473,6 +475,8 @@ class Analysis:
                 out["time"] = float(self.time)
             if self.type == "modal" and self.steady:
                 out["steady"] = True
+                if self.frame_rate is not None:
+                    out["frame_rate"] = [float(x) for x in self.frame_rate]
             return out
         if self.t_eval is not None:
             out["t_eval"] = [float(t) for t in self.t_eval]
@@ -590,6 +594,13 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
         else:
             P.add(tuple(path) + ("steady",), f"expected true or false, got "
                                              f"{_describe(d['steady'])}")
+    if "frame_rate" in d:
+        if kind != "modal" or not d.get("steady", False):
+            P.add(tuple(path) + ("frame_rate",), "applies to modal analyses with steady: true "
+                                                 "only (the rate, rad/s, of the frame turning "
+                                                 "with a relative equilibrium)")
+        elif _vector(P, tuple(path) + ("frame_rate",), d["frame_rate"]):
+            a.frame_rate = [float(x) for x in d["frame_rate"]]
     if "time" in d and kind in SINGLE_TIME_TYPES:
         if _number(P, tuple(path) + ("time",), d["time"], nonneg=True):
             a.time = float(d["time"])
