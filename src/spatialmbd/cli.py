@@ -349,11 +349,18 @@ def _describe_analysis(analysis) -> str:
     if analysis is None:
         return "none"
     parts = [str(getattr(analysis, "type", "?"))]
+    if parts[0] in ("static", "modal"):                     # one time, no integration
+        parts.append(f"at t = {getattr(analysis, 'time', 0.0):g} s")
+        if getattr(analysis, "steady", False):
+            rate = getattr(analysis, "frame_rate", None)
+            parts.append("about the initial steady motion"
+                         + (f", frame turning at {rate} rad/s" if rate else ""))
+        return ", ".join(parts)
     for key, label in (("t_end", "t_end"), ("output_step", "output step")):
         value = getattr(analysis, key, None)
         if value is not None:
             parts.append(f"{label} {value:g} s")
-    if not str(parts[0]).lower().startswith("kin"):
+    if str(parts[0]).lower() == "dynamic":
         for key in ("method", "integrator"):
             value = _name_of(getattr(analysis, key, None))
             if value:
