@@ -27,13 +27,12 @@ motion of the bodies. Units of K_r mix N/m and N m/rad; only the signs are basis
 """
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
 
-from ..errors import ConvergenceError, ModelError, SimulationError, SingularMatrixError
+from ..errors import ConvergenceError, SimulationError, SingularMatrixError
 from ..kinematics import solve_positions
 from ..state import BodyState
 from .common import (central_jacobian, conservative_forces_only, default_step, dense,
