@@ -294,3 +294,19 @@ def test_linear_response_about_a_steady_spin_matches_nonlinear_simulation():
         z = lin.basis.T @ _tangent(res.q[k], ref)
         err = max(err, np.abs(z - (expm(lin.A * tk) @ x0)[:lin.n]).max())
     assert err < 1e-3 * eps
+
+
+def test_n_four_bar_with_redundant_joints_hanging_frequency():
+    """IFToMM A02 parallelogram (N = 2, spatial revolutes about z: redundant equations).
+    seek_stable moves it from the upright equilibrium of q0 to the hanging one; there every
+    crank angle obeys I phi'' = -K phi with I = 3 I_O + 2 m L^2 (couplers translate),
+    I_O = m (L^2 + a^2)/12 + m L^2/4 (square section a = 0.02 m), K = m g L (3/2 + 2)."""
+    from spatialmbd import models
+    model = models.n_four_bar(2).compile()
+    first = static_equilibrium(model)
+    assert not first.stable
+    sol = static_equilibrium(model, seek_stable=True)
+    assert sol.stable and np.allclose(sol.q[0, :3], [0, -0.5, 0], atol=1e-9)
+    md = modes(model, sol.q, np.zeros(6 * model.nb))
+    inertia = 3 * ((1 + 0.02**2) / 12 + 0.25) + 2
+    assert md.table["omega_n"][0] == pytest.approx(np.sqrt(G * 3.5 / inertia), rel=1e-9)
