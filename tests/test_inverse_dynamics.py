@@ -220,3 +220,16 @@ def test_under_driven_mechanism_is_an_error_naming_the_free_joint():
     b.add_driver("d1", "angle", 0.0, joint="shoulder")
     with pytest.raises(ModelError, match=r"mobility 2.*1 driver.*elbow"):
         inverse_dynamics(b.compile(), [0.0, 0.1])
+
+
+def test_motion_table_replaces_a_driver_law():
+    """Samples of the crank angle 6 t for the slider-crank's own driver: the same torque as
+    with its constant-velocity law (the spline of a straight line is exact)."""
+    model = models.slider_crank(crank_speed=6.0).compile()
+    t = np.linspace(0.0, 1.0, 21)
+    direct = inverse_dynamics(model, t)
+    ts = np.linspace(0.0, 1.0, 11)
+    table = inverse_dynamics(model, t, motion={"t": ts, "crank_drive": 6.0 * ts})
+    assert np.abs(table.efforts["crank_drive"] - direct.efforts["crank_drive"]).max() < 1e-9
+    with pytest.raises(ModelError, match="names no driver, joint or body coordinate"):
+        inverse_dynamics(model, t, motion={"t": ts, "crank": ts})
