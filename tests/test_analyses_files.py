@@ -82,3 +82,24 @@ def test_example_scripts_run():
     assert np.abs(inv.energy()["error"]).max() < 1e-5
     top = runpy.run_path(str(FOLDER / "spinning_top_threshold.py"), run_name="example")
     assert top["growth_rate"](28.0) > 0.1 and top["growth_rate"](31.0) < 1e-8
+
+
+def test_cli_reports_bad_engineering_inputs(tmp_path, capsys):
+    """A free body under gravity has no equilibrium; an undriven pendulum cannot be inverted:
+    clear messages and a failing exit code, no traceback."""
+    free = {"spatialmbd": 1, "name": "free", "gravity": [0, 0, -9.81],
+            "bodies": [{"name": "ball", "mass": 1.0, "inertia": [0.1, 0.1, 0.1]}],
+            "analysis": {"type": "static"}}
+    under = {"spatialmbd": 1, "name": "under", "gravity": [0, 0, -9.81],
+             "bodies": [{"name": "rod", "mass": 1.0, "inertia": [0.1, 0.1, 0.001],
+                         "position": [0, 0, -0.5]}],
+             "joints": [{"name": "pivot", "type": "revolute", "body_i": "ground",
+                         "body_j": "rod", "point": [0, 0, 0], "axis": [1, 0, 0]}],
+             "analysis": {"type": "inverse", "t_end": 1.0}}
+    import yaml
+    for data, text in ((free, "no equilibrium exists"), (under, "pivot (revolute: angle)")):
+        path = tmp_path / f"{data['name']}.yaml"
+        path.write_text(yaml.safe_dump(data))
+        code = main(["run", str(path), "-o", str(tmp_path / "out.csv"), "--quiet"])
+        err = capsys.readouterr().err
+        assert code != 0 and text in err and "Traceback" not in err
