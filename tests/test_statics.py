@@ -165,3 +165,33 @@ def test_translation_driver_effort_sign_holding_a_weight():
         sol = static_equilibrium(b.compile())
         assert sol.efforts["jack"] == pytest.approx(sign * 3.0 * G, rel=1e-10)
         assert sol.units["jack"] == "N"
+
+
+def test_quasi_static_with_a_free_spring_loaded_joint():
+    """Shoulder driven through theta(t) = 0.8 t (from +y towards +z, about x); the forearm
+    hangs on a torsional spring k at the elbow (relative angle phi, rest 0). Per time:
+    d V/d phi = m2 g (L2/2) cos(theta + phi) + k phi = 0 (forearm), and the holding torque
+    tau = dV/dtheta = m1 g (L1/2) cos(theta) + m2 g (L1 cos(theta) + (L2/2) cos(theta + phi))."""
+    from spatialmbd.motion import ConstantVelocity
+    m1, L1, m2, L2, k = 2.0, 1.0, 1.5, 0.8, 30.0
+    b = ModelBuilder("arm", gravity=(0, 0, -G))
+    b.add_body("upper", m1, (m1 * L1**2 / 12, 1e-4, m1 * L1**2 / 12), r=(0, L1 / 2, 0))
+    b.add_body("fore", m2, (m2 * L2**2 / 12, 1e-4, m2 * L2**2 / 12), r=(0, L1 + L2 / 2, 0))
+    b.add_joint("revolute", "shoulder", "ground", "upper", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_joint("revolute", "elbow", "upper", "fore", point=(0, L1, 0), axis=(1, 0, 0))
+    b.add_force("rotational_spring_damper", "spring", joint="elbow", stiffness=k)
+    b.add_driver("motor", "angle", ConstantVelocity(rate=0.8), joint="shoulder")
+    t = np.linspace(0.0, 2.0, 9)
+    qs = quasi_static(b.compile(), t)
+    theta = 0.8 * t
+    phi = np.array([brentq(lambda p: m2 * G * L2 / 2 * np.cos(th + p) + k * p, -3, 3)
+                    for th in theta])
+    tau = m1 * G * L1 / 2 * np.cos(theta) + m2 * G * (L1 * np.cos(theta)
+                                                       + L2 / 2 * np.cos(theta + phi))
+    assert np.abs(qs.efforts["motor"].to_numpy() - tau).max() < 1e-7
+    fore = qs.q[:, 1, :3]
+    expected = np.column_stack([np.zeros_like(t),
+                                L1 * np.cos(theta) + L2 / 2 * np.cos(theta + phi),
+                                L1 * np.sin(theta) + L2 / 2 * np.sin(theta + phi)])
+    assert np.abs(fore - expected).max() < 1e-9
+    assert qs.stable.all()
