@@ -51,6 +51,16 @@ def test_inverse_dynamics_to_hdf5(tmp_path):
     assert loaded.t.shape == (5,)
 
 
+def test_modal_hdf5_holds_an_animatable_mode(tmp_path):
+    from spatialmbd.io.results_io import load_results
+    out = tmp_path / "mode.h5"
+    assert main(["run", str(FOLDER / "double_pendulum_modes.yaml"), "-o", str(out),
+                 "--quiet"]) == 0
+    loaded = load_results(out)
+    assert loaded.q.shape[1:] == (2, 7) and np.ptp(loaded.q[:, 0, 4]) > 0.01
+    assert main(["animate", str(out), "-o", str(tmp_path / "mode.html")]) == 0
+
+
 def test_analysis_sections_are_checked_and_round_trip():
     for data in ({"type": "static"}, {"type": "modal", "steady": True, "time": 0.5},
                  {"type": "modal", "steady": True, "frame_rate": [0, 0, 3.0]},

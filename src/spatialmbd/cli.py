@@ -282,15 +282,24 @@ ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
 
 def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> int:
     """Files and summary of an engineering analysis (spatialmbd.analyses): its table as CSV,
-    or HDF5 with the positions over time (modal analyses: CSV only, one row per mode)."""
+    or HDF5 with the positions over time. Modal analyses: CSV, one row per mode; HDF5, the
+    motion of the lowest mode that is not a rigid-body one (for ``spatialmbd animate``)."""
     from .io.results_io import save_results
     table = results.to_dataframe()
+    notes = []
     for out in outs:
         if out.suffix.lower() == ".csv":
             table.to_csv(out, index=False)
         elif analysis.type == "modal":
-            raise UsageError(f"output file {str(out)!r}: modal results are written as CSV "
-                             "(one row per mode); use a .csv name")
+            kinds = list(results.table["kind"])
+            k = next((i for i, c in enumerate(kinds) if c != "rigid-body"), 0)
+            if not kinds:
+                raise UsageError(f"output file {str(out)!r}: the model has no modes to animate")
+            motion = results.motion(k, amplitude=0.1)
+            save_results(motion, out, analysis=analysis)
+            notes.append(f"{out} holds the motion of mode {k} ({kinds[k]}, "
+                         f"{results.table['frequency_hz'][k]:.6g} Hz, largest entry 0.1 m or "
+                         "rad); write a .csv for the table of all modes")
         else:
             save_results(results.results, out, analysis=analysis, table=table)
     if not quiet:
@@ -300,6 +309,8 @@ def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> i
             print(f"warning: {w}")
         for out in outs:
             print(f"results written to {out} ({len(table)} rows, {len(table.columns)} columns)")
+        for note in notes:
+            print(f"note: {note}")
     return 0
 
 
