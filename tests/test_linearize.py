@@ -273,7 +273,11 @@ def test_linear_response_about_a_steady_spin_matches_nonlinear_simulation():
     from spatialmbd.simulate import simulate
     spin = 40.0
     model = _top(spin)
-    lin = linearize(model, steady=True)
+    lin = linearize(model, steady=True,
+                    outputs=["top.tip.x", "top.tip.vx", "top.tip.vy", "top.tip.vz", "top.vx"])
+    # the tip stays on the spherical joint: its position and velocity outputs vanish
+    assert np.abs(lin.C_out[:4]).max() < 1e-9
+    assert np.abs(lin.C_out[4]).max() > 1e-3
     eps = 1e-5
     z0 = eps * np.random.default_rng(2).normal(size=lin.n)
     dx = lin.basis @ z0
@@ -291,8 +295,11 @@ def test_linear_response_about_a_steady_spin_matches_nonlinear_simulation():
         turn = np.array([[np.cos(spin * tk / 2), 0, 0, np.sin(spin * tk / 2)]])
         ref = model.q0.copy()
         ref[:, 3:] = quat_multiply(turn, model.q0[:, 3:])
+        x = expm(lin.A * tk) @ x0
         z = lin.basis.T @ _tangent(res.q[k], ref)
-        err = max(err, np.abs(z - (expm(lin.A * tk) @ x0)[:lin.n]).max())
+        err = max(err, np.abs(z - x[:lin.n]).max())
+        # CoM velocity output against the simulation (reference CoM at rest on the axis)
+        err = max(err, abs(res.v[k, 0, 0] - (lin.C_out @ x)[4]) / spin)
     assert err < 1e-3 * eps
 
 
@@ -310,3 +317,29 @@ def test_n_four_bar_with_redundant_joints_hanging_frequency():
     md = modes(model, sol.q, np.zeros(6 * model.nb))
     inertia = 3 * ((1 + 0.02**2) / 12 + 0.25) + 2
     assert md.table["omega_n"][0] == pytest.approx(np.sqrt(G * 3.5 / inertia), rel=1e-9)
+
+
+def test_motor_holding_a_rod_below_horizontal_as_input():
+    """Rod held by its motor at theta0 = -0.6 rad (from +y towards +z, about x): the holding
+    torque u* = m g l cos(theta0) stays applied, u is the deviation. I_O theta'' =
+    u* + u - m g l cos(theta) gives I_O dtheta'' - m g l sin(theta0) dtheta = u, so
+    w^2 = m g l sin(0.6) / I_O and the static gain 1 / (m g l sin 0.6)."""
+    m, L, th0 = 2.0, 0.8, -0.6
+    b = ModelBuilder("held", gravity=(0, 0, -G))
+    b.add_body("rod", m, (m * L**2 / 12, 1e-4, m * L**2 / 12), r=(0, L / 2, 0),
+               points={"tip": (0, L / 2, 0)})
+    b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_driver("motor", "angle", th0, joint="pivot")
+    model = b.compile()
+    sol = static_equilibrium(model)
+    lin = linearize(model, sol.q, np.zeros(6), inputs=["motor"],
+                    outputs=["motor", "rod.tip.z", "rod.tip.vz"])
+    l, I_O = L / 2, m * L**2 / 3
+    assert lin.input_reference[0] == pytest.approx(m * G * l * np.cos(th0), rel=1e-9)
+    w = np.sqrt(m * G * l * np.sin(-th0) / I_O)
+    assert np.abs(np.linalg.eigvals(lin.A).imag).max() == pytest.approx(w, rel=1e-7)
+    gain = lin.C_out @ np.linalg.solve(-lin.A, lin.B)
+    assert gain[0, 0] == pytest.approx(1 / (m * G * l * np.sin(-th0)), rel=1e-7)
+    # the tip rises by L cos(theta0) dtheta
+    assert gain[1, 0] == pytest.approx(L * np.cos(th0) * gain[0, 0], rel=1e-7)
+    assert abs(gain[2, 0]) < 1e-12

@@ -128,11 +128,12 @@ def _input_columns(model, inputs, D_full, q):
 OUTPUT_COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "vx", "vy", "vz", "wx", "wy", "wz")
 
 
-def _output_rows(model, outputs, D_full, q, W):
-    """(C_x, C_v): output = C_x dx + C_v dx' for each named output."""
+def _output_rows(model, outputs, D_full, q, W, v, t, step):
+    """(C_x, C_v): output = C_x dx + C_v dx' for each named output (dv = dx' - W dx)."""
     nb = model.nb
     rows = driver_rows(model)
     state = BodyState.from_qv(q, None, 0.0)
+    w = np.asarray(v, dtype=float).reshape(nb, 6)[:, 3:]
     Cx, Cv = [], []
     for name in outputs:
         cx, cv = np.zeros(6 * nb), np.zeros(6 * nb)
@@ -141,8 +142,14 @@ def _output_rows(model, outputs, D_full, q, W):
             row = D_full[rows[name if name in rows else base]]
             if name in rows:
                 cx = row.copy()                              # change of the driven coordinate
-            else:
-                cv, cx = row.copy(), -row @ W                # its rate: D_k dv
+            else:                                            # its rate D_k v: D_k dv + ...
+                cv, cx = row.copy(), -row @ W
+                if np.abs(v).max() > 0:                      # ... + d(D_k v*)/dx dx
+                    k = rows[base]
+                    cx = cx + central_jacobian(
+                        lambda dx: np.atleast_1d(dense(model.assembler.evaluate(
+                            perturb(q, dx), None, t).D)[k] @ v), 6 * nb, step,
+                        what=f"d(rate of {base})/dx")[0][0]
         elif base in model.body_names and comp in OUTPUT_COMPONENTS:
             k = 6 * model.body_index(base) + OUTPUT_COMPONENTS.index(comp) % 6
             if OUTPUT_COMPONENTS.index(comp) < 6:
@@ -160,8 +167,9 @@ def _output_rows(model, outputs, D_full, q, W):
             sel[6 * b + 3:6 * b + 6] = -skew(s)[c % 3]
             if c < 3:
                 cx = sel
-            else:
+            else:                    # d(rdot + w x s) = dv_r - s~ dw + w*~ (-s~ dpi)
                 cv, cx = sel, -sel @ W
+                cx[6 * b + 3:6 * b + 6] += -(skew(w[b]) @ skew(s))[c % 3]
         else:
             raise ModelError(f"linearize output {name!r}: use '<body>.<x|y|z|rx|ry|rz|vx|vy|vz|"
                              "wx|wy|wz>', '<body>.<point>.<x|y|z|vx|vy|vz>' or a driver name "
@@ -180,6 +188,9 @@ class LinearModel:
     basis (6 nb, n): dx = basis @ z maps z to body tangent coordinates (translation m,
     rotation vector rad, per body, global axes). coordinates: names of z. inputs, outputs:
     names. q, v, t: the reference. fd_error: estimated error of the differenced parts.
+    input_reference: the reference value of each input (the effort an input driver delivers
+    at the reference, N m or N; 0 for force inputs, whose reference is part of the model); u
+    is the deviation from it.
     """
 
     model: object
@@ -201,6 +212,7 @@ class LinearModel:
     steady: bool
     fd_error: float = 0.0
     messages: list = field(default_factory=list)
+    input_reference: np.ndarray = None
 
     @property
     def n(self) -> int:
@@ -301,15 +313,20 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     D = D_full[keep]
     M = ev.M.dense()
     g = ev.g
-    gamma = ev.cv.gamma[keep]
     m = D.shape[0]
-    kkt = np.block([[M, -D.T], [D, np.zeros((m, m))]])
-    sol = np.linalg.lstsq(kkt, np.concatenate([g, gamma]), rcond=1e-12)[0]
+    # reference accelerations and multipliers with every constraint, input drivers included:
+    # their multipliers are the reference efforts u*, whose forces D_k^T u* stay applied (and
+    # turn with the bodies) while the inputs u are perturbations about them
+    m_all = D_full.shape[0]
+    kkt = np.block([[M, -D_full.T], [D_full, np.zeros((m_all, m_all))]])
+    sol = np.linalg.lstsq(kkt, np.concatenate([g, ev.cv.gamma]), rcond=1e-12)[0]
     vdot, lam = sol[:6 * nb], sol[6 * nb:]
+    rows_all = driver_rows(model)
 
     messages = []
     force_scale = max(float(np.abs(model.mass[:, None] * model.gravity).max()),
-                      float(np.abs(g).max()), float(np.abs(D.T @ lam).max() if m else 0), 1e-12)
+                      float(np.abs(g).max()),
+                      float(np.abs(D_full.T @ lam).max() if m_all else 0), 1e-12)
     unbalanced = M @ vdot                                   # = g + D^T lam
     if not steady:
         if np.abs(v).max() > 1e-9:
@@ -349,8 +366,7 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     def residual_fd(dx):
         qq = perturb(qv, dx)
         e = eom.evaluate(t, qq, v)
-        Dk = dense(e.cv.D)[keep]
-        return e.M.dot(vdot) - e.g - Dk.T @ lam
+        return e.M.dot(vdot) - e.g - dense(e.cv.D).T @ lam
 
     if derivatives == "fd":
         Rx, err_x = central_jacobian(residual_fd, 6 * nb, step, what="dR/dx")
@@ -366,8 +382,8 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
 
         def rest(dx):
             qq = perturb(qv, dx)
-            Dk = dense(model.assembler.evaluate(qq, None, t).D)[keep]
-            return -_force_elements(model, qq, v, t) - Dk.T @ lam
+            Dq = dense(model.assembler.evaluate(qq, None, t).D)
+            return -_force_elements(model, qq, v, t) - Dq.T @ lam
         Jr, err_x = central_jacobian(rest, 6 * nb, step, what="d(-Q - D^T lam)/dx")
         Rx += Jr
 
@@ -416,13 +432,15 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     Minv = np.linalg.inv(Mr) if n else np.zeros((0, 0))
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ Kr, -Minv @ Cr]])
     B = np.vstack([np.zeros((n, B_q.shape[1])), Minv @ Br])
-    Cx, Cv = _output_rows(model, list(outputs), D_full, q, W)
+    Cx, Cv = _output_rows(model, list(outputs), D_full, q, W, v, t, step)
     C_out = np.hstack([Cx @ N, Cv @ N])
     D_out = np.zeros((C_out.shape[0], B.shape[1]))
     return LinearModel(model=model, q=q, v=v.reshape(nb, 6), t=float(t), M=Mr, C=Cr, K=Kr,
                        B_u=Br, A=A, B=B, C_out=C_out, D_out=D_out, basis=N,
                        coordinates=zlabels, inputs=list(inputs), outputs=list(outputs),
-                       steady=steady, fd_error=max(err_x, err_v), messages=messages)
+                       steady=steady, fd_error=max(err_x, err_v), messages=messages,
+                       input_reference=np.array([lam[rows_all[n]] if n in rows_all else 0.0
+                                                 for n in inputs]))
 
 
 # ------------------------------------------------------------------------------- modes
