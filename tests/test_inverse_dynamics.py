@@ -233,3 +233,16 @@ def test_motion_table_replaces_a_driver_law():
     assert np.abs(table.efforts["crank_drive"] - direct.efforts["crank_drive"]).max() < 1e-9
     with pytest.raises(ModelError, match="names no driver, joint or body coordinate"):
         inverse_dynamics(model, t, motion={"t": ts, "crank": ts})
+
+
+def test_motion_table_of_a_body_coordinate():
+    """The CoM height z = (L/2) sin(theta(t)) of the undriven pendulum prescribed by a table:
+    a vertical force F at the CoM drives it, F (L/2) cos(theta) = tau of the closed form."""
+    model = pendulum(driven=False).compile()
+    ts = np.linspace(0.0, 1.2, 601)
+    t_out = np.linspace(0.1, 1.1, 11)
+    res = inverse_dynamics(model, t_out, motion={"t": ts, "rod.z": L_ROD / 2 * np.sin(theta(ts))})
+    force = res.efforts["rod_z_drive"].to_numpy()
+    assert res.units["rod_z_drive"] == "N"
+    expected = pendulum_torque(t_out) / (L_ROD / 2 * np.cos(theta(t_out)))
+    assert np.abs(force - expected).max() < 1e-4 * np.abs(expected).max()
