@@ -113,3 +113,15 @@ def test_cli_reports_bad_engineering_inputs(tmp_path, capsys):
         code = main(["run", str(path), "-o", str(tmp_path / "out.csv"), "--quiet"])
         err = capsys.readouterr().err
         assert code != 0 and text in err and "Traceback" not in err
+
+
+def test_docs_page_snippets_run(monkeypatch):
+    import re
+    root = FOLDER.parents[1]
+    monkeypatch.chdir(root)
+    monkeypatch.syspath_prepend(str(FOLDER))
+    text = (root / "docs" / "analyses.md").read_text()
+    ns = {}
+    for code in re.findall(r"```python\n(.*?)```", text, flags=re.S):
+        exec(compile(code, "docs/analyses.md", "exec"), ns)
+    assert ns["res"].unique and ns["sol"].stable and len(ns["md"].table) == 2
