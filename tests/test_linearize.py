@@ -343,3 +343,20 @@ def test_motor_holding_a_rod_below_horizontal_as_input():
     # the tip rises by L cos(theta0) dtheta
     assert gain[1, 0] == pytest.approx(L * np.cos(th0) * gain[0, 0], rel=1e-7)
     assert abs(gain[2, 0]) < 1e-12
+
+
+def test_robot_arm_joint_torque_input_and_joint_angle_output():
+    """The robot arm's base turns about the vertical: gravity does no work on that rotation,
+    so the static compliance from a torque at joint 1 (rotational spring element drive1) to
+    the angle of joint 1 is 1 / k1 = 1/2000 rad per N m (every other joint angle stays)."""
+    from spatialmbd import models
+    model = models.robot_arm().compile()
+    sol = static_equilibrium(model)
+    lin = linearize(model, sol.q, np.zeros(6 * model.nb), inputs=["drive1"],
+                    outputs=["joint1.angle", "joint2.angle", "joint1.angle_rate"])
+    gain = lin.C_out @ np.linalg.solve(-lin.A, lin.B)
+    assert gain[0, 0] == pytest.approx(1 / 2000.0, rel=1e-7)
+    assert abs(gain[1, 0]) < 1e-10 and abs(gain[2, 0]) < 1e-12
+    from spatialmbd.errors import ModelError
+    with pytest.raises(ModelError, match="joint1.angel"):
+        linearize(model, sol.q, np.zeros(6 * model.nb), outputs=["joint1.angel"])

@@ -105,6 +105,11 @@ def _input_columns(model, inputs, D_full, q):
             cols.append(col)
             continue
         group = next((g for g in model.force_groups if name in g.names), None)
+        if group is not None and group.name == "rotational_spring_damper":
+            k = group.names.index(name)             # torque along the joint angle (effort
+            cols.append(_angle_row(model, q, group.bi[k], group.bj[k], group.R_i[k],
+                                   group.R_j[k]))   # convention: -actuator)
+            continue
         if group is not None and group.name in ("point_force", "torque"):
             k = group.names.index(name)
             b = group.body[k]
@@ -118,14 +123,37 @@ def _input_columns(model, inputs, D_full, q):
                 col[6 * b + 3:6 * b + 6] = d
             cols.append(col)
             continue
-        raise ModelError(f"linearize input {name!r}: not a driver, a point_force/torque element "
-                         "or '<body>.<fx|fy|fz|mx|my|mz>' (drivers: "
-                         f"{', '.join(rows) or 'none'})")
+        raise ModelError(f"linearize input {name!r}: not a driver, a point_force, torque or "
+                         "rotational_spring_damper element or '<body>.<fx|fy|fz|mx|my|mz>' "
+                         f"(drivers: {', '.join(rows) or 'none'})")
     B = np.column_stack(cols) if cols else np.zeros((6 * nb, 0))
     return B, dropped
 
 
 OUTPUT_COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def _angle_row(model, q, body_i, body_j, R_i, R_j) -> np.ndarray:
+    """d(theta)/dv (6 nb,) of the rotation of body j relative to body i about u_i (the angle
+    of angle drivers and rotational springs) at q."""
+    from ..constraints.primitives import relative_angle
+    nb = model.nb
+    state = BodyState.from_qv(q, None, 0.0)
+    _, D, _, _ = relative_angle(state, np.array([body_i]), np.array([body_j]),
+                                np.asarray(R_i)[None], np.asarray(R_j)[None])
+    row = np.zeros(6 * (nb + 1))
+    row[6 * body_i:6 * body_i + 6] += D[0, :6]
+    row[6 * body_j:6 * body_j + 6] += D[0, 6:]
+    return row[:6 * nb]
+
+
+def _joint_angle(model, name):
+    """(body_i, body_j, R_i, R_j) of a revolute or cylindrical joint, or None."""
+    for g in model.constraint_groups:
+        if g.name in ("revolute", "cylindrical") and name in g.names:
+            k = g.names.index(name)
+            return g.body_i[k], g.body_j[k], g.geometry.R_i[k], g.geometry.R_j[k]
+    return None
 
 
 def _output_rows(model, outputs, D_full, q, W, v, t, step):
@@ -150,6 +178,17 @@ def _output_rows(model, outputs, D_full, q, W, v, t, step):
                         lambda dx: np.atleast_1d(dense(model.assembler.evaluate(
                             perturb(q, dx), None, t).D)[k] @ v), 6 * nb, step,
                         what=f"d(rate of {base})/dx")[0][0]
+        elif comp in ("angle", "angle_rate") and _joint_angle(model, base) is not None:
+            geo = _joint_angle(model, base)
+            row = _angle_row(model, q, *geo)
+            if comp == "angle":
+                cx = row
+            else:                                    # D_theta dv + d(D_theta v*)/dx dx
+                cv, cx = row.copy(), -row @ W
+                if np.abs(v).max() > 0:
+                    cx = cx + central_jacobian(
+                        lambda dx: np.atleast_1d(_angle_row(model, perturb(q, dx), *geo) @ v),
+                        6 * nb, step, what=f"d(rate of {base})/dx")[0][0]
         elif base in model.body_names and comp in OUTPUT_COMPONENTS:
             k = 6 * model.body_index(base) + OUTPUT_COMPONENTS.index(comp) % 6
             if OUTPUT_COMPONENTS.index(comp) < 6:
@@ -172,8 +211,9 @@ def _output_rows(model, outputs, D_full, q, W, v, t, step):
                 cx[6 * b + 3:6 * b + 6] += -(skew(w[b]) @ skew(s))[c % 3]
         else:
             raise ModelError(f"linearize output {name!r}: use '<body>.<x|y|z|rx|ry|rz|vx|vy|vz|"
-                             "wx|wy|wz>', '<body>.<point>.<x|y|z|vx|vy|vz>' or a driver name "
-                             "(its coordinate; '<driver>.rate' for its rate)")
+                             "wx|wy|wz>', '<body>.<point>.<x|y|z|vx|vy|vz>', "
+                             "'<joint>.angle' / '<joint>.angle_rate' (revolute, cylindrical) "
+                             "or a driver name (its coordinate; '<driver>.rate' for its rate)")
         Cx.append(cx)
         Cv.append(cv)
     return (np.array(Cx).reshape(-1, 6 * nb), np.array(Cv).reshape(-1, 6 * nb))
@@ -272,9 +312,12 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
         (e.g. a spinning top), linearized at this instant.
     inputs: driver names (the driver is removed from the constraints and its effort, N m or N,
         becomes the input), point_force / torque element names (their magnitude, N or N m, as
-        an additive input) or "<body>.<fx|fy|fz|mx|my|mz>" (N, N m, global axes, at the CoM).
+        an additive input), rotational_spring_damper names (a torque along its joint angle,
+        N m: positive does positive work as the angle increases, i.e. minus its actuator) or
+        "<body>.<fx|fy|fz|mx|my|mz>" (N, N m, global axes, at the CoM).
     outputs: "<body>.<x|y|z|rx|ry|rz>" (m, rad), "<body>.<vx|..|wz>" (m/s, rad/s),
-        "<body>.<point>.<x|y|z|vx|vy|vz>", a driver name (change of its coordinate) or
+        "<body>.<point>.<x|y|z|vx|vy|vz>", "<joint>.angle" / "<joint>.angle_rate" of revolute
+        and cylindrical joints (rad, rad/s), a driver name (change of its coordinate) or
         "<driver>.rate".
     coordinates: "nullspace" (orthonormal basis of the null space of D) or "partition"
         (independent body velocity coordinates, named "<body>.<x|y|z|rx|ry|rz>").
