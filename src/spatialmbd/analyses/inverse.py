@@ -139,11 +139,13 @@ class InverseDynamicsResults:
                                  work_nonconservative=W_nc, power_efforts=P_eff, error=error))
 
     def to_dataframe(self):
-        """One table: efforts, powers (column "<driver>.power") and reactions."""
+        """One table: efforts, powers (column "<driver>.power"), reactions and the energy
+        balance (columns "energy.<kinetic|potential|work_efforts|...|error>")."""
         import pandas as pd
         power = self.power.drop(columns="t").add_suffix(".power")
         reac = self.reactions_table().drop(columns="t")
-        return pd.concat([self.efforts, power, reac], axis=1)
+        energy = self.energy().drop(columns="t").add_prefix("energy.")
+        return pd.concat([self.efforts, power, reac, energy], axis=1)
 
     def summary(self) -> str:
         lines = [f"status: {self.status}" + (f" ({self.message})" if self.message else ""),
@@ -155,6 +157,10 @@ class InverseDynamicsResults:
             if e.size:
                 lines.append(f"  {name}: effort {e.min():.6g} .. {e.max():.6g} {self.units[name]}"
                              f", peak |power| {np.abs(p).max():.6g} W")
+        if len(self.t) >= 4:
+            en = self.energy()
+            lines.append(f"energy balance: work of the efforts {en['work_efforts'].iloc[-1]:.6g}"
+                         f" J at the end, largest error {np.abs(en['error']).max():.3g} J")
         lines.extend(self.messages)
         return "\n".join(lines)
 

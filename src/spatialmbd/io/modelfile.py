@@ -408,6 +408,9 @@ class Analysis:
     intervals) or t_eval (explicit output times). Dynamic only: method and method_options,
     integrator with step (s), rtol, atol (None = the integrator's default) and
     integrator_options, correct_initial, hold ({"body": ["x", ...]}).
+    Engineering analyses (spatialmbd.analyses): "inverse" and "quasi_static" over the output
+    times, "static" and "modal" at ``time`` (s); modal: ``steady`` (about the initial state as
+    a steady motion) and ``frame_rate`` (rad/s, a turning frame for relative equilibria).
     """
 
     type: str = "dynamic"
