@@ -195,3 +195,21 @@ def test_quasi_static_with_a_free_spring_loaded_joint():
                                 L1 * np.sin(theta) + L2 / 2 * np.sin(theta + phi)])
     assert np.abs(fore - expected).max() < 1e-9
     assert qs.stable.all()
+
+
+def test_spatial_double_pendulum_comes_to_rest_at_the_energy_minimum():
+    """models.double_pendulum: bar 1 (1 m, 1 kg) pinned about x, bar 2 pinned at its tip about
+    bar 1's own axis. With bar 1 at alpha below the horizontal, bar 2 can at best point along
+    the lowest direction normal to bar 1's axis, whose height is -cos(alpha), so
+    V / (m g) = -1.5 sin(alpha) - 0.5 cos(alpha): minimum at tan(alpha) = 3. Started from the
+    horizontal (zero stiffness there: Newton cannot start), the energy minimisation finds it."""
+    model = models.double_pendulum().compile()
+    sol = static_equilibrium(model)
+    a = np.arctan(3.0)
+    tip = np.array([0, np.cos(a), -np.sin(a)])
+    axis = tip
+    low = np.array([0, 0, -1.0]) - (-np.sin(a)) * axis
+    low /= np.linalg.norm(low)
+    assert np.allclose(sol.q[0, :3], tip / 2, atol=1e-8)
+    assert np.allclose(sol.q[1, :3], tip + low / 2, atol=1e-8)
+    assert sol.stable and "minimisation" in sol.method
