@@ -207,8 +207,9 @@ def test_spatial_double_pendulum_comes_to_rest_at_the_energy_minimum():
     sol = static_equilibrium(model)
     a = np.arctan(3.0)
     tip = np.array([0, np.cos(a), -np.sin(a)])
-    axis = tip
-    low = np.array([0, 0, -1.0]) - (-np.sin(a)) * axis
+    axis = tip                                      # bar 1's axis, unit length
+    down = np.array([0, 0, -1.0])
+    low = down - (down @ axis) * axis               # lowest direction normal to the axis
     low /= np.linalg.norm(low)
     assert np.allclose(sol.q[0, :3], tip / 2, atol=1e-8)
     assert np.allclose(sol.q[1, :3], tip + low / 2, atol=1e-8)
