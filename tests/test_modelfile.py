@@ -357,7 +357,7 @@ BAD = [
     (("spatialmbd",), 2, "spatialmbd: ", "schema version 2"),
     (("gravty",), [0, 0, 1], "gravty: ", "did you mean 'gravity'"),
     (("gravity",), [0, 0, "g"], "gravity[2]: ", "expected a number"),
-    (("analysis", "type"), "static", "analysis.type: ", "valid: dynamic, kinematic"),
+    (("analysis", "type"), "statics", "analysis.type: ", "valid: dynamic, kinematic"),
     (("analysis", "t_end"), 0, "analysis.t_end: ", "must be > 0"),
     (("analysis", "t_end"), DELETE, "analysis: ", "missing required key 't_end'"),
     (("analysis", "output_step"), -0.1, "analysis.output_step: ", "must be > 0"),

@@ -182,14 +182,20 @@ def _apply_overrides(analysis, args):
     """A copy of ``analysis`` with the command-line options applied; notes for the user."""
     notes = []
     changes = {}
-    kinematic = str(getattr(analysis, "type", "dynamic")).lower().startswith("kin")
+    kind = str(getattr(analysis, "type", "dynamic")).lower()
+    kinematic = kind != "dynamic"
     dynamic_only = [opt for opt, value in (("--method", args.method),
                                            ("--integrator", args.integrator),
                                            ("--step", args.step), ("--rtol", args.rtol),
                                            ("--atol", args.atol)) if value is not None]
     if kinematic and dynamic_only:
         raise UsageError(f"{', '.join(dynamic_only)}: only for dynamic analyses; this model "
-                         "file asks for a kinematic analysis")
+                         f"file asks for a{'n' if kind[0] in 'aeiou' else ''} {kind} "
+                         "analysis")
+    if kind in ("static", "modal") and (args.t_end is not None or
+                                        args.output_step is not None):
+        raise UsageError(f"--t-end/--output-step: a {kind} analysis is at one time (set "
+                         "'time' in the model file's analysis section)")
     if args.method is not None:
         _check_name("method", args.method)
         old = _name_of(analysis.method)
@@ -308,6 +314,8 @@ def cmd_run(args) -> int:
         for note in notes:
             print(f"note: {note}")
     results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet)
+    if getattr(analysis, "type", "dynamic") in ENGINEERING_TYPES:
+        return _write_engineering(results, analysis, outs, wall, warning_texts, args.quiet)
     table = to_dataframe(results)
     for out in outs:
         save_results(results, out, analysis=analysis, table=table)
@@ -341,6 +349,41 @@ def _with_outputs(model, analysis, tokens):
     except ModelError as exc:
         raise UsageError(f"--outputs: {exc}") from None
     return dataclasses.replace(analysis, outputs=requests)
+ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
+
+
+def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> int:
+    """Files and summary of an engineering analysis (spatialmbd.analyses): its table as CSV,
+    or HDF5 with the positions over time. Modal analyses: CSV, one row per mode; HDF5, the
+    motion of the lowest mode that is not a rigid-body one (for ``spatialmbd animate``)."""
+    from .io.results_io import save_results
+    table = results.to_dataframe()
+    notes = []
+    for out in outs:
+        if out.suffix.lower() == ".csv":
+            table.to_csv(out, index=False)
+        elif analysis.type == "modal":
+            kinds = list(results.table["kind"])
+            k = next((i for i, c in enumerate(kinds) if c != "rigid-body"), 0)
+            if not kinds:
+                raise UsageError(f"output file {str(out)!r}: the model has no modes to animate")
+            motion = results.motion(k, amplitude=0.1)
+            save_results(motion, out, analysis=analysis)
+            notes.append(f"{out} holds the motion of mode {k} ({kinds[k]}, "
+                         f"{results.table['frequency_hz'][k]:.6g} Hz, largest entry 0.1 m or "
+                         "rad); write a .csv for the table of all modes")
+        else:
+            save_results(results.results, out, analysis=analysis, table=table)
+    if not quiet:
+        print(results.summary())
+        print(f"wall time {wall:.3g} s")
+        for w in warning_texts:
+            print(f"warning: {w}")
+        for out in outs:
+            print(f"results written to {out} ({len(table)} rows, {len(table.columns)} columns)")
+        for note in notes:
+            print(f"note: {note}")
+    return 0
 
 
 def cmd_info(args) -> int:
@@ -394,11 +437,18 @@ def _describe_analysis(analysis) -> str:
     if analysis is None:
         return "none"
     parts = [str(getattr(analysis, "type", "?"))]
+    if parts[0] in ("static", "modal"):                     # one time, no integration
+        parts.append(f"at t = {getattr(analysis, 'time', 0.0):g} s")
+        if getattr(analysis, "steady", False):
+            rate = getattr(analysis, "frame_rate", None)
+            parts.append("about the initial steady motion"
+                         + (f", frame turning at {rate} rad/s" if rate else ""))
+        return ", ".join(parts)
     for key, label in (("t_end", "t_end"), ("output_step", "output step")):
         value = getattr(analysis, key, None)
         if value is not None:
             parts.append(f"{label} {value:g} s")
-    if not str(parts[0]).lower().startswith("kin"):
+    if str(parts[0]).lower() == "dynamic":
         for key in ("method", "integrator"):
             value = _name_of(getattr(analysis, key, None))
             if value:

@@ -74,9 +74,14 @@ SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
 SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",),
                   "capsule": ("radius", "length")}
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
-                 "correct_initial", "hold")
+                 "correct_initial", "hold", "steady", "time", "frame_rate")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
-ANALYSIS_TYPES = ("dynamic", "kinematic")
+#: engineering analyses (spatialmbd.analyses): inverse dynamics and quasi-static analysis over
+#: the output times; static equilibrium and modes at one time ("time", s, default 0)
+ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
+ANALYSIS_TYPES = ("dynamic", "kinematic") + ENGINEERING_TYPES
+#: types without output times
+SINGLE_TIME_TYPES = ("static", "modal")
 
 # builder keyword -> place in the file, for relabelling the builder's messages
 _BODY_FIELDS = {"r": ("position",), "rdot": ("velocity",), "omega": ("angular_velocity",),
@@ -435,6 +440,9 @@ class Analysis:
     intervals) or t_eval (explicit output times). Dynamic only: method and method_options,
     integrator with step (s), rtol, atol (None = the integrator's default) and
     integrator_options, correct_initial, hold ({"body": ["x", ...]}).
+    Engineering analyses (spatialmbd.analyses): "inverse" and "quasi_static" over the output
+    times, "static" and "modal" at ``time`` (s); modal: ``steady`` (about the initial state as
+    a steady motion) and ``frame_rate`` (rad/s, a turning frame for relative equilibria).
     """
 
     type: str = "dynamic"
@@ -453,9 +461,15 @@ class Analysis:
     #: the model file's top-level ``outputs:`` section: what to record besides the standard
     #: columns (:mod:`spatialmbd.outputs`; list of request dicts or shorthand strings)
     outputs: list = field(default_factory=list)
+    steady: bool = False
+    time: float = 0.0
+    frame_rate: Optional[list] = None
 
     def run(self, model, progress=False):
-        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``."""
+        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``;
+        the result objects of spatialmbd.analyses for the engineering types."""
+        if self.type in ENGINEERING_TYPES:
+            return self._run_engineering(model)
         if self.type == "kinematic":
             from ..kinematics import kinematic_analysis
             from ..simulate import output_times
@@ -476,9 +490,36 @@ class Analysis:
                         correct_initial=self.correct_initial, hold=self.hold,
                         progress=progress, outputs=list(self.outputs))
 
+    def _run_engineering(self, model):
+        """inverse: InverseDynamicsResults; static: StaticResults at ``time``; quasi_static:
+        QuasiStaticResults; modal: ModalResults about the static equilibrium at ``time`` (or,
+        with ``steady``, about the model's initial state as a steady motion)."""
+        from .. import analyses
+        from ..simulate import output_times
+        if self.type == "static":
+            return analyses.static_equilibrium(model, t=self.time)
+        if self.type == "modal":
+            if self.steady:
+                return analyses.modes(model, t=self.time, steady=True,
+                                      frame_rate=self.frame_rate)
+            sol = analyses.static_equilibrium(model, t=self.time)
+            return analyses.modes(model, sol.q, np.zeros(6 * model.nb), self.time)
+        times = output_times(self.t_end, self.output_step, self.t_eval)
+        if self.type == "inverse":
+            return analyses.inverse_dynamics(model, times)
+        return analyses.quasi_static(model, times)
+
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""
         out: dict = {"type": self.type}
+        if self.type in SINGLE_TIME_TYPES:
+            if self.time:
+                out["time"] = float(self.time)
+            if self.type == "modal" and self.steady:
+                out["steady"] = True
+                if self.frame_rate is not None:
+                    out["frame_rate"] = [float(x) for x in self.frame_rate]
+            return out
         if self.t_eval is not None:
             out["t_eval"] = [float(t) for t in self.t_eval]
         else:
@@ -570,6 +611,8 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
                 and a.t_eval is not None and float(d["t_end"]) != a.t_eval[-1]:
             P.add(tuple(path) + ("t_end",), f"t_end ({d['t_end']!r}) differs from the last "
                                             f"time of t_eval ({a.t_eval[-1]!r}); leave it out")
+    elif "t_end" not in d and kind in SINGLE_TIME_TYPES:
+        pass                                    # one time: "time" (s), default 0
     elif "t_end" not in d:
         P.add(path, "missing required key 't_end' (end time, s), or give t_eval")
     elif _number(P, tuple(path) + ("t_end",), d["t_end"], positive=True):
@@ -578,11 +621,37 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
         if _number(P, tuple(path) + ("output_step",), d["output_step"], positive=True):
             a.output_step = float(d["output_step"])
 
-    if kind == "kinematic":
+    for key, types in (("steady", ("modal",)), ("time", SINGLE_TIME_TYPES)):
+        if key in d and kind not in types:
+            P.add(tuple(path) + (key,), f"applies to {' and '.join(types)} analyses only "
+                                        f"(this analysis is {kind})")
+    if kind in SINGLE_TIME_TYPES:
+        for key in ("t_end", "output_step", "t_eval"):
+            if key in d:
+                P.add(tuple(path) + (key,), f"a {kind} analysis is at one time: give 'time' "
+                                            "(s) instead")
+    if "steady" in d and kind == "modal":
+        if isinstance(d["steady"], bool):
+            a.steady = d["steady"]
+        else:
+            P.add(tuple(path) + ("steady",), f"expected true or false, got "
+                                             f"{_describe(d['steady'])}")
+    if "frame_rate" in d:
+        if kind != "modal" or not d.get("steady", False):
+            P.add(tuple(path) + ("frame_rate",), "applies to modal analyses with steady: true "
+                                                 "only (the rate, rad/s, of the frame turning "
+                                                 "with a relative equilibrium)")
+        elif _vector(P, tuple(path) + ("frame_rate",), d["frame_rate"]):
+            a.frame_rate = [float(x) for x in d["frame_rate"]]
+    if "time" in d and kind in SINGLE_TIME_TYPES:
+        if _number(P, tuple(path) + ("time",), d["time"], nonneg=True):
+            a.time = float(d["time"])
+
+    if kind != "dynamic":
         for key in DYNAMIC_ONLY:
             if key in d:
                 P.add(tuple(path) + (key,), "applies to dynamic analyses only (this analysis "
-                                            "is kinematic)")
+                                            f"is {kind})")
         return a
 
     if "method" in d:
