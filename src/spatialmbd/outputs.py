@@ -768,8 +768,7 @@ def to_xarray(results):
         import xarray as xr
     except ImportError:
         raise ImportError("to_xarray needs xarray: pip install 'spatialmbd[xarray]'") from None
-    from .io.results_io import to_dataframe
-    table = to_dataframe(results)
+    table = results.to_dataframe()
     t = np.asarray(results.t, dtype=float)
     model = getattr(results, "model", None)
     names = list(model.body_names) if model is not None else list(results.body_names)
