@@ -362,3 +362,26 @@ def test_validate_unknown_case_and_a_real_one(capsys):
     assert main(["validate", "slider_crank_kinematics"]) == 0
     out = capsys.readouterr().out
     assert "Slider-crank kinematics: pass" in out and "all 1 validation cases passed" in out
+
+
+def test_warmup_and_the_cold_cache_notice(capsys):
+    """`spatialmbd warmup` compiles everything (here: loads it); a cold cache is announced at
+    once and then every few seconds, never silent."""
+    import io
+    import time
+    from spatialmbd.jit import cache_is_warm, compile_notice
+    assert main(["warmup"]) == 0
+    out = capsys.readouterr().out
+    assert "[1/" in out and "ready in" in out
+    assert cache_is_warm()
+    stream = io.StringIO()
+    with compile_notice(stream=stream, every=0.05, force=True):
+        time.sleep(0.18)
+    lines = stream.getvalue().splitlines()
+    assert lines[0].startswith("compiling the numerical kernels")
+    assert sum("still compiling" in ln for ln in lines) >= 2
+    assert lines[-1].startswith("compiled in")
+    stream = io.StringIO()
+    with compile_notice(stream=stream):            # warm: nothing said
+        pass
+    assert stream.getvalue() == ""

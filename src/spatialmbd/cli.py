@@ -833,12 +833,55 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write the table to PATH (a directory, or a .md/.txt file)")
     p.add_argument("-q", "--quiet", action="store_true", help="print only failures")
     p.set_defaults(func=cmd_validate)
+
+    p = command("warmup", "compile the numerical kernels now (once per machine)",
+                "Compile every numerical kernel (all methods, integrators, kinematics, force "
+                "elements) into the on-disk cache, with progress, so that later runs start at "
+                "once. Otherwise this happens on the first run, which then says so.",
+                """
+                spatialmbd warmup
+                """)
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
+    p.set_defaults(func=cmd_warmup)
     return parser
 
 
 # ----------------------------------------------------------------------------------------------
 # entry point
 # ----------------------------------------------------------------------------------------------
+def cmd_warmup(args) -> int:
+    """Compile every kernel now (each method, the integrators' fused stages, kinematics, the
+    force elements), so that later runs start at once."""
+    import time
+    from .jit import cache_is_warm, compile_notice
+    from . import models
+    from .kinematics import kinematic_analysis
+    from .simulate import simulate
+    start = time.perf_counter()
+    warm = cache_is_warm()
+    steps = [("kinematics", lambda: kinematic_analysis(
+        models.slider_crank(crank_speed=6.0).compile(), [0.0, 0.01]))]
+    fly = models.flyball_governor().compile()
+    for method in ("standard", "baumgarte", "penalty", "augmented_lagrangian", "projection"):
+        steps.append((f"dynamics, {method}", lambda m=method: simulate(
+            fly, 1e-3, method=m, integrator="rk45", output_step=1e-3)))
+    steps.append(("fixed-step and implicit integrators", lambda: [
+        simulate(fly, 2e-3, integrator=i, step=1e-3) for i in ("rk4", "bdf4")]))
+    with compile_notice(force=not warm and not args.quiet, every=10.0):
+        for k, (what, run) in enumerate(steps):
+            if not args.quiet:
+                print(f"[{k + 1}/{len(steps)}] {what}", flush=True)
+            run()
+    if not args.quiet:
+        print(f"ready in {time.perf_counter() - start:.1f} s"
+              + (" (the cache was already warm)" if warm else ""))
+    return 0
+
+
+#: commands that may compile kernels on their first run (they get the compile notice)
+_COMPUTING = (cmd_run, cmd_demo, cmd_validate)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the command line ``argv`` (default sys.argv[1:]); return the exit status."""
     parser = build_parser()
@@ -852,6 +895,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     debug = getattr(args, "debug", False)
     file_error = _model_file_error()
     try:
+        if getattr(args, "func", None) in _COMPUTING and not getattr(args, "quiet", False):
+            from .jit import compile_notice
+            with compile_notice():
+                return args.func(args)
         return args.func(args)
     except KeyboardInterrupt:
         if debug:
