@@ -95,6 +95,11 @@ class Results:
 
     def body(self, name: str) -> dict:
         """Time series of one body: r, p, rdot, omega, rddot, omegadot (each (nt, 3|4))."""
+        if not isinstance(name, str) or name not in self.model.body_names:
+            from .errors import ModelError
+            from .suggest import unknown
+            raise ModelError(unknown("body", name, list(self.model.body_names))
+                             + (" (ground does not move)" if name == "ground" else ""))
         k = self.model.body_index(name)
         return dict(r=self.q[:, k, :3], p=self.q[:, k, 3:], rdot=self.v[:, k, :3],
                     omega=self.v[:, k, 3:], rddot=self.vdot[:, k, :3],
@@ -106,6 +111,11 @@ class Results:
 
     def point(self, name: str) -> dict:
         """Position and velocity (nt, 3) of a named point "body.point"."""
+        if not isinstance(name, str) or name not in self.model.points:
+            from .errors import ModelError
+            from .suggest import unknown
+            raise ModelError(unknown("point", name, list(self.model.points))
+                             + " (points are named 'body.point')")
         body, local = self.model.points[name]
         A = _rotations(self.q[:, body, 3:])
         s = np.einsum("nij,j->ni", A, local)
