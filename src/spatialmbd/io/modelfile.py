@@ -437,8 +437,9 @@ class Analysis:
     correct_initial: bool = True
     hold: Optional[dict] = None
 
-    def run(self, model, progress=False):
-        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``."""
+    def run(self, model, progress=False, budget=None):
+        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``.
+        budget: a :class:`spatialmbd.budget.Budget` (or dict) for dynamic runs."""
         if self.type == "kinematic":
             from ..kinematics import kinematic_analysis
             from ..simulate import output_times
@@ -453,7 +454,7 @@ class Analysis:
                         method_options=dict(self.method_options),
                         integrator_options=dict(self.integrator_options),
                         correct_initial=self.correct_initial, hold=self.hold,
-                        progress=progress)
+                        progress=progress, budget=budget)
 
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""
