@@ -91,6 +91,17 @@ def check_integrator_name(spec) -> None:
         raise ModelError(unknown("integrator", spec, sorted(INTEGRATORS)))
 
 
+def compiled_model(model):
+    """The Model to run: a Model as is, a ModelBuilder compiled; ModelError otherwise."""
+    from .model import Model, ModelBuilder
+    if isinstance(model, Model):
+        return model
+    if isinstance(model, ModelBuilder):
+        return model.compile()
+    raise ModelError(f"model: expected a Model (ModelBuilder.compile() or io.load_model()), "
+                     f"got {type(model).__name__}")
+
+
 def check_time(name: str, value, positive=False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ModelError(f"{name}: expected a number of seconds, got {value!r}")

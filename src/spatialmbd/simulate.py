@@ -100,6 +100,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     position), "budget" or "interrupted" (Ctrl-C), each with everything computed until then.
     Bad arguments raise ModelError naming the argument, the value and the valid choices.
     """
+    model = guards.compiled_model(model)
     nb = model.nb
     limits = Budget.make(budget, max_steps, max_wall_time)
     t_out = output_times(t_end, output_step, t_eval, t0, limits.max_outputs, 13 * nb + 1,

@@ -60,6 +60,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime
+import io
 import json
 import os
 import pathlib
@@ -545,7 +546,11 @@ def _write_hdf5_to(results, tmp, analysis=None, table=None, run_id=None, outputs
     else:
         arrays.update(newton_iterations=results.newton_iterations, residual=results.residual)
     rows, columns = 0, 0
-    with h5py.File(tmp, "w") as f:
+    # The file is assembled in memory and written to disk by Python in blocks: a full disk or
+    # a file-size limit then raises OSError (HDF5's own writes crash the process on them),
+    # and Ctrl-C is honoured between blocks.
+    image = io.BytesIO()
+    with h5py.File(image, "w") as f:
         if run_id:
             f.attrs["run_id"] = run_id
             f.attrs["outputs"] = json.dumps(outputs or [])
@@ -579,7 +584,18 @@ def _write_hdf5_to(results, tmp, analysis=None, table=None, run_id=None, outputs
         grp = f.create_group("metadata")
         for key, value in meta.items():
             grp.create_dataset(key, data=_json(value), dtype=h5py.string_dtype("utf-8"))
+    view = image.getbuffer()
+    try:
+        with open(tmp, "wb") as fh:
+            for start in range(0, len(view), WRITE_BLOCK):
+                fh.write(view[start:start + WRITE_BLOCK])
+    finally:
+        view.release()
     return rows, columns
+
+
+#: bytes written at a time (an HDF5 file is assembled in memory, then written in blocks)
+WRITE_BLOCK = 1 << 22
 
 
 def _dataset(group, name, arr, growable=False):
