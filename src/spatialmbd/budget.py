@@ -150,9 +150,9 @@ def check_outputs(n: float, span: float, output_step: Optional[float], limit: Op
 
 def check_fixed_steps(n_steps: float, step: float, span: float, stages: int, budget: Budget,
                       seconds_per_evaluation: Optional[float] = None) -> None:
-    """Refuse a fixed-step run of more than MAX_FIXED_STEPS steps unless a step budget is set
-    (with an estimate of its time)."""
-    if budget.max_steps is not None or n_steps <= MAX_FIXED_STEPS:
+    """Refuse a fixed-step run of more than MAX_FIXED_STEPS steps unless a budget (steps or
+    wall time) bounds it (with an estimate of its time)."""
+    if budget.active or n_steps <= MAX_FIXED_STEPS:
         return
     estimate = ""
     if seconds_per_evaluation:
@@ -161,7 +161,8 @@ def check_fixed_steps(n_steps: float, step: float, span: float, stages: int, bud
     raise ModelError(
         f"a fixed step of {step!r} s over {span:.6g} s takes {n_steps:.3g} steps{estimate}; "
         f"the limit without a step budget is {MAX_FIXED_STEPS:,}: use a larger step or an "
-        "adaptive integrator (rk45), or pass max_steps=... to run it under a budget")
+        "adaptive integrator (rk45), or pass max_steps=... or max_wall_time=... to run it "
+        "under a budget")
 
 
 def _duration(seconds: float) -> str:

@@ -250,47 +250,88 @@ def warn(texts, stacklevel=3) -> None:
 
 
 # ---------------------------------------------------------------------------- singular positions
-#: a constraint Jacobian whose smallest singular value fell below this fraction of its largest
-#: one (and below SINGULAR_DROP times its value at the start) is called near-singular
+#: a constraint Jacobian whose smallest (non-redundant) singular value fell below this
+#: fraction of its largest one, or below SINGULAR_DROP times its ratio at the start, is
+#: called (near-)singular
 SINGULAR_RATIO = 1e-5
 SINGULAR_DROP = 1e-3
 
 
-def singular_diagnosis(model, q, t, rank0: Optional[int], t_fail=None) -> Optional[str]:
+class LastState:
+    """Wraps a right-hand side to remember the last state it was called with (a reference,
+    no copy): where a run failed, for the diagnosis of singular positions."""
+
+    def __init__(self):
+        self.t = None
+        self.y = None
+
+    def wrap(self, rhs):
+        def remembered(t, y):
+            self.t, self.y = t, y
+            return rhs(t, y)
+        return remembered
+
+    def wrap_stages(self, stages):
+        """The compiled ``ODEProblem.stages`` hook (t, y, h, ...): remembers its step start."""
+        if stages is None:
+            return None
+
+        def remembered(t, y, *args):
+            self.t, self.y = t, y
+            return stages(t, y, *args)
+        return remembered
+
+
+def conditioning(model, q, t, rank0=None):
+    """(singular values of D at (q, t), rank0 used): for the singularity diagnosis."""
+    D = model.assembler.evaluate(np.asarray(q, dtype=float).reshape(model.nb, 7), None, t).D
+    D = D.toarray() if hasattr(D, "toarray") else np.asarray(D)
+    if D.size > 4_000_000:
+        return None
+    return np.linalg.svd(D, compute_uv=False), D
+
+
+def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float] = None,
+                       t_fail=None) -> Optional[str]:
     """Why a run stopped, if it stopped at (or near) a singular position: the rank of D at
     (q, t) against its rank at the start, the joints whose equations became dependent, and the
     methods that handle it. None when D is far from singular (or cannot be evaluated).
 
-    q, t: the last state computed (the last output before the failure at t_fail)."""
-    import scipy.linalg as la
+    q, t: the state where the run failed (or the last output); rank0: the rank of D at the
+    start; ratio0: sigma_rank0 / sigma_1 of D at the start."""
     if not model.n_eq or q is None or not np.all(np.isfinite(q)):
         return None
     try:
-        D = model.assembler.evaluate(np.asarray(q).reshape(model.nb, 7), None, t).D
-        D = D.toarray() if hasattr(D, "toarray") else np.asarray(D)
-        if D.size > 4_000_000:
+        out = conditioning(model, q, t)
+        if out is None:
             return None
-        s = np.linalg.svd(D, compute_uv=False)
+        s, D = out
         m = D.shape[0]
-        if rank0 is None:
-            rank0 = m
-        strict = int(np.sum(s > max(D.shape) * np.finfo(float).eps * s[0] * 1e3))
-        loose = int(np.sum(s > SINGULAR_RATIO * s[0]))
-        if loose >= rank0:
+        rank0 = m if rank0 is None else rank0
+        if rank0 < 1 or s[0] == 0:
             return None
-        rank = min(strict, rank0)
-        _, _, piv = la.qr(D.T, pivoting=True, mode="economic")
-        rows = sorted(piv[loose:])
+        ratio = s[rank0 - 1] / s[0]
+        strict = int(np.sum(s > max(D.shape) * np.finfo(float).eps * s[0] * 1e3))
+        near = ratio < SINGULAR_RATIO or (ratio0 is not None and ratio < SINGULAR_DROP * ratio0)
+        if strict >= rank0 and not near:
+            return None
+        # the equations in the new dependency: the weights of the left singular vectors
+        # that lost their singular value (rank0 - 1 ... , or strict ...)
+        U = np.linalg.svd(D, full_matrices=False)[0]
+        lost = range(min(strict, rank0 - 1), min(rank0, U.shape[1]))
+        weight = np.max(np.abs(U[:, list(lost)]), axis=1)
+        rows = np.flatnonzero(weight > 0.1 * weight.max())
         joints = sorted({model.equation_labels[r][0] for r in rows})
     except Exception:  # noqa: BLE001 - a diagnosis must never hide the original failure
         return None
-    when = f"t = {t:.6g} s" if t_fail is None or abs(t_fail - t) < 1e-12 else \
-        f"t = {t_fail:.6g} s (last output at t = {t:.6g} s)"
-    state = (f"rank {rank} of {m} equations" if rank < rank0 else
-             f"rank {loose} of {m} to within {SINGULAR_RATIO:g} (smallest singular value "
-             f"{s[-1] / s[0]:.2g} of the largest)")
-    return (f"singular position near {when}: the constraint Jacobian D has {state}, rank "
-            f"{rank0} at the start, a rank deficiency of {rank0 - min(rank, loose)}; "
-            f"dependent equations in joint(s) {', '.join(joints)}, whose multipliers are not "
-            "unique there. Use method='penalty' or method='augmented_lagrangian' (they handle "
-            "singular positions), or check the geometry of these joints")
+    when = f"t = {t:.6g} s" if t_fail is None or abs(t_fail - t) < 1e-9 else \
+        f"t = {t:.6g} s (failure reported at t = {t_fail:.6g} s)"
+    state = (f"rank {strict} of {m} equations, rank deficiency {rank0 - strict}"
+             if strict < rank0 else
+             f"near rank deficiency 1 (sigma_min / sigma_max = {ratio:.2g}"
+             + (f", {ratio0:.2g} at the start" if ratio0 is not None else "") + ")")
+    return (f"singular position near {when}: the constraint Jacobian D has {state} "
+            f"(rank {rank0} at the start); dependent equations in joint(s) "
+            f"{', '.join(joints)}, whose multipliers are not unique there. Use "
+            "method='penalty' or method='augmented_lagrangian' (they handle singular "
+            "positions), or check the geometry of these joints")

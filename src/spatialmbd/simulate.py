@@ -161,8 +161,10 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
 
     y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
     _check_fixed_steps(integ, rhs, t0, y0, t_out, limits)
+    last_state = guards.LastState()
+    rhs = last_state.wrap(rhs)
     callback = _progress(progress, t0, t_out[-1])
-    stages = meth.stages(eom.system) if compiled else None
+    stages = last_state.wrap_stages(meth.stages(eom.system) if compiled else None)
     if limits.active:
         callback = BudgetGuard(limits, callback)
         rhs, stages = _guarded(rhs, stages, callback)
@@ -177,10 +179,16 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
             callback.close()
     wall = time.perf_counter() - start
     if res.status == "failed":
-        last = res.y[-1, :7 * nb].reshape(nb, 7) if len(res.t) else q
-        diagnosis = guards.singular_diagnosis(
-            model, last, float(res.t[-1]) if len(res.t) else t0,
-            mob.rank if mob is not None else model.n_eq, t_fail=res.t_fail)
+        if last_state.y is not None and np.all(np.isfinite(last_state.y[:7 * nb])):
+            last, t_last = normalize_q(last_state.y[:7 * nb].reshape(nb, 7)), last_state.t
+        else:
+            last = res.y[-1, :7 * nb].reshape(nb, 7) if len(res.t) else q
+            t_last = float(res.t[-1]) if len(res.t) else t0
+        rank0 = mob.rank if mob is not None else model.n_eq
+        sv = getattr(mob, "singular_values", None)
+        ratio0 = float(sv[rank0 - 1] / sv[0]) if sv is not None and rank0 and sv[0] else None
+        diagnosis = guards.singular_diagnosis(model, last, float(t_last), rank0, ratio0,
+                                              t_fail=res.t_fail)
         if diagnosis:
             res.message = f"{res.message}; {diagnosis}"
     if res.status != "success":
@@ -329,7 +337,7 @@ def _check_fixed_steps(integ, rhs, t0, y0, t_out, limits) -> None:
         return
     n_steps = (float(t_out[-1]) - t0) / step + len(t_out)
     per_eval = None
-    if n_steps > 1e6 and limits.max_steps is None:
+    if n_steps > 1e6 and not limits.active:
         try:
             rhs(t0, y0)
             start = time.perf_counter()
