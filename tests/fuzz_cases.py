@@ -215,20 +215,31 @@ def is_located(problem: str) -> bool:
     return bool(_LOCATED.match(problem)) and len(problem) > 10
 
 
+#: what a fuzz run may use: a short simulated time and a budget (steps, wall time, outputs)
+FUZZ_T_END = 0.02
+FUZZ_BUDGET = dict(max_steps=300, max_wall_time=2.0, max_outputs=20_000)
+
+
 def bounded_run(model, analysis):
-    """Run ``analysis`` shortened and with a budget; return its status."""
+    """Run ``analysis`` as the file says, but shortened to FUZZ_T_END and under FUZZ_BUDGET;
+    return its status."""
+    from spatialmbd.budget import Budget
     from spatialmbd.kinematics import kinematic_analysis
-    from spatialmbd.simulate import Budget, output_times, simulate
-    t_end = min(analysis.t_end, 0.02) if math.isfinite(analysis.t_end) else 0.02
+    from spatialmbd.simulate import output_times, simulate
+    t_end = min(analysis.t_end, FUZZ_T_END) if math.isfinite(analysis.t_end) else FUZZ_T_END
+    t_eval = None
+    if analysis.t_eval is not None:
+        t_eval = [t for t in analysis.t_eval if t <= FUZZ_T_END] or [t_end]
     if analysis.type == "kinematic":
-        times = output_times(t_end, t_end / 4, None)
+        times = output_times(t_end, analysis.output_step, t_eval, max_outputs=200)
         return kinematic_analysis(model, times).status
     res = simulate(model, t_end, method=analysis.method, integrator=analysis.integrator,
-                   output_step=t_end / 4, step=analysis.step, rtol=analysis.rtol,
-                   atol=analysis.atol, method_options=dict(analysis.method_options),
+                   output_step=analysis.output_step, t_eval=t_eval, step=analysis.step,
+                   rtol=analysis.rtol, atol=analysis.atol,
+                   method_options=dict(analysis.method_options),
                    integrator_options=dict(analysis.integrator_options),
                    correct_initial=analysis.correct_initial, hold=analysis.hold,
-                   budget=Budget(max_steps=300, max_wall_time=2.0))
+                   budget=Budget(**FUZZ_BUDGET))
     assert res.status in ("success", "failed", "budget"), res.status
     return res.status
 
@@ -255,3 +266,81 @@ def check_file(path) -> str:
         except SpatialMBDError as exc:
             assert str(exc).strip(), "an error without a message"
             return "error"
+
+
+# ------------------------------------------------------------------------------ API calls
+API_NAMES = st.one_of(st.sampled_from(["standard", "penalty", "augmented_lagrangian",
+                                       "baumgarte", "projection", "standrd", "Penalty", "al",
+                                       "rk4", "rk45", "euler", "heun", "abm4", "bdf4",
+                                       "scipy-rk45", "scipy-radau", "rk5", "", "ground",
+                                       "pendulum", "pendulum.tip", "tip"]),
+                      st.text(max_size=8), st.sampled_from(NASTY_SCALARS),
+                      st.lists(st.sampled_from(["a", 1]), max_size=2))
+API_OPTIONS = st.dictionaries(
+    st.sampled_from(["alpha", "beta", "alpah", "omega", "mu", "solver", "tolerance",
+                     "max_iterations", "step", "rtol", "atol", "max_step", "first_step",
+                     "stpe", 3]),
+    st.one_of(st.sampled_from(NASTY_SCALARS), st.floats(1e-6, 1e3)), max_size=2)
+API_TIMES = st.one_of(st.sampled_from([None, 0.0, -1.0, 1e-15, 1e-300, 0.01, 0.02, 1e300,
+                                       float("nan"), float("inf"), 10 ** 40, "0.1", [0.01]]),
+                      st.floats(-1.0, 0.05))
+
+
+@st.composite
+def api_call(draw):
+    """Keyword arguments of simulate() on the pendulum, and names to look up afterwards."""
+    kwargs = {}
+    for key, strategy in (("method", API_NAMES), ("integrator", API_NAMES),
+                          ("method_options", st.one_of(st.none(), API_OPTIONS,
+                                                       st.sampled_from([[1], "x"]))),
+                          ("integrator_options", st.one_of(st.none(), API_OPTIONS)),
+                          ("output_step", API_TIMES), ("step", API_TIMES),
+                          ("rtol", API_TIMES), ("t0", API_TIMES),
+                          ("q0", st.sampled_from(["zero_p", "nan", "short", "list"])),
+                          ("v0", st.sampled_from(["nan", "huge", "short"])),
+                          ("t_eval", st.sampled_from([[0.0, 0.01], [0.01, 0.0], [],
+                                                      [[0.0]], ["a"], [float("nan")]]))):
+        if draw(st.integers(0, 3)) == 0:
+            kwargs[key] = draw(strategy)
+    t_end = draw(API_TIMES)
+    lookups = draw(st.lists(st.tuples(st.sampled_from(["point", "body", "reactions"]),
+                                      API_NAMES), max_size=3))
+    return t_end, kwargs, lookups
+
+
+def check_api(model, t_end, kwargs, lookups) -> str:
+    """The fuzz property for one API call: Results (any status) or a SpatialMBDError."""
+    import warnings
+
+    import numpy as np
+
+    from spatialmbd.budget import Budget
+    from spatialmbd.simulate import simulate
+    kwargs = dict(kwargs)
+    nb = model.nb
+    q0 = np.array(model.q0, dtype=float)
+    special = {"zero_p": np.concatenate([q0[:, :3], np.zeros((nb, 4))], axis=1),
+               "nan": np.full((nb, 7), np.nan), "short": np.zeros(3),
+               "list": q0.tolist()}
+    if "q0" in kwargs:
+        kwargs["q0"] = special[kwargs["q0"]]
+    if "v0" in kwargs:
+        kwargs["v0"] = {"nan": np.full((nb, 6), np.nan), "huge": np.full((nb, 6), 1e300),
+                        "short": np.zeros(2)}[kwargs["v0"]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            res = simulate(model, t_end, budget=Budget(**FUZZ_BUDGET), **kwargs)
+        except SpatialMBDError as exc:
+            assert str(exc).strip()
+            return "error"
+        assert res.status in ("success", "failed", "budget"), res.status
+        for what, name in lookups:
+            try:
+                if what == "reactions":
+                    res.reactions()
+                else:
+                    getattr(res, what)(name)
+            except SpatialMBDError as exc:
+                assert str(exc).strip()
+        return res.status
