@@ -477,10 +477,10 @@ def test_several_outputs_are_all_from_one_run(tmp_path, pendulum, monkeypatch):
     assert set(first) == {csv, h5}
     before = csv.read_bytes(), h5.read_bytes()
 
-    def broken(*args, **kwargs):
+    def broken(self):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(results_io, "_write_hdf5_to", broken)
+    monkeypatch.setattr(results_io._H5Sink, "close", broken)
     with pytest.raises(OSError, match=r"cannot write .*r\.h5: No space left on device \(the "
                                       "previous files are kept\\)"):
         save_all(simulate(pendulum, 0.1), [csv, h5])

@@ -393,18 +393,44 @@ def write_csv(results, path, *, table=None) -> pathlib.Path:
     return path
 
 
-def _write_csv_to(results, tmp, table=None) -> tuple:
-    chunks = [table] if table is not None else iter_table(results)
-    rows, columns = 0, 0
-    with open(tmp, "w", newline="") as fh:
+class _CSVSink:
+    """Receives the table chunk by chunk and writes it as CSV to ``tmp``."""
+
+    def __init__(self, results, tmp):
+        self.fh = open(tmp, "w", newline="")
+        self.rows, self.columns = 0, 0
         line = status_line(results)
         if line:
-            fh.write(line + "\n")
-        for k, df in enumerate(chunks):
-            df.to_csv(fh, index=False, header=k == 0)
-            rows += len(df)
-            columns = len(df.columns)
-    return rows, columns
+            self.fh.write(line + "\n")
+
+    def add(self, df):
+        df.to_csv(self.fh, index=False, header=self.rows == 0 and self.columns == 0)
+        self.rows += len(df)
+        self.columns = len(df.columns)
+
+    def close(self):
+        self.fh.close()
+        return self.rows, self.columns
+
+    def abort(self):
+        self.fh.close()
+
+
+def _write_table(results, sinks, table=None) -> None:
+    """Compute the table once, in chunks, and hand every chunk to every sink."""
+    for df in ([table] if table is not None else iter_table(results)):
+        for sink in sinks:
+            sink.add(df)
+
+
+def _write_csv_to(results, tmp, table=None) -> tuple:
+    sink = _CSVSink(results, tmp)
+    try:
+        _write_table(results, [sink], table)
+    except BaseException:
+        sink.abort()
+        raise
+    return sink.close()
 
 
 def save_all(results, paths, *, analysis=None) -> dict:
@@ -419,17 +445,23 @@ def save_all(results, paths, *, analysis=None) -> dict:
         if path.suffix.lower() not in CSV_SUFFIXES + HDF5_SUFFIXES:
             raise ValueError(f"cannot tell the results format from {str(path)!r}: use a .csv "
                              "or .h5 (.hdf5) file name")
-    staged, written = [], {}
+    staged, sinks = [], []
     try:
         for path in paths:
             st = _Staged(path)
             staged.append(st)
             if path.suffix.lower() in CSV_SUFFIXES:
-                written[path] = _write_csv_to(results, st.tmp)
+                sinks.append(_CSVSink(results, st.tmp))
             else:
-                written[path] = _write_hdf5_to(results, st.tmp, analysis, None, run_id,
-                                               [str(p) for p in paths])
+                sinks.append(_H5Sink(results, st.tmp, analysis, run_id,
+                                     [str(p) for p in paths]))
+        _write_table(results, sinks)
+        written = {}
+        for path, sink in zip(paths, sinks):
+            written[path] = sink.close()
     except BaseException as exc:
+        for sink in sinks:
+            sink.abort()
         for st in staged:
             st.abort()
         if isinstance(exc, OSError) and staged and str(staged[-1].path) not in str(exc):
@@ -536,62 +568,86 @@ def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
     return path
 
 
-def _write_hdf5_to(results, tmp, analysis=None, table=None, run_id=None, outputs=None):
-    import h5py
-    meta = _metadata(results, analysis)
-    kind = meta.get("kind", "dynamic")
-    arrays = {"t": results.t, "q": results.q, "v": results.v, "vdot": results.vdot}
-    if kind == "dynamic":
-        arrays.update(lam=results.lam, work=results.work)
-    else:
-        arrays.update(newton_iterations=results.newton_iterations, residual=results.residual)
-    rows, columns = 0, 0
-    # The file is assembled in memory and written to disk by Python in blocks: a full disk or
-    # a file-size limit then raises OSError (HDF5's own writes crash the process on them),
-    # and Ctrl-C is honoured between blocks.
-    image = io.BytesIO()
-    with h5py.File(image, "w") as f:
+class _H5Sink:
+    """Receives the table chunk by chunk; the HDF5 file is assembled in memory and written to
+    ``tmp`` by Python in blocks on :meth:`close`: a full disk or a file-size limit then raises
+    OSError (HDF5's own writes crash the process on them), and Ctrl-C is honoured between
+    blocks."""
+
+    def __init__(self, results, tmp, analysis=None, run_id=None, outputs=None):
+        import h5py
+        self.tmp = tmp
+        self.meta = _metadata(results, analysis)
+        kind = self.meta.get("kind", "dynamic")
+        arrays = {"t": results.t, "q": results.q, "v": results.v, "vdot": results.vdot}
+        if kind == "dynamic":
+            arrays.update(lam=results.lam, work=results.work)
+        else:
+            arrays.update(newton_iterations=results.newton_iterations,
+                          residual=results.residual)
+        self.n_total = len(results.t)
+        self.rows, self.columns = 0, 0
+        self.image = io.BytesIO()
+        self.f = f = h5py.File(self.image, "w")
         if run_id:
             f.attrs["run_id"] = run_id
             f.attrs["outputs"] = json.dumps(outputs or [])
         f.attrs["format"] = FORMAT_NAME
         f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["spatialmbd_version"] = str(meta.get("version", ""))
+        f.attrs["spatialmbd_version"] = str(self.meta.get("version", ""))
         f.attrs["kind"] = kind
-        f.attrs["status"] = str(meta.get("status", ""))
+        f.attrs["status"] = str(self.meta.get("status", ""))
         f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat()
         for name, arr in arrays.items():
-            if arr is None:
-                continue
-            _dataset(f, name, np.asarray(arr))
-        tab = f.create_group("table")
-        n_total = len(results.t) if results_kind(results) != "loaded" else \
-            len(results.table)
-        chunks = [table] if table is not None else iter_table(results)
-        for k, df in enumerate(chunks):
-            if k == 0:
-                tab.attrs["columns"] = json.dumps([str(c) for c in df.columns])
-                columns = len(df.columns)
-            for c in df.columns:
-                arr = df[c].to_numpy()
-                if k == 0:
-                    _dataset(tab, str(c), arr, growable=len(df) < n_total)
-                else:
-                    dset = tab[str(c)]
-                    dset.resize((rows + len(arr),))
-                    dset[rows:] = arr
-            rows += len(df)
-        grp = f.create_group("metadata")
-        for key, value in meta.items():
+            if arr is not None:
+                _dataset(f, name, np.asarray(arr))
+        self.tab = f.create_group("table")
+
+    def add(self, df):
+        tab, first = self.tab, self.columns == 0
+        if first:
+            tab.attrs["columns"] = json.dumps([str(c) for c in df.columns])
+            self.columns = len(df.columns)
+        for c in df.columns:
+            arr = df[c].to_numpy()
+            if first:
+                _dataset(tab, str(c), arr, growable=len(df) < self.n_total)
+            else:
+                dset = tab[str(c)]
+                dset.resize((self.rows + len(arr),))
+                dset[self.rows:] = arr
+        self.rows += len(df)
+
+    def close(self):
+        import h5py
+        grp = self.f.create_group("metadata")
+        for key, value in self.meta.items():
             grp.create_dataset(key, data=_json(value), dtype=h5py.string_dtype("utf-8"))
-    view = image.getbuffer()
+        self.f.close()
+        view = self.image.getbuffer()
+        try:
+            with open(self.tmp, "wb") as fh:
+                for start in range(0, len(view), WRITE_BLOCK):
+                    fh.write(view[start:start + WRITE_BLOCK])
+        finally:
+            view.release()
+            self.image = None
+        return self.rows, self.columns
+
+    def abort(self):
+        import contextlib as _c
+        with _c.suppress(Exception):
+            self.f.close()
+
+
+def _write_hdf5_to(results, tmp, analysis=None, table=None, run_id=None, outputs=None):
+    sink = _H5Sink(results, tmp, analysis, run_id, outputs)
     try:
-        with open(tmp, "wb") as fh:
-            for start in range(0, len(view), WRITE_BLOCK):
-                fh.write(view[start:start + WRITE_BLOCK])
-    finally:
-        view.release()
-    return rows, columns
+        _write_table(results, [sink], table)
+    except BaseException:
+        sink.abort()
+        raise
+    return sink.close()
 
 
 #: bytes written at a time (an HDF5 file is assembled in memory, then written in blocks)
