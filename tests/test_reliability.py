@@ -509,3 +509,17 @@ def test_chunked_table_equals_the_whole_table(tmp_path, monkeypatch):
     write_csv(res, tmp_path / "r.csv")
     pd.testing.assert_frame_equal(read_results(tmp_path / "r.csv"), whole, rtol=1e-15,
                                   check_dtype=False)
+
+
+def test_the_worked_example_of_docs_reliability_runs(tmp_path, monkeypatch, capsys):
+    import re
+    text = (ROOT / "docs" / "reliability.md").read_text()
+    (code,) = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    monkeypatch.chdir(tmp_path)
+    code = code.replace('"examples/', f'"{ROOT}/examples/')
+    namespace = {}
+    exec(compile(code, "docs/reliability.md", "exec"), namespace)
+    out = capsys.readouterr().out
+    assert "takes 1e+09 steps" in out and "did you mean 'alpha'" in out
+    assert namespace["res"].status == "budget"
+    assert (tmp_path / "run.csv").read_text().startswith("# status: budget")
