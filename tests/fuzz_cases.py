@@ -300,9 +300,9 @@ def api_call(draw):
                           ("v0", st.sampled_from(["nan", "huge", "short"])),
                           ("t_eval", st.sampled_from([[0.0, 0.01], [0.01, 0.0], [],
                                                       [[0.0]], ["a"], [float("nan")]]))):
-        if draw(st.integers(0, 3)) == 0:
+        if draw(st.integers(0, 7)) == 0:
             kwargs[key] = draw(strategy)
-    t_end = draw(API_TIMES)
+    t_end = draw(st.one_of(st.floats(0.001, 0.02), API_TIMES))
     lookups = draw(st.lists(st.tuples(st.sampled_from(["point", "body", "reactions"]),
                                       API_NAMES), max_size=3))
     return t_end, kwargs, lookups

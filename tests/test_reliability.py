@@ -235,7 +235,8 @@ def test_output_sample_limit_is_checked_before_allocating(pendulum):
 
 
 def test_fixed_step_limit_gives_an_estimate_and_a_budget_allows_it(pendulum):
-    with pytest.raises(ModelError, match=r"takes 1e\+0?9 steps, about .* of computing; the "
+    with pytest.raises(ModelError, match=r"takes 1e\+0?9 steps, about .* of computing and .* of "
+                                         r"memory for its outputs; the "
                                          r"limit without a step budget is"):
         simulate(pendulum, 100.0, integrator="rk4", step=1e-7, output_step=1.0)
     res = simulate(pendulum, 3.0, integrator="rk4", step=1e-7, output_step=1e-6,

@@ -149,7 +149,8 @@ def check_outputs(n: float, span: float, output_step: Optional[float], limit: Op
 
 
 def check_fixed_steps(n_steps: float, step: float, span: float, stages: int, budget: Budget,
-                      seconds_per_evaluation: Optional[float] = None) -> None:
+                      seconds_per_evaluation: Optional[float] = None,
+                      output_bytes: Optional[float] = None) -> None:
     """Refuse a fixed-step run of more than MAX_FIXED_STEPS steps unless a budget (steps or
     wall time) bounds it (with an estimate of its time)."""
     if budget.active or n_steps <= MAX_FIXED_STEPS:
@@ -158,6 +159,8 @@ def check_fixed_steps(n_steps: float, step: float, span: float, stages: int, bud
     if seconds_per_evaluation:
         seconds = n_steps * max(stages, 1) * seconds_per_evaluation
         estimate = f", about {_duration(seconds)} of computing"
+    if output_bytes:
+        estimate += f" and {_size(output_bytes)} of memory for its outputs"
     raise ModelError(
         f"a fixed step of {step!r} s over {span:.6g} s takes {n_steps:.3g} steps{estimate}; "
         f"the limit without a step budget is {MAX_FIXED_STEPS:,}: use a larger step or an "

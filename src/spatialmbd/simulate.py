@@ -160,7 +160,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
         return y
 
     y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
-    _check_fixed_steps(integ, rhs, t0, y0, t_out, limits)
+    _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, model.n_eq)
     last_state = guards.LastState()
     rhs = last_state.wrap(rhs)
     callback = _progress(progress, t0, t_out[-1])
@@ -329,7 +329,7 @@ def _python_rhs(model, eom, meth, track_work, driver_rows):
     return rhs
 
 
-def _check_fixed_steps(integ, rhs, t0, y0, t_out, limits) -> None:
+def _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, n_eq=0) -> None:
     """Refuse (before it starts) a fixed-step run of more steps than budget.MAX_FIXED_STEPS
     without a step budget, with an estimate of its time from one timed evaluation."""
     step = getattr(integ, "step", None)
@@ -345,8 +345,10 @@ def _check_fixed_steps(integ, rhs, t0, y0, t_out, limits) -> None:
             per_eval = time.perf_counter() - start
         except Exception:  # noqa: BLE001 - the run itself reports evaluation failures
             per_eval = None
+    from .budget import row_bytes
     check_fixed_steps(n_steps, step, float(t_out[-1]) - t0,
-                      getattr(integ, "stages", 1) or 1, limits, per_eval)
+                      getattr(integ, "stages", 1) or 1, limits, per_eval,
+                      len(t_out) * row_bytes(y0.size, n_eq))
 
 
 def _guarded(rhs, stages, guard):
