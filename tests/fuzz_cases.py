@@ -298,6 +298,11 @@ def api_call(draw):
                           ("rtol", API_TIMES), ("t0", API_TIMES),
                           ("q0", st.sampled_from(["zero_p", "nan", "short", "list"])),
                           ("v0", st.sampled_from(["nan", "huge", "short"])),
+                          ("hold", st.sampled_from([{"pendulum": ["x"]}, ["pendulum"],
+                                                    {"pendulum": 5}, {"x": ["x"]},
+                                                    {"pendulum": "q"}, {"pendulum": "rz"},
+                                                    None])),
+                          ("correct_initial", st.sampled_from([True, False])),
                           ("t_eval", st.sampled_from([[0.0, 0.01], [0.01, 0.0], [],
                                                       [[0.0]], ["a"], [float("nan")]]))):
         if draw(st.integers(0, 7)) == 0:

@@ -223,6 +223,20 @@ def test_initial_state_checks(pendulum):
         simulate("pendulum.yaml", 0.01)
 
 
+def test_hold_and_kinematic_times_are_checked():
+    from spatialmbd.kinematics import kinematic_analysis
+    model, _ = load_model(ROOT / "examples" / "four_bar.yaml")
+    with pytest.raises(ModelError, match="hold: expected a mapping"):
+        simulate(model, 0.01, hold=["crank"])
+    with pytest.raises(ModelError, match=r"hold\['crank'\]: unknown coordinate 'zz' \(did "
+                                         r"you mean 'z'\?\)"):
+        simulate(model, 0.01, hold={"crank": ["zz"]})
+    with pytest.raises(ModelError, match="hold: unknown body 'crnk'"):
+        simulate(model, 0.01, hold={"crnk": ["x"]})
+    with pytest.raises(ModelError, match="t: expected output times"):
+        kinematic_analysis(load_model(ROOT / "examples" / "slider_crank.yaml")[0], "abc")
+
+
 # ============================================================================ limits, budgets
 def test_output_sample_limit_is_checked_before_allocating(pendulum):
     start = time.process_time()

@@ -102,6 +102,41 @@ def compiled_model(model):
                      f"got {type(model).__name__}")
 
 
+def check_hold(model, hold):
+    """``hold`` as {body: [coordinates]} (a single coordinate may be a string); ModelError
+    naming the valid bodies and coordinates otherwise."""
+    from .dynamics.correction import HOLD_NAMES
+    if hold is None:
+        return None
+    if not isinstance(hold, dict):
+        raise ModelError(f"hold: expected a mapping {{body: [coordinates]}} with coordinates "
+                         f"from {', '.join(HOLD_NAMES)}, got {type(hold).__name__}")
+    out = {}
+    for body, coords in hold.items():
+        if not isinstance(body, str) or body not in model.body_names:
+            raise ModelError("hold: " + unknown("body", body, list(model.body_names)))
+        coords = [coords] if isinstance(coords, str) else coords
+        if not isinstance(coords, (list, tuple)):
+            raise ModelError(f"hold[{body!r}]: expected a list of coordinates from "
+                             f"{', '.join(HOLD_NAMES)}, got {coords!r}")
+        for c in coords:
+            if not isinstance(c, str) or c not in HOLD_NAMES:
+                raise ModelError(f"hold[{body!r}]: " + unknown("coordinate", c, HOLD_NAMES))
+        out[body] = list(coords)
+    return out
+
+
+def check_times(t) -> np.ndarray:
+    """Output times (s) as a 1-D float array; ModelError for anything else."""
+    try:
+        arr = np.atleast_1d(np.asarray(t, dtype=float))
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"t: expected output times in s (numbers), got {t!r:.60}") from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise ModelError(f"t: expected a 1-D array of output times, got shape {arr.shape}")
+    return arr
+
+
 def check_time(name: str, value, positive=False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ModelError(f"{name}: expected a number of seconds, got {value!r}")

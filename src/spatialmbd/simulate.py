@@ -116,6 +116,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
             integ_opts[key] = value
     integ = _make_integrator(integrator, integ_opts)
     q, v = guards.initial_state(model, q0, v0)
+    hold = guards.check_hold(model, hold)
     guards.warn(guards.unit_warnings(model))
     eom = EquationsOfMotion(model, sparse=sparse)
 
