@@ -176,7 +176,7 @@ def test_a_deep_python_dict_is_refused():
 # ============================================================================ Python API
 def test_unknown_point_and_body_name_the_choices(pendulum):
     res = simulate(pendulum, 0.01, output_step=0.005)
-    with pytest.raises(ModelError, match=r"unknown point 'tip'; valid: pendulum\."):
+    with pytest.raises(ModelError, match=r"unknown point 'tip'; valid names: pendulum\."):
         res.point("tip")
     with pytest.raises(ModelError, match="unknown body 'pendulm' \\(did you mean 'pendulum'"):
         res.body("pendulm")
@@ -188,9 +188,9 @@ def test_unknown_point_and_body_name_the_choices(pendulum):
 
 def test_method_and_integrator_names_and_options(pendulum):
     with pytest.raises(ModelError, match=r"unknown method 'penalti' \(did you mean 'penalty'"
-                                         r"\?\); valid: penalty, "):
+                                         r"\?\); valid names: penalty, "):
         simulate(pendulum, 0.01, method="penalti")
-    with pytest.raises(ModelError, match=r"unknown integrator 'rk5' .*; valid: rk45"):
+    with pytest.raises(ModelError, match=r"unknown integrator 'rk5' .*; valid names: rk45"):
         simulate(pendulum, 0.01, integrator="rk5")
     with pytest.raises(ModelError, match=r"method 'baumgarte' takes no option 'alpah' \(did "
                                          r"you mean 'alpha'\?\); its options are alpha, "):

@@ -19,9 +19,9 @@ def suggest(word, choices) -> str:
 
 
 def unknown(kind: str, word, choices) -> str:
-    """"unknown <kind> 'word' (did you mean ...?); valid: closest, ..., others"."""
+    """"unknown <kind> 'word' (did you mean ...?); valid names: closest, ..., others"."""
     shown = repr(word) if isinstance(word, str) else f"{word!r} ({type(word).__name__})"
     order = closest_first(word, choices) if isinstance(word, str) else \
         [str(c) for c in choices]
     return (f"unknown {kind} {shown}{suggest(word, choices) if isinstance(word, str) else ''}"
-            f"; valid: {', '.join(order) or 'none'}")
+            f"; valid names: {', '.join(order) or 'none'}")

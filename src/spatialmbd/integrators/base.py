@@ -134,7 +134,10 @@ class Integrator(abc.ABC):
         except KeyboardInterrupt:                         # Ctrl-C: keep what was computed
             status, message = "interrupted", "interrupted (Ctrl-C)"
         except Exception as exc:  # noqa: BLE001 - a non-project error mid-run (e.g. LAPACK's
-            # ValueError): the outputs computed so far are returned with the cause
+            # ValueError): the outputs computed so far are returned with the cause; before
+            # the first evaluation it is a setting the integrator cannot use: raised
+            if counters.nfev == 0 and not outputs:
+                raise
             status = "failed"
             t_fail = getattr(exc, "t", None)
             message = f"{type(exc).__name__}: {exc}"
