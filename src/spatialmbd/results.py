@@ -81,7 +81,8 @@ class Results:
             try:
                 ev = eom.evaluate(t[k], q[k], v[k].reshape(-1))
                 out = method.accelerations(ev, t[k])
-            except SpatialMBDError:
+            except (SpatialMBDError, np.linalg.LinAlgError, ValueError, FloatingPointError):
+                # a state where the run failed: kept, with NaN accelerations and multipliers
                 vdot[k] = np.nan
                 lam[k] = np.nan
                 continue
