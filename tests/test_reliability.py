@@ -2,7 +2,6 @@
 singular positions, plausibility warnings, and nothing lost when a run or a write fails."""
 from __future__ import annotations
 
-import copy
 import json
 import os
 import signal

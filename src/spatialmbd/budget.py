@@ -55,12 +55,12 @@ class Budget:
         elif isinstance(budget, Budget):
             out = budget
         elif isinstance(budget, dict):
-            unknown = sorted(set(budget) - {"max_steps", "max_wall_time", "max_outputs"})
+            keys = ["max_steps", "max_wall_time", "max_outputs"]
+            unknown = sorted(set(map(str, budget)) - set(keys))
             if unknown:
                 from .suggest import suggest
-                raise ModelError(f"budget takes no {unknown[0]!r}"
-                                 f"{suggest(unknown[0], ['max_steps', 'max_wall_time', 'max_outputs'])}"
-                                 "; valid keys: max_steps, max_wall_time, max_outputs")
+                raise ModelError(f"budget takes no {unknown[0]!r}{suggest(unknown[0], keys)}; "
+                                 f"valid keys: {', '.join(keys)}")
             out = cls(**budget)
         else:
             raise ModelError(f"budget: expected a Budget or a dict, got "

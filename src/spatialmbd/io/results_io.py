@@ -84,7 +84,8 @@ FORMAT_VERSION = 1
 HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 CSV_SUFFIXES = (".csv",)
 
-__all__ = ["to_dataframe", "iter_table", "save_all", "clean_stale_temporaries", "save_results", "write_csv", "write_hdf5", "read_results",
+__all__ = ["to_dataframe", "iter_table", "save_all", "clean_stale_temporaries", "save_results",
+           "write_csv", "write_hdf5", "read_results",
            "load_results", "LoadedResults", "atomic_write", "results_kind", "FORMAT_NAME",
            "FORMAT_VERSION"]
 
