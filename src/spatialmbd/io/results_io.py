@@ -471,19 +471,25 @@ def save_all(results, paths, *, analysis=None) -> dict:
             else:
                 sinks.append(_H5Sink(results, st.tmp, analysis, run_id,
                                      [str(p) for p in paths]))
-        _write_table(results, sinks)
+        current = paths[0]
+        for df in iter_table(results):
+            for path, sink in zip(paths, sinks):
+                current = path
+                sink.add(df)
         written = {}
         for path, sink in zip(paths, sinks):
+            current = path
             written[path] = sink.close()
     except BaseException as exc:
         for sink in sinks:
             sink.abort()
         for st in staged:
             st.abort()
-        if isinstance(exc, OSError) and staged and str(staged[-1].path) not in str(exc):
-            raise OSError(exc.errno, f"cannot write {staged[-1].path}: "
-                                     f"{exc.strerror or exc} (the previous files are kept)") \
-                from exc
+        if isinstance(exc, OSError):
+            where = staged[-1].path if len(staged) < len(paths) else current
+            if str(where) not in str(exc):
+                raise OSError(exc.errno, f"cannot write {where}: {exc.strerror or exc} (the "
+                                         "previous files are kept)") from exc
         raise
     for st in staged:
         st.commit()
