@@ -329,7 +329,8 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
     instant, with the joints named if not). Each instant starts Newton from a second-order
     prediction q + v dt + vdot dt^2 / 2 of the previous solution.
     """
-    t = np.atleast_1d(np.asarray(t, dtype=float))
+    from .guards import check_times
+    t = check_times(t)
     nb = model.nb
     q = np.array(model.q0 if q_guess is None else q_guess, dtype=float).reshape(nb, 7)
     q, info = solve_positions(model, q, t[0], tol, max_iter)
