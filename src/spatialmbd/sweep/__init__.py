@@ -13,7 +13,16 @@ from .core import SweepJob, run_chunk, save_result, sweep, to_dataframe
 from .outputs import REDUCTIONS, Output, parse_outputs, period
 from .params import (ParameterSpace, as_space, get_path, grid, latin_hypercube, parse_range,
                      points, set_path)
+from .sensitivity import forward_sensitivities, sensitivities
 
 __all__ = ["sweep", "grid", "points", "latin_hypercube", "ParameterSpace", "parse_range",
            "Output", "parse_outputs", "period", "REDUCTIONS", "set_path", "get_path",
-           "save_result", "to_dataframe", "SweepJob", "run_chunk"]
+           "save_result", "to_dataframe", "SweepJob", "run_chunk", "sensitivities",
+           "forward_sensitivities", "simulate_batch"]
+
+
+def __getattr__(name):
+    if name == "simulate_batch":                 # compiled on first use only
+        from .batch import simulate_batch
+        return simulate_batch
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
