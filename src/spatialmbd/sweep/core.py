@@ -142,7 +142,10 @@ def _run_serial(job, space, bounds, bar):
 def _run_processes(job, space, bounds, bar, workers):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
-    ctx = multiprocessing.get_context("spawn")
+    # fork: the workers inherit the imported package and its compiled kernels, and scripts
+    # need no `if __name__ == "__main__"` guard; spawn where fork does not exist
+    methods = multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
     parts = {}
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         futures = {pool.submit(run_chunk, job, space.values[a:b]): (a, b) for a, b in bounds}

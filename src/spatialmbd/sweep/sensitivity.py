@@ -1,7 +1,7 @@
 """Derivatives of sweep outputs with respect to parameters.
 
 :func:`sensitivities` -- central finite differences run as one sweep. For each parameter x
-(nominal x0) and each candidate step h (relative steps times max(|x0|, 1)):
+(nominal x0) and each candidate step h (relative steps times |x0|, or times 1 if x0 = 0):
 
     D(h)   = (f(x0 + h) - f(x0 - h)) / (2 h)                 error c h^2 + ...
     D(h/2) from the half step; Richardson: R(h) = (4 D(h/2) - D(h)) / 3,
@@ -43,6 +43,10 @@ __all__ = ["sensitivities", "forward_sensitivities"]
 DEFAULT_STEPS = (1e-2, 1e-3, 1e-4)
 
 
+def _scale(x0: float) -> float:
+    return abs(x0) if x0 != 0.0 else 1.0
+
+
 def _nominal(model, params) -> dict:
     """{name: nominal value}; None values read from the model dictionary."""
     if isinstance(params, (list, tuple)):
@@ -74,11 +78,12 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
     """d(output)/d(parameter) by central differences with Richardson-checked step selection.
 
     params: {path: nominal value or None (read from the model)} or a list of paths.
-    relative_steps: candidate steps h = r max(|x0|, 1) (each is also halved).
+    relative_steps: candidate steps h = r |x0| (r if x0 = 0; each is also halved).
     Returns an xarray Dataset with dims (output, parameter): ``derivative`` (D(h/2) at the
     selected step), ``error`` (its Richardson estimate), ``richardson`` (R(h)), ``step`` (h),
-    and ``nominal`` (output values at the nominal point); ``status`` says whether every member
-    needed succeeded.
+    and ``nominal`` (output values at the nominal point); ``status`` per parameter is "success"
+    when at least one candidate step had all four members succeed (``message`` names the
+    steps whose members failed, e.g. an inertia pushed past the triangle inequality).
     """
     import xarray as xr
     nominal = _nominal(model, params)
@@ -94,7 +99,7 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
     rows = [base.copy()]
     index = {}
     for j, n in enumerate(names):
-        scale = max(abs(base[j]), 1.0)
+        scale = _scale(base[j])
         for k, r in enumerate(steps):
             for s, frac in enumerate((1.0, -1.0, 0.5, -0.5)):
                 x = base.copy()
@@ -111,16 +116,20 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
     err = np.full((n_out, n_par), np.nan)
     rich = np.full((n_out, n_par), np.nan)
     step = np.full((n_out, n_par), np.nan)
-    status = np.full(n_par, "success", dtype=object)
+    status = np.full(n_par, "failed", dtype=object)
+    message = np.full(n_par, "", dtype=object)
     for j in range(n_par):
-        scale = max(abs(base[j]), 1.0)
+        scale = _scale(base[j])
         best = np.full(n_out, np.inf)
+        skipped = []
         for k, r in enumerate(steps):
             h = r * scale
             ids = [index[(j, k, s)] for s in range(4)]
             if not all(ok[i] for i in ids):
-                status[j] = "failed"
+                bad = [i for i in ids if not ok[i]][0]
+                skipped.append(f"step {h:.3g}: {ds['message'].values[bad]}")
                 continue
+            status[j] = "success"
             d1 = (vals[:, ids[0]] - vals[:, ids[1]]) / (2 * h)
             d2 = (vals[:, ids[2]] - vals[:, ids[3]]) / h
             e = np.abs(d1 - d2) / 3.0
@@ -130,12 +139,15 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
             err[:, j] = np.where(better, e, err[:, j])
             rich[:, j] = np.where(better, (4 * d2 - d1) / 3.0, rich[:, j])
             step[:, j] = np.where(better, h, step[:, j])
+        if skipped:
+            message[j] = "members failed at " + "; ".join(skipped)
     names_out = [o.name for o in outs]
     out = xr.Dataset(
         dict(derivative=(("output", "parameter"), deriv), error=(("output", "parameter"), err),
              richardson=(("output", "parameter"), rich), step=(("output", "parameter"), step),
              nominal=(("output",), vals[:, 0]),
-             status=(("parameter",), status.astype(str))),
+             status=(("parameter",), status.astype(str)),
+             message=(("parameter",), message.astype(str))),
         coords=dict(output=names_out, parameter=names,
                     value=(("parameter",), base)),
         attrs=dict(method="central differences, Richardson-checked step",
@@ -169,7 +181,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     model, params, outputs, analysis: as :func:`sensitivities` (dynamic analysis; method
     standard/baumgarte; a model that the batch engine takes). The state and sensitivities are
     integrated by classic RK4 with ``step`` (s; default the analysis' step, else 1e-3).
-    relative_delta: the parameter perturbation of f_p, delta = relative_delta max(|x0|, 1).
+    relative_delta: the parameter perturbation of f_p, delta = relative_delta |x0|.
     Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, and the
     sensitivity time series ``S`` (time, state, parameter).
     """
@@ -193,7 +205,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     Fp, Fm, S0 = [], [], np.zeros((n, npar))
     deltas = []
     for j, name in enumerate(names):
-        d = relative_delta * max(abs(nominal[name]), 1.0)
+        d = relative_delta * _scale(nominal[name])
         deltas.append(d)
         plus, minus = dict(nominal), dict(nominal)
         plus[name] += d
