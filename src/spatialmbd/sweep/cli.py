@@ -172,7 +172,6 @@ def summary_plot(ds, path) -> pathlib.Path:
                 label = ", ".join(f"{n}={v:g}" for n, v in
                                   zip(others, key if isinstance(key, tuple) else (key,)))
                 ax.plot(part[x], part[name], "o-", ms=3, label=label)
-            ax.legend(fontsize=7)
         else:
             ax.plot(table[x][ok], table[name][ok], "o-" if grid else "o", ms=3)
         bad = table[~ok]
@@ -181,6 +180,8 @@ def summary_plot(ds, path) -> pathlib.Path:
         ax.set_xlabel(x)
         ax.set_ylabel(name)
         ax.grid(True, alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
     fig.suptitle(f"sweep of {ds.attrs.get('model', 'model')}: {ds.attrs['n_members']} members, "
                  f"{ds.attrs['n_failed']} failed", fontsize=10)
     fig.tight_layout()

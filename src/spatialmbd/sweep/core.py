@@ -332,7 +332,11 @@ def _read_plain(path) -> dict:
 
 # --------------------------------------------------------------------------------- result
 def _assemble(space, outs, rows, job, meta):
-    import xarray as xr
+    try:
+        import xarray as xr
+    except ImportError:
+        raise ModelError("sweep results are xarray Datasets: pip install 'spatialmbd[dask]' "
+                         "(or pip install xarray)") from None
     n = space.n_members
     status = np.array([r[0] for r in rows], dtype=object)
     message = np.array([r[1] for r in rows], dtype=object)
