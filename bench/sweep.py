@@ -10,7 +10,8 @@
    worker-seconds spent per member outside the member's own work. Target: < 20 ms.
 3. Batches of one topology: the same members by engine="batch" (one compiled call per chunk)
    and engine="simulate" (one simulate() per member), both serial, for the pendulum and the
-   free slider-crank (rod mass and initial crank speed varied). Target: >= 10x.
+   free slider-crank (rod mass and initial crank speed varied); also the batch with its
+   members spread over Numba's threads (batch_options={"threads": True}). Target: >= 10x.
 
 The machine is shared (2 cores, other jobs running): the load average is recorded with the
 figures; repeat when it is high.
@@ -82,14 +83,20 @@ def dask_part(members, workers, sweep, points):
 
 def batch_part(name, model, params, outs, analysis, sweep):
     first = {k: v[:2] for k, v in params.items()}
+    threads = dict(threads=True)
     sweep(model, first, outs, analysis, progress=False, engine="batch")            # compile
+    sweep(model, first, outs, analysis, progress=False, engine="batch", batch_options=threads)
     t_sim, a = timed(lambda: sweep(model, params, outs, analysis, progress=False,
                                    engine="simulate"))
     t_bat, b = timed(lambda: sweep(model, params, outs, analysis, progress=False,
                                    engine="batch"))
-    diff = max(float(np.nanmax(np.abs(a[o].values - b[o].values))) for o in outs)
+    t_thr, c = timed(lambda: sweep(model, params, outs, analysis, progress=False,
+                                   engine="batch", batch_options=threads))
+    diff = max(float(np.nanmax(np.abs(a[o].values - x[o].values))) for o in outs
+               for x in (b, c))
     n = int(a.attrs["n_members"])
     return dict(model=name, members=n, simulate_s=t_sim, batch_s=t_bat, ratio=t_sim / t_bat,
+                batch_threads_s=t_thr, ratio_threads=t_sim / t_thr,
                 simulate_ms_per_member=1e3 * t_sim / n, batch_ms_per_member=1e3 * t_bat / n,
                 max_abs_difference=diff,
                 all_success=bool((a["status"] == "success").all()
@@ -142,9 +149,13 @@ def main():
         f"| {bp['members']}-member pendulum: simulate / batch | {bp['simulate_s']:.2f} s / "
         f"{bp['batch_s']:.2f} s = {bp['ratio']:.1f}x (max diff {bp['max_abs_difference']:.1e}) "
         "| >= 10x |",
+        f"| same, batch on Numba's threads | {bp['batch_threads_s']:.2f} s = "
+        f"{bp['ratio_threads']:.1f}x | >= 10x |",
         f"| {bs['members']}-member free slider-crank: simulate / batch | {bs['simulate_s']:.2f} "
         f"s / {bs['batch_s']:.2f} s = {bs['ratio']:.1f}x (max diff "
         f"{bs['max_abs_difference']:.1e}) | >= 10x |",
+        f"| same, batch on Numba's threads | {bs['batch_threads_s']:.2f} s = "
+        f"{bs['ratio_threads']:.1f}x | >= 10x |",
         f"| load average before / after | {report['machine']['load_before']:.2f} / "
         f"{report['machine']['load_after']:.2f} ({report['machine']['cpus']} cores) | |",
     ]

@@ -58,21 +58,25 @@ class SweepJob:
         """(Model, Analysis) of one member."""
         from ..io.modelfile import Analysis, load_model
         model_values, analysis_values = split(member, self.factory is not None)
-        adict = copy.deepcopy(self.analysis)
-        for path, value in analysis_values.items():
-            set_path(adict, path, value)
         if self.factory is None:
             data = copy.deepcopy(self.data)
             for path, value in model_values.items():
                 set_path(data, path, value)
-            data["analysis"] = adict
+            data["analysis"] = self._analysis(analysis_values, self.analysis)
             return load_model(data)
         built = self.factory(**model_values)
-        model = built[0] if isinstance(built, tuple) else built
-        if isinstance(built, tuple) and len(built) > 1 and built[1] is not None \
-                and not analysis_values and not self.analysis:
-            return model, built[1]
-        return model, Analysis.from_dict(adict, list(model.body_names))
+        model, own = (built[0], built[1] if len(built) > 1 else None) \
+            if isinstance(built, tuple) else (built, None)
+        base = self.analysis or (own.to_dict() if own is not None else {})
+        return model, Analysis.from_dict(self._analysis(analysis_values, base),
+                                         list(model.body_names))
+
+    @staticmethod
+    def _analysis(values: dict, base: dict) -> dict:
+        adict = copy.deepcopy(base)
+        for path, value in values.items():
+            set_path(adict, path, value)
+        return adict
 
     def empty(self):
         return [np.nan if not o.series else np.zeros(0) for o in self.outputs]
@@ -238,7 +242,10 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
         "dataframe" (tidy: one row per member, or per member and time with series outputs).
     engine: "simulate" (one :func:`simulate` per member) or "batch" (the members of a chunk
         integrated together in one compiled call, :mod:`.batch`; standard method, rk45/rk4).
-    chunk_size: members per task (default: about four tasks per worker, at most 64 members).
+    chunk_size: members per task (default: about four tasks per worker, at most 64 members
+        with the simulate engine, 1024 with the batch engine).
+    batch_options: options of the batch engine: ``threads`` (True: a chunk's members spread
+        over Numba's threads), ``max_steps`` (per member, default 10 000 000).
     progress: a progress bar (default: when stderr is a terminal).
 
     Members that fail are recorded (status "failed", message); they never raise.
