@@ -181,7 +181,7 @@ def _run_dask(job, space, bounds, bar, scheduler, workers):
     from distributed import as_completed
     client, owned = _dask_client(scheduler, workers)
     try:
-        job_future = client.scatter(job, broadcast=True)
+        job_future = client.scatter(job, broadcast=True, hash=False)   # a key of its own
         futures = [client.submit(run_chunk, job_future, space.values[a:b], pure=False)
                    for a, b in bounds]
         where = {f.key: (a, b) for f, (a, b) in zip(futures, bounds)}
