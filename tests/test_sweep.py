@@ -175,6 +175,14 @@ def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
         ["success", "failed", "success"]
     for o in outs:
         np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
+    # joint geometry (the packed frames of the revolute) and initial velocities reach the batch
+    geo = {"joints.pivot.axis.1": [0.0, 0.2], "bodies.pendulum.angular_velocity.0": [0.0, 1.5]}
+    a = sweep(PENDULUM, geo, outs, analysis, engine="simulate")
+    b = sweep(PENDULUM, geo, outs, analysis, engine="batch")
+    assert (b["status"] == "success").all()
+    assert len(set(np.round(b["min(pendulum.z)"].values.ravel(), 9))) == 4
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
     flyball = EXAMPLES / "flyball_governor.yaml"
     c = sweep(flyball, {"forces.spring_A.stiffness": [1e5]}, ["final(slider.z)"],
               dict(type="dynamic", t_end=0.01), engine="batch")

@@ -300,8 +300,13 @@ def integrate_batch_threads(Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_st
 
 
 # ------------------------------------------------------------------------------ Python side
-#: fields of F that depend on parameter values (everything else in F is fixed by topology)
-_F_FIELDS = ("mass", "Jl", "Jl_inv", "weight", "s_i", "s_j", "R_i", "R_j", "length")
+#: position of a joint-table entry in the table tuple G (body_i, body_j, s_i, s_j, R_i, R_j,
+#: length or param, law, coord) when G has no field names
+_JOINT_ROW_INDEX = {"s_i": 2, "s_j": 3, "R_i": 4, "R_j": 5, "length": 6, "param": 6}
+
+
+def _fields() -> dict:
+    return {name: (buf, ndim) for name, buf, ndim in cs.FIELDS}
 
 
 @dataclass
@@ -371,7 +376,11 @@ class BatchSetup:
                 tuple(np.asarray(G[8]).tolist()))
 
     def pack_F(self, model) -> np.ndarray:
-        """The float pack F of a member model (its topology checked against the prototype)."""
+        """The float pack F of a member model (its topology checked against the prototype).
+
+        Every F field of the packed layout (:data:`..dynamics.system.FIELDS`) is filled from
+        the member model: the body arrays and the joint table's geometry; a field this module
+        does not know raises (the layout changed: the batch engine must learn the field)."""
         from ..constraints.kernels import JointTable
         self._check_model(model)
         if self._signature(model) != self._topology:
@@ -382,11 +391,20 @@ class BatchSetup:
         F = sysm.F.copy()
         G = JointTable(model.constraint_groups, model.group_offsets).G
         arrays = dict(mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
-                      weight=model.mass[:, None] * model.gravity[None, :], s_i=G[2], s_j=G[3],
-                      R_i=G[4], R_j=G[5], length=G[6])
-        for name in _F_FIELDS:
+                      weight=model.mass[:, None] * model.gravity[None, :])
+        for name, (buf, _) in _fields().items():
+            if buf != "F":
+                continue
+            value = arrays.get(name)
+            if value is None:
+                value = getattr(G, name, None)          # the joint rows, by name or position
+            if value is None and name in _JOINT_ROW_INDEX:
+                value = G[_JOINT_ROW_INDEX[name]]
+            if value is None:
+                raise ModelError(f"batch integration does not know the packed model field "
+                                 f"{name!r}; use engine='simulate'")
             view = cs.field_view(cs.FIELDS, F, sysm.I, sysm.W, name)
-            view[...] = np.asarray(arrays[name], dtype=float).reshape(view.shape)
+            view[...] = np.asarray(value, dtype=float).reshape(view.shape)
         return F
 
     def initial_state(self, model, F, analysis) -> np.ndarray:
