@@ -20,10 +20,11 @@ def random_triads(rng, n):
     return Q
 
 
-def random_geometry(rng, n):
+def random_geometry(rng, n, n_param=1):
+    """Random local geometry of n instances; parameters uniform in [0.5, 2] (n, n_param)."""
     return JointGeometry(s_i=rng.normal(size=(n, 3)), s_j=rng.normal(size=(n, 3)),
                          R_i=random_triads(rng, n), R_j=random_triads(rng, n),
-                         length=rng.uniform(0.5, 2.0, size=n))
+                         param=rng.uniform(0.5, 2.0, size=(n, n_param)))
 
 
 def random_state(rng, nb):
@@ -40,6 +41,11 @@ def q_along(q0, v, t):
     return q
 
 
+class WrapJump(Exception):
+    """The stencil straddles the wrap of a wrapped equation (an angle driver, a screw thread):
+    the caller draws another state."""
+
+
 def derivative_errors(group, q0, v, t0, h=1e-3):
     """(max |Phidot_fd - (D v - nu)|, max |Phiddot_fd + gamma|, scale) over all instances."""
     def phi(dt):
@@ -51,6 +57,9 @@ def derivative_errors(group, q0, v, t0, h=1e-3):
 
     p0 = phi(0.0)
     pm2, pm1, pp1, pp2 = (unwrap(phi(k * h), p0) for k in (-2, -1, 1, 2))
+    steps = np.sort(np.abs(np.diff([pm2, pm1, p0, pp1, pp2], axis=0)), axis=0)
+    if np.any(steps[-1] > 10 * steps[1] + 1e-3):   # one step much larger than the others
+        raise WrapJump
     d1 = (pm2 - 8 * pm1 + 8 * pp1 - pp2) / (12 * h)
     d2 = (-pm2 + 16 * pm1 - 30 * p0 + 16 * pp1 - pp2) / (12 * h * h)
     state = BodyState.from_qv(q0, v, t0)

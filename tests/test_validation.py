@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -198,3 +199,41 @@ def test_rotating_pendulum_solution():
     phi, phid = rotating_pendulum(t, 3.0, 34.335, -1.0)
     np.testing.assert_allclose(phi, sol.y[0], atol=1e-8)
     np.testing.assert_allclose(phid, sol.y[1], atol=1e-8)
+
+
+def test_reference_data_ship_inside_the_package():
+    """The references are package data (a regular, non-editable install has them)."""
+    import spatialmbd
+    pkg = Path(spatialmbd.__file__).resolve().parent
+    d = reference_dir().resolve()
+    assert pkg in d.parents
+    assert (d / "references.json").is_file() and (d / "adams" / "PROVENANCE.md").is_file()
+    import tomllib
+    root = pkg.parents[1]
+    data = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    patterns = data["package-data"]["spatialmbd"]
+    for f in d.rglob("*"):
+        if f.is_file():
+            rel = f.relative_to(pkg).as_posix()
+            assert any(Path(rel).match(p) for p in patterns), rel
+
+
+@pytest.mark.slow
+def test_validate_passes_from_an_installed_wheel(tmp_path):
+    """`spatialmbd validate` in a fresh virtual environment holding only the built wheel."""
+    import subprocess
+    import sys
+    import spatialmbd
+    root = Path(spatialmbd.__file__).resolve().parents[2]
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w",
+                    str(tmp_path / "whl"), str(root)], check=True)
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)],
+                   check=True)
+    py = venv / "bin" / "python"
+    wheel = next((tmp_path / "whl").glob("*.whl"))
+    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True)
+    out = subprocess.run([str(py), "-m", "spatialmbd", "validate"], cwd=tmp_path,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    assert "all 17 validation cases passed" in out.stdout

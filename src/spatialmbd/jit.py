@@ -54,19 +54,79 @@ def _source_hash() -> str:
     return h.hexdigest()[:16]
 
 
+_STAMP = None
+
+
+def _stamp() -> str:
+    global _STAMP
+    if _STAMP is None:
+        _STAMP = _source_hash()
+    return _STAMP
+
+
+def _roots():
+    """Candidate cache directories, best first: (path, prune older siblings)."""
+    stamp = _stamp()
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        yield os.path.join(os.environ["NUMBA_CACHE_DIR"], f"spatialmbd-{stamp}"), False
+    yield os.path.join(_PKG, "__pycache__", f"numba-{stamp}"), True
+    try:
+        from numba.misc.appdirs import AppDirs
+        base = AppDirs(appname="spatialmbd", appauthor=False).user_cache_dir
+    except ImportError:                 # pragma: no cover - without Numba
+        base = os.path.join(os.path.expanduser("~"), ".cache", "spatialmbd")
+    yield os.path.join(base, f"numba-{stamp}"), True
+
+
+#: directories holding generated sources (their compiled code is cached like the package's)
+_GENERATED_DIRS: set = set()
+
+
+def generated_module(name: str, source: str):
+    """Import generated source code (e.g. the constraint dispatch) from a file in the compile
+    cache, so that Numba caches its compiled functions across processes.
+
+    The file lives in the first writable cache directory of the current source hash and is
+    rewritten (atomically) only when its content differs; without any writable directory the
+    code is executed from memory (then compiled anew in each process)."""
+    import importlib.util
+    import sys
+    import tempfile
+    modname = f"spatialmbd._generated.{name}"
+    for root, _ in _roots():
+        path = os.path.join(root, f"{name}.py")
+        try:
+            os.makedirs(root, exist_ok=True)
+            current = None
+            if os.path.exists(path):
+                with open(path, encoding="utf-8") as fh:
+                    current = fh.read()
+            if current != source:
+                fd, tmp = tempfile.mkstemp(dir=root, prefix=f".{name}-", suffix=".py")
+                with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                    fh.write(source)
+                os.replace(tmp, path)
+        except OSError:
+            continue
+        _GENERATED_DIRS.add(os.path.abspath(root))
+        spec = importlib.util.spec_from_file_location(modname, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[modname] = module
+        spec.loader.exec_module(module)
+        return module
+    import types
+    module = types.ModuleType(modname)
+    exec(compile(source, f"<generated {name}>", "exec"), module.__dict__)
+    sys.modules[modname] = module
+    return module
+
+
 def _install_cache_locator() -> None:
     """Cache the package's compiled functions under a directory keyed by the source hash."""
     from numba.core import caching
     impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")
-    stamp = _source_hash()
-
-    def roots():
-        if os.environ.get("NUMBA_CACHE_DIR"):
-            yield os.path.join(os.environ["NUMBA_CACHE_DIR"], f"spatialmbd-{stamp}"), False
-        yield os.path.join(_PKG, "__pycache__", f"numba-{stamp}"), True
-        from numba.misc.appdirs import AppDirs
-        yield os.path.join(AppDirs(appname="spatialmbd", appauthor=False).user_cache_dir,
-                           f"numba-{stamp}"), True
+    stamp = _stamp()
+    roots = _roots
 
     class Locator(caching._CacheLocator):
         def __init__(self, py_func, py_file, path):
@@ -85,7 +145,9 @@ def _install_cache_locator() -> None:
 
         @classmethod
         def from_function(cls, py_func, py_file):
-            if not os.path.abspath(py_file).startswith(_PKG + os.sep):
+            here = os.path.abspath(py_file)
+            if not (here.startswith(_PKG + os.sep)
+                    or os.path.dirname(here) in _GENERATED_DIRS):
                 return None
             for path, prune in roots():
                 self = cls(py_func, py_file, path)

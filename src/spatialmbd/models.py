@@ -32,7 +32,7 @@ def pendulum_ch15() -> ModelBuilder:
 
 
 def slider_crank(driven: bool = True, crank_speed: float = 6.0) -> ModelBuilder:
-    """Spatial slider-crank (IFToMM benchmark data, ../shared/benchdata/problems.md).
+    """Spatial slider-crank (IFToMM benchmark data).
 
     Crank 0.08 m turning about global x at A = (0, 0.1, 0.12), pointing up at t = 0
     (B = (0, 0.1, 0.2)); connecting rod 0.3 m from B to C = (0.2, 0, 0); slider along global x.
@@ -169,7 +169,7 @@ def chain(n: int, joint: str = "spherical", length: float = 1.0, mass: float = 1
 
 
 def bricard() -> ModelBuilder:
-    """Bricard mechanism (IFToMM benchmark A04, ../shared/benchdata/problems.md).
+    """Bricard mechanism (IFToMM benchmark A04).
 
     Five 1 m, 1 kg bars of square section 0.1 m (inertia 0.0016667 about the bar, 0.0841667
     across), six revolute joints; Gruebler 0 DoF but it moves with 1 DoF (one redundant
@@ -230,7 +230,7 @@ def _slender_inertia(mass: float, length: float, axis: int, side: float = 0.02):
 
 
 def simple_pendulum_a01(x0: float = 1.0, inertia: float = 1e-6) -> ModelBuilder:
-    """IFToMM benchmark A01 (../shared/benchdata/problems.md): planar simple pendulum.
+    """IFToMM benchmark A01 (IFToMM benchmark library): planar simple pendulum.
 
     Point mass 1 kg on a massless 1 m link, pivot at the origin, gravity 9.81 m/s^2 along -y,
     released at rest from the horizontal at x = x0 (+1 m as in the 2006 MBSBenchmark
@@ -304,7 +304,7 @@ def heavy_top(theta: float = HEAVY_TOP["theta"], spin: float = HEAVY_TOP["spin"]
 
 
 def n_four_bar(n: int = 2) -> ModelBuilder:
-    """IFToMM benchmark A02, N-four-bar mechanism (../shared/benchdata/problems.md), built
+    """IFToMM benchmark A02, N-four-bar mechanism (IFToMM benchmark library), built
     from spatial revolute joints (all axes global z), hence with redundant equations.
 
     2N+1 uniform bars of 1 m, 1 kg (square section 0.02 m): cranks k = 0..N pinned to the
@@ -334,7 +334,7 @@ def n_four_bar(n: int = 2) -> ModelBuilder:
 
 
 def flyball_governor() -> ModelBuilder:
-    """IFToMM benchmark A05, stiff flyball governor (../shared/benchdata/problems.md).
+    """IFToMM benchmark A05, stiff flyball governor (IFToMM benchmark library).
 
     Shaft: prism 0.01 x 0.01 x 1.0 m, 0.3 kg, centre (0, 0, 0.5), revolute to the ground at the
     origin about z. Slider: cube 0.1 m, 3 kg, centre (0, 0, 0.5), translational joint along the
@@ -435,7 +435,7 @@ def robot_arm(stiffness_scale: float = 1.0, damping_scale: float = 1.0) -> Model
 
 def slider_crank_iftomm() -> ModelBuilder:
     """Spatial slider-crank with the universal joint of the published IFToMM implementation
-    whose energy is quoted in ../shared/benchdata/problems.md (0.76643568 J).
+    whose energy is quoted for the IFToMM benchmark library (0.76643568 J).
 
     Same data as :func:`slider_crank` (driven=False, crank at 6 rad/s), except the universal
     joint's cross axes: on the slider the sliding direction x, on the rod (0, -2, 1)/sqrt 5

@@ -1,11 +1,48 @@
-"""Joint and driver constraint types, one module per type, all registered by name."""
-from . import (basic, cylindrical, drivers, fixed, planar, revolute, spherical,  # noqa: F401
-               spherical_revolute, spherical_spherical, translational, universal)
-from .base import CONSTRAINT_TYPES, ConstraintEval, ConstraintType, JointGeometry
+"""Joint and driver constraint types, one module per type, all registered by name.
 
-JOINT_TYPES = {name: cls for name, cls in CONSTRAINT_TYPES.items()
-               if name not in ("angle", "translation", "coordinate")}
-DRIVER_TYPES = {name: CONSTRAINT_TYPES[name] for name in ("angle", "translation", "coordinate")}
+The modules of this package are discovered and imported by :mod:`.kernels` (each registers its
+types with :func:`.base.register`); :data:`JOINT_TYPES` and :data:`DRIVER_TYPES` are live views of
+the registry, so types registered later from user code appear in them too.
+"""
+from collections.abc import Mapping
 
-__all__ = ["CONSTRAINT_TYPES", "JOINT_TYPES", "DRIVER_TYPES", "ConstraintEval", "ConstraintType",
-           "JointGeometry"]
+from . import kernels  # noqa: F401  (discovers and registers every type of the package)
+from .base import (ALIASES, CONSTRAINT_TYPES, LINK_LENGTH, ConstraintEval, ConstraintType,
+                   JointGeometry, Param, canonical_name, register)
+
+
+class _RegistryView(Mapping):
+    """A read-only, always current view of the registry: joints or drivers."""
+
+    def __init__(self, drivers: bool):
+        self._drivers = drivers
+
+    def _names(self):
+        return [n for n, c in CONSTRAINT_TYPES.items() if c.rheonomic == self._drivers]
+
+    def __getitem__(self, name):
+        cls = CONSTRAINT_TYPES[canonical_name(name)]
+        if cls.rheonomic != self._drivers:
+            raise KeyError(name)
+        return cls
+
+    def __contains__(self, name):
+        cls = CONSTRAINT_TYPES.get(canonical_name(name))
+        return cls is not None and cls.rheonomic == self._drivers
+
+    def __iter__(self):
+        return iter(self._names())
+
+    def __len__(self):
+        return len(self._names())
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self._names()})"
+
+
+JOINT_TYPES = _RegistryView(drivers=False)
+DRIVER_TYPES = _RegistryView(drivers=True)
+
+__all__ = ["CONSTRAINT_TYPES", "JOINT_TYPES", "DRIVER_TYPES", "ALIASES", "ConstraintEval",
+           "ConstraintType", "JointGeometry", "Param", "LINK_LENGTH", "canonical_name",
+           "register"]

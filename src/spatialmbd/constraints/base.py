@@ -7,7 +7,8 @@ model compile time, to local quantities on each of the two bodies i and j:
     R_i, R_j  (n, 3, 3)  orthonormal joint triads in body axes, columns [u, a, b]: u is the joint
                          axis (or the first vector of a basic constraint), a and b span the plane
                          normal to it, b = u x a (Fig. 9.2)
-    length    (n,)       link length of composite joints (spherical-spherical, ...)
+    param     (n, P)     the type's own parameters (link length, pitch, ...), in the order of
+                         its ``parameters`` declaration
 
 ``evaluate(state, t)`` returns a :class:`ConstraintEval` with, for the n instances and m equations
 per instance,
@@ -17,23 +18,34 @@ per instance,
     nu    (n, m)       -dPhi/dt, Eq. (7.4) (ERRATA: the printed right-hand side "v" is nu)
     gamma (n, m)       D vdot = gamma, Eq. (7.6), including the time terms of drivers.
 
-The equations of a type are written once, as a compiled kernel for one instance k,
-``kernel(S, G, k, row, out)`` built from the primitives of :mod:`.primitives` (see there for
-S, G and out); :mod:`.kernels` runs it for every instance of every group -- per group for
-``evaluate``, for the whole model at once in the assembly.
+A type declares everything about itself in its class body (the registry generates the rest:
+the compiled dispatch, the builder's keyword checks, the model-file schema and the docs table):
 
-Adding a joint type: subclass :class:`ConstraintType`, set ``name``, ``n_eq`` and ``eq_labels``,
-decorate it with :func:`register`, and either write its compiled ``kernel`` (and list it in
-:data:`.kernels.KINDS`) or override ``evaluate`` with a vectorized NumPy version (then it runs
-in Python, outside the compiled hot path).
+    name, aliases      its name in files and the API, and accepted other spellings
+    n_eq, eq_labels    number of equations per instance and a label for each
+    inputs             the geometric inputs it needs: point, axis (on i), point2, axis2 (on j)
+    parameters         a tuple of :class:`Param` (name, unit, default, checks, doc)
+    driver_kinds       the driver kinds that may act on it ("angle", "translation")
+    angle_based        its equations use the relative joint angle (defined while a_j is not
+                       along the axis u_i)
+    kernel             the compiled kernel for one instance k, ``kernel(S, G, k, row, out)``,
+                       built from the primitives of :mod:`.primitives` (S: body state arrays,
+                       G: the :class:`~.kernels.JointRows` table, out = (phi, D, nu, gamma))
+
+Adding a joint type is one module in this package (it is discovered, registered and compiled
+into the dispatch automatically) plus its test file; see docs/architecture.md. A type
+registered from user code after the package was imported runs its kernel through its own
+compiled loop, called per group between the compiled stages (correct, somewhat slower).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import ClassVar, Sequence
+from typing import Callable, ClassVar, Optional, Sequence
 
 import numpy as np
 
+from ..errors import ModelError
 from ..state import BodyState
 
 
@@ -46,6 +58,43 @@ class ConstraintEval:
 
 
 @dataclass(frozen=True)
+class Param:
+    """One parameter of an element type: a number per instance.
+
+    name: keyword in the API and the model file; unit: SI unit ("m", "m/rad", "-", ...);
+    default: None = required (unless the type computes it from the assembled configuration);
+    positive / nonzero: checks applied by the builder and the file reader; doc: one line.
+    """
+
+    name: str
+    unit: str
+    doc: str
+    default: Optional[float] = None
+    positive: bool = False
+    nonzero: bool = False
+
+    def check(self, value, what: str) -> float:
+        """The validated value (a finite float), or ModelError naming the element and value."""
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}.{self.name}: expected a number ({self.unit}), got "
+                             f"{value!r}") from None
+        if not math.isfinite(x):
+            raise ModelError(f"{what}.{self.name}: must be finite, got {value!r}")
+        if self.positive and not x > 0:
+            raise ModelError(f"{what}.{self.name}: must be positive, got {x} ({self.unit})")
+        if self.nonzero and x == 0:
+            raise ModelError(f"{what}.{self.name}: must not be zero ({self.unit})")
+        return x
+
+
+#: the link length of the composite joints; default: the distance of the points as assembled
+LINK_LENGTH = Param("length", "m", "link length; default: the distance of the two points as "
+                    "assembled", positive=True)
+
+
+@dataclass(frozen=True)
 class JointGeometry:
     """Local joint geometry of n instances (see the module docstring)."""
 
@@ -53,24 +102,33 @@ class JointGeometry:
     s_j: np.ndarray
     R_i: np.ndarray
     R_j: np.ndarray
-    length: np.ndarray
+    param: np.ndarray
 
     @classmethod
     def stack(cls, items: Sequence["JointGeometry"]) -> "JointGeometry":
         return cls(*(np.concatenate([getattr(g, f) for g in items], axis=0)
-                     for f in ("s_i", "s_j", "R_i", "R_j", "length")))
+                     for f in ("s_i", "s_j", "R_i", "R_j", "param")))
 
 
 class ConstraintType:
     """A group of constraint instances of one type, evaluated together."""
 
     name: ClassVar[str] = ""
+    aliases: ClassVar[tuple[str, ...]] = ()
     n_eq: ClassVar[int] = 0
     eq_labels: ClassVar[tuple[str, ...]] = ()
+    #: geometric inputs: "point", "axis" (on body i), "point2", "axis2" (on body j)
+    inputs: ClassVar[frozenset] = frozenset()
+    #: the type's parameters, stored per instance in the param column (n, P) of the table
+    parameters: ClassVar[tuple[Param, ...]] = ()
     #: which driver kinds may act on a joint of this type ("angle", "translation")
     driver_kinds: ClassVar[tuple[str, ...]] = ()
     #: whether the constraint depends explicitly on time
     rheonomic: ClassVar[bool] = False
+    #: the equations use the relative joint angle (see primitives.angle_row)
+    angle_based: ClassVar[bool] = False
+    #: the compiled kernel of one instance, kernel(S, G, k, row, out) (None: override evaluate)
+    kernel: ClassVar[Optional[Callable]] = None
 
     def __init__(self, names: Sequence[str], body_i: np.ndarray, body_j: np.ndarray,
                  geometry: JointGeometry):
@@ -86,9 +144,48 @@ class ConstraintType:
 
     @property
     def compiled(self) -> bool:
-        """True when the group runs through the compiled kernels (evaluate not overridden)."""
+        """True when the group runs in the fused compiled dispatch (its kernel is part of it and
+        evaluate is not overridden)."""
         from .kernels import KIND_ID
-        return self.name in KIND_ID and type(self).evaluate is ConstraintType.evaluate
+        return (KIND_ID.get(self.name, -1) >= 0 and type(self).kernel is not None
+                and type(self).evaluate is ConstraintType.evaluate)
+
+    @classmethod
+    def doc(cls) -> str:
+        """The first sentence of the type's docstring (or of its module's)."""
+        import sys
+        text = cls.__doc__ or sys.modules[cls.__module__].__doc__ or ""
+        import re
+        first = " ".join(text.strip().split("\n\n")[0].split())
+        end = re.search(r"(?<!Eq)(?<!Eqs)(?<!sec)\.\s+(?=[A-Z])", first)
+        return first if end is None else first[:end.start() + 1]
+
+    @classmethod
+    def resolve_parameters(cls, given: dict, P_i: np.ndarray, P_j: np.ndarray,
+                           what: str) -> np.ndarray:
+        """(P,) parameter values of one instance from the user's keywords ``given``.
+
+        P_i, P_j: the global joint points as assembled (for defaults derived from them).
+        Missing parameters take their default; LINK_LENGTH defaults to |P_j - P_i|."""
+        out = np.zeros(len(cls.parameters))
+        for a, par in enumerate(cls.parameters):
+            value = given.get(par.name)
+            if value is None and par is LINK_LENGTH:
+                value = float(np.linalg.norm(P_j - P_i))
+                if not value > 0:
+                    raise ModelError(f"{what}: the two points coincide, so the link length is "
+                                     "0; give distinct points or length > 0")
+            if value is None:
+                value = par.default
+            if value is None:
+                raise ModelError(f"{what}: a {cls.name} joint needs {par.name} ({par.unit}): "
+                                 f"{par.doc}")
+            out[a] = par.check(value, what)
+        return out
+
+    @classmethod
+    def check_assembled(cls, what: str, axis_i: np.ndarray, axis_j: np.ndarray) -> None:
+        """Checks of the assembled geometry (global unit axes u_i, u_j); ModelError if wrong."""
 
     def law_values(self, t: float) -> np.ndarray | None:
         """(n, 3) f, f', f'' of the drivers' motion laws at t (None: not a driver)."""
@@ -107,9 +204,45 @@ class ConstraintType:
         return ConstraintEval(phi, D, np.zeros_like(phi), gamma)
 
 
+#: the live registry: name -> type (every registered joint, basic constraint and driver)
 CONSTRAINT_TYPES: dict[str, type[ConstraintType]] = {}
+#: other accepted spellings -> name
+ALIASES: dict[str, str] = {}
 
 
 def register(cls: type[ConstraintType]) -> type[ConstraintType]:
+    """Class decorator: add a constraint type to the live registry (usable from user code).
+
+    Checks the declaration (name, n_eq, labels, inputs, parameters) at once, so a wrong type
+    fails where it is defined, naming the problem."""
+    where = f"constraint type {cls.__name__}"
+    if not cls.name or not isinstance(cls.name, str):
+        raise ModelError(f"{where}: set a non-empty string ``name``")
+    if not isinstance(cls.n_eq, int) or cls.n_eq < 1 or len(cls.eq_labels) != cls.n_eq:
+        raise ModelError(f"{where} ({cls.name!r}): n_eq = {cls.n_eq!r} needs as many "
+                         f"eq_labels, got {cls.eq_labels!r}")
+    unknown = set(cls.inputs) - {"point", "axis", "point2", "axis2"}
+    if unknown:
+        raise ModelError(f"{where} ({cls.name!r}): unknown inputs {sorted(unknown)}; use "
+                         "point, axis, point2, axis2")
+    names = [p.name for p in cls.parameters]
+    if len(set(names)) != len(names):
+        raise ModelError(f"{where} ({cls.name!r}): duplicate parameter names {names}")
+    for key in (cls.name,) + tuple(cls.aliases):
+        owner = ALIASES.get(key, key if key in CONSTRAINT_TYPES else None)
+        if owner is not None and CONSTRAINT_TYPES[owner].__qualname__ != cls.__qualname__:
+            raise ModelError(f"{where}: the name {key!r} is taken by "
+                             f"{CONSTRAINT_TYPES[owner].__name__}")
     CONSTRAINT_TYPES[cls.name] = cls
+    for alias in cls.aliases:
+        ALIASES[alias] = cls.name
+    import sys
+    kernels = sys.modules.get(__package__ + ".kernels")
+    if getattr(kernels, "DISPATCH_BUILT", False):   # registered after the dispatch was made
+        kernels.register_late(cls)
     return cls
+
+
+def canonical_name(name) -> str:
+    """The registered name for ``name`` or one of its aliases (unchanged if unknown)."""
+    return ALIASES.get(name, name) if isinstance(name, str) else name

@@ -17,61 +17,72 @@ from .primitives import kin_sub, point, put_dot, vector
 
 @njit
 def _d(S, G, k):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    return kin_sub(point(S, bj[k], s_j, k, 1), point(S, bi[k], s_i, k, 0))
+    return kin_sub(point(S, G.bj[k], G.s_j, k, 1), point(S, G.bi[k], G.s_i, k, 0))
 
 
 @njit
 def kernel_n1(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    put_dot(vector(S, bi[k], R_i, k, 0, 0), vector(S, bj[k], R_j, k, 0, 1), out, row)
+    put_dot(vector(S, G.bi[k], G.R_i, k, 0, 0), vector(S, G.bj[k], G.R_j, k, 0, 1), out, row)
 
 
 @njit
 def kernel_n2(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    put_dot(vector(S, bi[k], R_i, k, 0, 0), _d(S, G, k), out, row)
+    put_dot(vector(S, G.bi[k], G.R_i, k, 0, 0), _d(S, G, k), out, row)
 
 
 @njit
 def kernel_p1(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    u_i = vector(S, bi[k], R_i, k, 0, 0)
-    put_dot(u_i, vector(S, bj[k], R_j, k, 1, 1), out, row)
-    put_dot(u_i, vector(S, bj[k], R_j, k, 2, 1), out, row + 1)
+    u_i = vector(S, G.bi[k], G.R_i, k, 0, 0)
+    put_dot(u_i, vector(S, G.bj[k], G.R_j, k, 1, 1), out, row)
+    put_dot(u_i, vector(S, G.bj[k], G.R_j, k, 2, 1), out, row + 1)
 
 
 @njit
 def kernel_p2(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
     d = _d(S, G, k)
-    put_dot(d, vector(S, bi[k], R_i, k, 1, 0), out, row)
-    put_dot(d, vector(S, bi[k], R_i, k, 2, 0), out, row + 1)
+    put_dot(d, vector(S, G.bi[k], G.R_i, k, 1, 0), out, row)
+    put_dot(d, vector(S, G.bi[k], G.R_i, k, 2, 0), out, row + 1)
 
 
 @register
 class Normal1(ConstraintType):
+    """n1: the vector u_i of body i stays normal to u_j of body j, Eq. (8.5)."""
+
     name = "n1"
     n_eq = 1
     eq_labels = ("n1",)
+    inputs = frozenset({"axis", "axis2"})
+    kernel = staticmethod(kernel_n1)
 
 
 @register
 class Normal2(ConstraintType):
+    """n2: the vector u_i of body i stays normal to d from P_i to P_j, Eq. (8.6)."""
+
     name = "n2"
     n_eq = 1
     eq_labels = ("n2",)
+    inputs = frozenset({"axis", "point", "point2"})
+    kernel = staticmethod(kernel_n2)
 
 
 @register
 class Parallel1(ConstraintType):
+    """p1: the vector u_i of body i stays parallel to u_j of body j (two dot products), Eq. (8.9)."""
+
     name = "p1"
     n_eq = 2
     eq_labels = ("p1.a", "p1.b")
+    inputs = frozenset({"axis", "axis2"})
+    kernel = staticmethod(kernel_p1)
 
 
 @register
 class Parallel2(ConstraintType):
+    """p2: the vector d from P_i to P_j stays parallel to u_i of body i (two dot products)."""
+
     name = "p2"
     n_eq = 2
     eq_labels = ("p2.a", "p2.b")
+    inputs = frozenset({"axis", "point", "point2"})
+    kernel = staticmethod(kernel_p2)

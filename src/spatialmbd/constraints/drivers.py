@@ -37,10 +37,9 @@ def _put(out, row, value, law, k, quad):
 
 @njit
 def kernel_angle(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    theta, thetad, quad = angle_row(S, bi[k], bj[k], R_i, R_j, k, out[1], row)
-    _put(out, row, theta, law, k, quad)
-    out[0][row] = wrap_angle(theta - law[k, 0])
+    theta, thetad, quad = angle_row(S, G.bi[k], G.bj[k], G.R_i, G.R_j, k, out[1], row)
+    _put(out, row, theta, G.law, k, quad)
+    out[0][row] = wrap_angle(theta - G.law[k, 0])
 
 
 @njit
@@ -51,16 +50,14 @@ def wrap_angle(x):
 
 @njit
 def kernel_translation(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    x, xd, quad = translation_row(S, bi[k], bj[k], s_i, s_j, R_i, k, out[1], row)
-    _put(out, row, x, law, k, quad)
+    x, xd, quad = translation_row(S, G.bi[k], G.bj[k], G.s_i, G.s_j, G.R_i, k, out[1], row)
+    _put(out, row, x, G.law, k, quad)
 
 
 @njit
 def kernel_coordinate(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    value, quad = coordinate_row(S, bi[k], coord[k], out[1], row)
-    _put(out, row, value, law, k, quad)
+    value, quad = coordinate_row(S, G.bi[k], G.coord[k], out[1], row)
+    _put(out, row, value, G.law, k, quad)
 
 
 class _Driver(ConstraintType):
@@ -87,19 +84,31 @@ class _Driver(ConstraintType):
 
 @register
 class AngleDriver(_Driver):
+    """Prescribed rotation angle of a revolute, cylindrical or screw joint (rad), wrapped so f may
+    grow past pi."""
+
     name = "angle"
     eq_labels = ("angle",)
+    angle_based = True
+    kernel = staticmethod(kernel_angle)
 
 
 @register
 class TranslationDriver(_Driver):
+    """Prescribed translation of a translational, cylindrical or screw joint along its axis
+    (m)."""
+
     name = "translation"
     eq_labels = ("translation",)
+    kernel = staticmethod(kernel_translation)
 
 
 @register
 class CoordinateDriver(_Driver):
-    """Prescribed body coordinate; ``coordinate`` holds indices into COORDINATES (n,)."""
+    """Prescribed body coordinate x, y, z (m) or e0..e3 of a body.
+
+    ``coordinate`` holds indices into COORDINATES (n,)."""
 
     name = "coordinate"
     eq_labels = ("coordinate",)
+    kernel = staticmethod(kernel_coordinate)

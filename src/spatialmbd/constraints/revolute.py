@@ -13,12 +13,11 @@ from .primitives import kin_sub, point, put_dot, put_vector, vector
 
 @njit
 def kernel(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    i, j = bi[k], bj[k]
-    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
-    u_i = vector(S, i, R_i, k, 0, 0)
-    a_j = vector(S, j, R_j, k, 1, 1)
-    b_j = vector(S, j, R_j, k, 2, 1)
+    i, j = G.bi[k], G.bj[k]
+    d = kin_sub(point(S, j, G.s_j, k, 1), point(S, i, G.s_i, k, 0))
+    u_i = vector(S, i, G.R_i, k, 0, 0)
+    a_j = vector(S, j, G.R_j, k, 1, 1)
+    b_j = vector(S, j, G.R_j, k, 2, 1)
     put_vector(d, out, row)                  # Eq. (9.1)
     put_dot(u_i, a_j, out, row + 3)          # Eq. (9.9) n1
     put_dot(u_i, b_j, out, row + 4)          # Eq. (9.9) n1
@@ -30,3 +29,5 @@ class Revolute(ConstraintType):
     n_eq = 5
     eq_labels = ("x", "y", "z", "axis.a", "axis.b")
     driver_kinds = ("angle",)
+    inputs = frozenset({"point", "axis"})
+    kernel = staticmethod(kernel)

@@ -12,8 +12,7 @@ from .primitives import kin_sub, point, put_vector
 
 @njit
 def kernel(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    d = kin_sub(point(S, bj[k], s_j, k, 1), point(S, bi[k], s_i, k, 0))     # Eq. (9.1)
+    d = kin_sub(point(S, G.bj[k], G.s_j, k, 1), point(S, G.bi[k], G.s_i, k, 0))     # Eq. (9.1)
     put_vector(d, out, row)
 
 
@@ -22,3 +21,5 @@ class Spherical(ConstraintType):
     name = "spherical"
     n_eq = 3
     eq_labels = ("x", "y", "z")
+    inputs = frozenset({"point"})
+    kernel = staticmethod(kernel)

@@ -5,19 +5,18 @@ link stays normal to the axis (n2: u_i.d = 0) and keeps its length (d.d - l^2 = 
 from __future__ import annotations
 
 from ..jit import njit
-from .base import ConstraintType, register
+from .base import LINK_LENGTH, ConstraintType, register
 from .primitives import kin_sub, point, put_dot, vector
 
 
 @njit
 def kernel(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    i, j = bi[k], bj[k]
-    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
-    u_i = vector(S, i, R_i, k, 0, 0)
+    i, j = G.bi[k], G.bj[k]
+    d = kin_sub(point(S, j, G.s_j, k, 1), point(S, i, G.s_i, k, 0))
+    u_i = vector(S, i, G.R_i, k, 0, 0)
     put_dot(u_i, d, out, row)
     put_dot(d, d, out, row + 1)
-    out[0][row + 1] -= length[k] ** 2
+    out[0][row + 1] -= G.param[k, 0] ** 2
 
 
 @register
@@ -25,3 +24,6 @@ class SphericalRevolute(ConstraintType):
     name = "spherical_revolute"
     n_eq = 2
     eq_labels = ("normal", "distance")
+    inputs = frozenset({"point", "axis", "point2"})
+    parameters = (LINK_LENGTH,)
+    kernel = staticmethod(kernel)

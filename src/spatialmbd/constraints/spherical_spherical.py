@@ -6,16 +6,15 @@ gamma = 2 d^T (omega~_i sdot_i - omega~_j sdot_j) - 2 ddot^T ddot (ERRATA for (9
 from __future__ import annotations
 
 from ..jit import njit
-from .base import ConstraintType, register
+from .base import LINK_LENGTH, ConstraintType, register
 from .primitives import kin_sub, point, put_dot
 
 
 @njit
 def kernel(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    d = kin_sub(point(S, bj[k], s_j, k, 1), point(S, bi[k], s_i, k, 0))     # Eq. (9.19)
+    d = kin_sub(point(S, G.bj[k], G.s_j, k, 1), point(S, G.bi[k], G.s_i, k, 0))     # Eq. (9.19)
     put_dot(d, d, out, row)
-    out[0][row] -= length[k] ** 2                                            # Eq. (9.18)
+    out[0][row] -= G.param[k, 0] ** 2                                            # Eq. (9.18)
 
 
 @register
@@ -23,3 +22,6 @@ class SphericalSpherical(ConstraintType):
     name = "spherical_spherical"
     n_eq = 1
     eq_labels = ("distance",)
+    inputs = frozenset({"point", "point2"})
+    parameters = (LINK_LENGTH,)
+    kernel = staticmethod(kernel)

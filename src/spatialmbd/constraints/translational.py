@@ -13,13 +13,12 @@ from .primitives import kin_sub, point, put_dot, vector
 
 @njit
 def kernel(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    i, j = bi[k], bj[k]
-    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
-    u_i = vector(S, i, R_i, k, 0, 0)
-    a_i = vector(S, i, R_i, k, 1, 0)
-    a_j = vector(S, j, R_j, k, 1, 1)
-    b_j = vector(S, j, R_j, k, 2, 1)
+    i, j = G.bi[k], G.bj[k]
+    d = kin_sub(point(S, j, G.s_j, k, 1), point(S, i, G.s_i, k, 0))
+    u_i = vector(S, i, G.R_i, k, 0, 0)
+    a_i = vector(S, i, G.R_i, k, 1, 0)
+    a_j = vector(S, j, G.R_j, k, 1, 1)
+    b_j = vector(S, j, G.R_j, k, 2, 1)
     put_dot(u_i, a_j, out, row)
     put_dot(u_i, b_j, out, row + 1)
     put_dot(a_j, d, out, row + 2)
@@ -33,3 +32,5 @@ class Translational(ConstraintType):
     n_eq = 5
     eq_labels = ("axis.a", "axis.b", "offset.a", "offset.b", "twist")
     driver_kinds = ("translation",)
+    inputs = frozenset({"point", "axis"})
+    kernel = staticmethod(kernel)

@@ -3,6 +3,7 @@ the cross axis u_i of body i normal to the cross axis u_j of body j; four equati
 """
 from __future__ import annotations
 
+from ..errors import ModelError
 from ..jit import njit
 from .base import ConstraintType, register
 from .primitives import kin_sub, point, put_dot, put_vector, vector
@@ -10,11 +11,10 @@ from .primitives import kin_sub, point, put_dot, put_vector, vector
 
 @njit
 def kernel(S, G, k, row, out):
-    bi, bj, s_i, s_j, R_i, R_j, length, law, coord = G
-    i, j = bi[k], bj[k]
-    d = kin_sub(point(S, j, s_j, k, 1), point(S, i, s_i, k, 0))
-    u_i = vector(S, i, R_i, k, 0, 0)
-    u_j = vector(S, j, R_j, k, 0, 1)
+    i, j = G.bi[k], G.bj[k]
+    d = kin_sub(point(S, j, G.s_j, k, 1), point(S, i, G.s_i, k, 0))
+    u_i = vector(S, i, G.R_i, k, 0, 0)
+    u_j = vector(S, j, G.R_j, k, 0, 1)
     put_vector(d, out, row)
     put_dot(u_i, u_j, out, row + 3)
 
@@ -24,3 +24,12 @@ class Universal(ConstraintType):
     name = "universal"
     n_eq = 4
     eq_labels = ("x", "y", "z", "cross")
+    inputs = frozenset({"point", "axis", "axis2"})
+    kernel = staticmethod(kernel)
+
+    @classmethod
+    def check_assembled(cls, what, axis_i, axis_j):
+        cos = float(axis_i @ axis_j)
+        if abs(cos) > 1e-6:
+            raise ModelError(f"{what}: the two cross axes of a universal joint must be "
+                             f"perpendicular when assembled (cos of their angle = {cos:.3g})")

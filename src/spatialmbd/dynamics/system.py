@@ -28,11 +28,10 @@ from __future__ import annotations
 
 import copy as copy_module
 import math
-from collections import namedtuple
 
 import numpy as np
 
-from ..constraints.kernels import JointTable, evaluate_instances
+from ..constraints.kernels import JointRows, JointTable, evaluate_instances
 from ..integrators.explicit import rk_combine
 from ..jit import array_view, njit
 from ..rotations import rotate_p_scalar
@@ -40,187 +39,10 @@ from ..state import BodyState, qdot_into, state_into
 from . import sparse as spc
 
 # --------------------------------------------------------------------------------- layout
-#: (name, buffer, ndim) of every field: the bodies, the constraint rows, the pattern and work
-#: arrays of S = D W D^T (the three views :data:`Body`, :data:`Cons` and :data:`Schur`)
-BODY_FIELDS = (
-    ("mass", "F", 1), ("Jl", "F", 3), ("Jl_inv", "F", 3), ("weight", "F", 2),
-    ("r", "W", 2), ("A", "W", 3), ("rdot", "W", 2), ("omega", "W", 2),
-    ("p", "W", 2), ("J", "W", 3), ("Jinv", "W", 3), ("g", "W", 1),
-    ("v", "W", 1), ("vdot", "W", 1), ("t6", "W", 1), ("u6", "W", 1),
-    ("q", "W", 2),
-)
-CONS_FIELDS = (
-    ("kind", "I", 1), ("rows", "I", 1), ("bi", "I", 1), ("bj", "I", 1),
-    ("coord", "I", 1), ("s_i", "F", 2), ("s_j", "F", 2), ("R_i", "F", 3),
-    ("R_j", "F", 3), ("length", "F", 1), ("law", "W", 2), ("phi", "W", 1),
-    ("D", "W", 2), ("nu", "W", 1), ("gamma", "W", 1), ("row_bi", "I", 1),
-    ("row_bj", "I", 1), ("lam", "W", 1), ("rg", "W", 1), ("drv", "I", 1),
-)
-SCHUR_FIELDS = (
-    ("keep", "I", 1), ("inc_ptr", "I", 1), ("inc_row", "I", 1), ("inc_side", "I", 1),
-    ("pair_ptr", "I", 1), ("pair_pos", "I", 1), ("wk", "W", 2), ("Cx", "W", 1),
-    ("Lx", "W", 1), ("xs", "W", 1), ("ys", "W", 1), ("bs", "W", 1),
-    ("S_Cp", "I", 1), ("S_Ci", "I", 1), ("S_Lp", "I", 1), ("S_Li", "I", 1),
-    ("S_Rp", "I", 1), ("S_Rj", "I", 1), ("S_Rpos", "I", 1), ("S_perm", "I", 1),
-)
-FIELDS = BODY_FIELDS + CONS_FIELDS + SCHUR_FIELDS
-Body = namedtuple("Body", [f[0] for f in BODY_FIELDS])
-Cons = namedtuple("Cons", [f[0] for f in CONS_FIELDS])
-Schur = namedtuple("Schur", [f[0] for f in SCHUR_FIELDS])
-
-#: fields of the penalty pack (K = M + alpha D^T D), kept apart so it can be added later
-KFIELDS = (("blkpos", "I", 3), ("rowblk", "I", 2), ("K_Cp", "I", 1), ("K_Ci", "I", 1),
-           ("K_Lp", "I", 1), ("K_Li", "I", 1), ("K_Rp", "I", 1), ("K_Rj", "I", 1),
-           ("K_Rpos", "I", 1), ("K_perm", "I", 1),
-           ("Kx", "W", 1), ("KLx", "W", 1), ("xk", "W", 1), ("yk", "W", 1), ("ck", "W", 1),
-           ("dtc", "W", 1), ("old", "W", 1))
-KSys = namedtuple("KSys", [f[0] for f in KFIELDS])
-
-
-def pack(fields, arrays: dict):
-    """(F, I, W): the arrays of ``fields`` in three flat buffers; I starts with the header
-    (offset and three dimensions per field)."""
-    nf = len(fields)
-    header = np.zeros(4 * nf, dtype=np.int64)
-    chunks = {"F": [], "I": [], "W": []}
-    sizes = {"F": 0, "I": 4 * nf, "W": 0}
-    for k, (name, buf, ndim) in enumerate(fields):
-        a = np.asarray(arrays[name])
-        if a.ndim != ndim:
-            raise ValueError(f"field {name}: expected {ndim} dimensions, got shape {a.shape}")
-        header[4 * k] = sizes[buf]
-        header[4 * k + 1:4 * k + 1 + ndim] = a.shape
-        chunks[buf].append(a.ravel())
-        sizes[buf] += a.size
-    F = np.concatenate(chunks["F"]).astype(float) if chunks["F"] else np.zeros(0)
-    I = np.concatenate([header] + chunks["I"]).astype(np.int64)
-    W = np.concatenate(chunks["W"]).astype(float) if chunks["W"] else np.zeros(0)
-    return np.ascontiguousarray(F), np.ascontiguousarray(I), np.ascontiguousarray(W)
-
-
-def field_view(fields, F, I, W, name):
-    """A NumPy view of one field (Python side)."""
-    k = [f[0] for f in fields].index(name)
-    _, buf, ndim = fields[k]
-    o = I[4 * k]
-    shape = tuple(int(x) for x in I[4 * k + 1:4 * k + 1 + ndim])
-    B = {"F": F, "I": I, "W": W}[buf]
-    return B[o:o + int(np.prod(shape))].reshape(shape)
-
-
-# The view functions below read field k's offset and shape from the header: I[4k] and
-# I[4k+1 : 4k+1+ndim] (written out, so that no function is compiled per literal k).
-@njit
-def bare(B):
-    """B itself, without reference counting (so passing it around costs no atomic updates)."""
-    return array_view(B, 0, (B.size,))
-
-
-@njit(inline="always")
-def body_views(F, I, W):
-    F, I, W = bare(F), bare(I), bare(W)
-    return Body(
-        array_view(F, I[0], (I[1],)),
-        array_view(F, I[4], (I[5], I[6], I[7])),
-        array_view(F, I[8], (I[9], I[10], I[11])),
-        array_view(F, I[12], (I[13], I[14])),
-        array_view(W, I[16], (I[17], I[18])),
-        array_view(W, I[20], (I[21], I[22], I[23])),
-        array_view(W, I[24], (I[25], I[26])),
-        array_view(W, I[28], (I[29], I[30])),
-        array_view(W, I[32], (I[33], I[34])),
-        array_view(W, I[36], (I[37], I[38], I[39])),
-        array_view(W, I[40], (I[41], I[42], I[43])),
-        array_view(W, I[44], (I[45],)),
-        array_view(W, I[48], (I[49],)),
-        array_view(W, I[52], (I[53],)),
-        array_view(W, I[56], (I[57],)),
-        array_view(W, I[60], (I[61],)),
-        array_view(W, I[64], (I[65], I[66])))
-
-
-@njit(inline="always")
-def cons_views(F, I, W):
-    F, I, W = bare(F), bare(I), bare(W)
-    return Cons(
-        array_view(I, I[68], (I[69],)),
-        array_view(I, I[72], (I[73],)),
-        array_view(I, I[76], (I[77],)),
-        array_view(I, I[80], (I[81],)),
-        array_view(I, I[84], (I[85],)),
-        array_view(F, I[88], (I[89], I[90])),
-        array_view(F, I[92], (I[93], I[94])),
-        array_view(F, I[96], (I[97], I[98], I[99])),
-        array_view(F, I[100], (I[101], I[102], I[103])),
-        array_view(F, I[104], (I[105],)),
-        array_view(W, I[108], (I[109], I[110])),
-        array_view(W, I[112], (I[113],)),
-        array_view(W, I[116], (I[117], I[118])),
-        array_view(W, I[120], (I[121],)),
-        array_view(W, I[124], (I[125],)),
-        array_view(I, I[128], (I[129],)),
-        array_view(I, I[132], (I[133],)),
-        array_view(W, I[136], (I[137],)),
-        array_view(W, I[140], (I[141],)),
-        array_view(I, I[144], (I[145],)))
-
-
-@njit(inline="always")
-def schur_views(F, I, W):
-    F, I, W = bare(F), bare(I), bare(W)
-    return Schur(
-        array_view(I, I[148], (I[149],)),
-        array_view(I, I[152], (I[153],)),
-        array_view(I, I[156], (I[157],)),
-        array_view(I, I[160], (I[161],)),
-        array_view(I, I[164], (I[165],)),
-        array_view(I, I[168], (I[169],)),
-        array_view(W, I[172], (I[173], I[174])),
-        array_view(W, I[176], (I[177],)),
-        array_view(W, I[180], (I[181],)),
-        array_view(W, I[184], (I[185],)),
-        array_view(W, I[188], (I[189],)),
-        array_view(W, I[192], (I[193],)),
-        array_view(I, I[196], (I[197],)),
-        array_view(I, I[200], (I[201],)),
-        array_view(I, I[204], (I[205],)),
-        array_view(I, I[208], (I[209],)),
-        array_view(I, I[212], (I[213],)),
-        array_view(I, I[216], (I[217],)),
-        array_view(I, I[220], (I[221],)),
-        array_view(I, I[224], (I[225],)))
-
-
-@njit(inline="always")
-def unpack_k(KI, KW):
-    KI, KW = bare(KI), bare(KW)
-    return KSys(
-        array_view(KI, KI[0], (KI[1], KI[2], KI[3])),
-        array_view(KI, KI[4], (KI[5], KI[6])),
-        array_view(KI, KI[8], (KI[9],)),
-        array_view(KI, KI[12], (KI[13],)),
-        array_view(KI, KI[16], (KI[17],)),
-        array_view(KI, KI[20], (KI[21],)),
-        array_view(KI, KI[24], (KI[25],)),
-        array_view(KI, KI[28], (KI[29],)),
-        array_view(KI, KI[32], (KI[33],)),
-        array_view(KI, KI[36], (KI[37],)),
-        array_view(KW, KI[40], (KI[41],)),
-        array_view(KW, KI[44], (KI[45],)),
-        array_view(KW, KI[48], (KI[49],)),
-        array_view(KW, KI[52], (KI[53],)),
-        array_view(KW, KI[56], (KI[57],)),
-        array_view(KW, KI[60], (KI[61],)),
-        array_view(KW, KI[64], (KI[65],)))
-
-
-def _check_layout():
-    """The view functions list the fields by position: keep them in step with FIELDS."""
-    assert (len(BODY_FIELDS), len(CONS_FIELDS), len(SCHUR_FIELDS), len(KFIELDS)) == \
-        (17, 20, 20, 17)
-
-
-_check_layout()
+# The packed buffers and their compiled views are declared once, in :mod:`.layout`.
+from .layout import (BODY_FIELDS, CONS_FIELDS, FIELDS, KFIELDS, SCHUR_FIELDS, Body, Cons,  # noqa
+                     KSys, Schur, bare, body_views, cons_views, field_view, pack, schur_views,
+                     unpack_k)
 
 
 # --------------------------------------------------------------------------------- helpers
@@ -313,7 +135,7 @@ def _state(t, y, normalize, bo, co):
     state_into(q, v, normalize != 0.0, bo.r, bo.A, bo.rdot, bo.omega, bo.p)
     body_terms(bo.A, bo.omega, bo.Jl, bo.Jl_inv, bo.weight, bo.J, bo.Jinv, bo.g)
     S = (bo.r, bo.A, bo.rdot, bo.omega, bo.p)
-    G = (co.bi, co.bj, co.s_i, co.s_j, co.R_i, co.R_j, co.length, co.law, co.coord)
+    G = JointRows(co.bi, co.bj, co.s_i, co.s_j, co.R_i, co.R_j, co.param, co.law, co.coord)
     evaluate_instances(co.kind, S, G, co.rows, (co.phi, co.D, co.nu, co.gamma))
 
 
@@ -847,7 +669,7 @@ class System:
         arrays = dict(
             mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
             weight=model.mass[:, None] * model.gravity[None, :],
-            s_i=G[2], s_j=G[3], R_i=G[4], R_j=G[5], length=G[6],
+            s_i=G.s_i, s_j=G.s_j, R_i=G.R_i, R_j=G.R_j, param=G.param,
             kind=table.kind, rows=table.rows, bi=G[0], bj=G[1], coord=G[8],
             row_bi=row_bi, row_bj=row_bj, keep=keep, drv=self.driver_rows, **inc,
             S_Cp=self.S.Cp, S_Ci=self.S.Ci, S_Lp=self.S.Lp, S_Li=self.S.Li, S_Rp=self.S.Rp,
@@ -876,7 +698,7 @@ class System:
         self.law = w("law")
         table = copy_module.copy(self.table)
         table.law = self.law                  # drivers write their (f, f', f'') here
-        table.G = table.G[:7] + (self.law,) + table.G[8:]
+        table.G = table.G._replace(law=self.law)
         self.table = table
         self.state = BodyState(r=w("r"), A=w("A"), rdot=w("rdot"), omega=w("omega"),
                                p=w("p"))

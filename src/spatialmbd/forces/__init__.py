@@ -1,19 +1,24 @@
-"""Force elements, one module per type, registered by name (gravity is a model setting)."""
+"""Force elements, one module per type, registered by name (gravity is a model setting).
+
+Every module of this package is imported here and registers its types with
+:func:`.base.register`; :data:`FORCE_TYPES` is the live registry, so types registered from
+user code appear in it too. Adding a force type is one module plus its test file
+(docs/architecture.md).
+"""
 from __future__ import annotations
 
+import importlib
+import os
+import pkgutil
 from dataclasses import dataclass
 
 import numpy as np
 
-from .base import ForceType
-from .point_force import PointForce, Torque
-from .rotational_spring_damper import RotationalSpringDamper
-from .spring_damper import SpringDamper
-from .user import UserForce
+from .base import FORCE_TYPES, ForceType, register
 
-FORCE_TYPES: dict[str, type[ForceType]] = {
-    cls.name: cls for cls in (PointForce, Torque, SpringDamper, RotationalSpringDamper, UserForce)
-}
+for _info in sorted(pkgutil.iter_modules([os.path.dirname(__file__)]), key=lambda m: m.name):
+    if _info.name != "base":
+        importlib.import_module(f"{__name__}.{_info.name}")
 
 
 @dataclass
@@ -43,4 +48,4 @@ def build_force_groups(builder, index, element_of_joint=None, groups=None) -> li
     return [FORCE_TYPES[t].build(specs, ctx) for t, specs in by_type.items()]
 
 
-__all__ = ["FORCE_TYPES", "ForceType", "build_force_groups"]
+__all__ = ["FORCE_TYPES", "ForceType", "build_force_groups", "register"]

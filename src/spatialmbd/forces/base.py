@@ -19,8 +19,34 @@ from ..errors import ModelError
 from ..state import BodyState
 
 
+#: the kinds a force parameter may have in a model file (how the reader checks it)
+PARAM_KINDS = ("body", "joint", "point", "vector", "matrix", "string", "number", "law", "any")
+
+
 class ForceType(abc.ABC):
+    """A force-element type. Declares in its class body: ``name``; ``parameters``, a dict
+    keyword -> kind (one of :data:`PARAM_KINDS`: how the model file writes it); ``required``,
+    the keywords without a default; ``in_files`` False if it cannot be written in a model file
+    (Python callables). The registry (:func:`register`) generates from these the builder's
+    keyword checks, the model-file schema and the docs table."""
+
     name: ClassVar[str] = ""
+    parameters: ClassVar[dict] = {}
+    required: ClassVar[tuple] = ()
+    in_files: ClassVar[bool] = True
+
+    @classmethod
+    def allowed(cls) -> tuple:
+        return tuple(cls.parameters)
+
+    @classmethod
+    def doc(cls) -> str:
+        import sys
+        text = cls.__doc__ or sys.modules[cls.__module__].__doc__ or ""
+        import re
+        first = " ".join(text.strip().split("\n\n")[0].split())
+        end = re.search(r"(?<!Eq)(?<!Eqs)(?<!sec)\.\s+(?=[A-Z])", first)
+        return first if end is None else first[:end.start() + 1]
 
     def __init__(self, names):
         self.names = tuple(names)
@@ -85,7 +111,33 @@ def local_point(spec, builder, body, key, default=(0.0, 0.0, 0.0)) -> np.ndarray
 
 
 def check_unknown(spec, allowed) -> None:
+    allowed = allowed() if callable(allowed) else allowed
     extra = set(spec.params) - set(allowed)
     if extra:
         raise ModelError(f"forces[{spec.name!r}]: unknown parameter(s) {sorted(extra)} for a "
                          f"{spec.type}; allowed: {sorted(allowed)}")
+
+
+#: the live registry of force-element types: name -> class
+FORCE_TYPES: dict = {}
+
+
+def register(cls):
+    """Class decorator: add a force-element type to the live registry (usable from user code);
+    checks the declaration at once."""
+    if not cls.name or not isinstance(cls.name, str):
+        raise ModelError(f"force type {cls.__name__}: set a non-empty string ``name``")
+    bad = {k: v for k, v in cls.parameters.items() if v not in PARAM_KINDS}
+    if bad:
+        raise ModelError(f"force type {cls.name!r}: unknown parameter kinds {bad}; use "
+                         f"{', '.join(PARAM_KINDS)}")
+    missing = set(cls.required) - set(cls.parameters)
+    if missing:
+        raise ModelError(f"force type {cls.name!r}: required {sorted(missing)} are not among "
+                         "its parameters")
+    other = FORCE_TYPES.get(cls.name)
+    if other is not None and other.__qualname__ != cls.__qualname__:
+        raise ModelError(f"force type {cls.__name__}: the name {cls.name!r} is taken by "
+                         f"{other.__name__}")
+    FORCE_TYPES[cls.name] = cls
+    return cls

@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import ModelError
 from ..motion import MotionLawSet, make_law
 from ..rotations import cross
-from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point
+from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point, register
 
 FRAMES = ("global", "body")
 
@@ -48,9 +48,12 @@ class _Directed(ForceType):
         return mag[:, None] * dirs
 
 
+@register
 class PointForce(_Directed):
     name = "point_force"
-    allowed = ("body", "point", "direction", "magnitude", "frame")
+    required = ("body", "direction")
+    parameters = {"body": "body", "point": "point", "direction": "vector", "magnitude": "law",
+                  "frame": "string"}
 
     def __init__(self, names, body, point, direction, in_body, laws):
         super().__init__(names, body, direction, in_body, laws)
@@ -84,11 +87,13 @@ class PointForce(_Directed):
         return float(np.sum(f * vP))
 
 
+@register
 class Torque(_Directed):
     """A pure moment, Eq. (11.4): g_i = [0; n]."""
 
     name = "torque"
-    allowed = ("body", "direction", "magnitude", "frame")
+    required = ("body", "direction")
+    parameters = {"body": "body", "direction": "vector", "magnitude": "law", "frame": "string"}
 
     @classmethod
     def validate(cls, spec, builder):

@@ -15,12 +15,15 @@ import numpy as np
 from ..constraints import primitives as prim
 from ..errors import ModelError
 from ..motion import MotionLawSet, make_law
-from .base import ForceType, add_to_bodies, check_unknown
+from .base import ForceType, add_to_bodies, check_unknown, register
 
 
+@register
 class RotationalSpringDamper(ForceType):
     name = "rotational_spring_damper"
-    allowed = ("joint", "stiffness", "damping", "rest_angle", "actuator")
+    required = ("joint",)
+    parameters = {"joint": "joint", "stiffness": "number", "damping": "number",
+                  "rest_angle": "number", "actuator": "law"}
 
     def __init__(self, names, bi, bj, R_i, R_j, k, c, theta0, laws):
         super().__init__(names)

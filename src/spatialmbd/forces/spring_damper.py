@@ -11,13 +11,16 @@ import numpy as np
 from ..errors import ModelError
 from ..motion import MotionLawSet, make_law
 from ..rotations import cross
-from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point
+from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point, register
 
 
+@register
 class SpringDamper(ForceType):
     name = "spring_damper"
-    allowed = ("body_i", "body_j", "point_i", "point_j", "stiffness", "damping",
-               "natural_length", "actuator")
+    required = ("body_i", "body_j")
+    parameters = {"body_i": "body", "body_j": "body", "point_i": "point", "point_j": "point",
+                  "stiffness": "number", "damping": "number", "natural_length": "number",
+                  "actuator": "law"}
 
     def __init__(self, names, bi, bj, s_i, s_j, k, c, l0, laws):
         super().__init__(names)

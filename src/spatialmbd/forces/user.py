@@ -11,12 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError, SimulationError
-from .base import ForceType, check_unknown
+from .base import ForceType, check_unknown, register
 
 
+@register
 class UserForce(ForceType):
     name = "user"
-    allowed = ("function",)
+    in_files = False
+    parameters = {"function": "any"}
 
     def __init__(self, names, functions, nb):
         super().__init__(names)

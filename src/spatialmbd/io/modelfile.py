@@ -52,7 +52,19 @@ _GEOMETRY_ORDER = ("point", "axis", "reference", "point2", "axis2",
                    "point_i", "point_j", "axis_i", "axis_j", "ref_i", "ref_j")
 GEOMETRY_KEYS = tuple(k for k in _GEOMETRY_ORDER if k in GLOBAL_KEYS | LOCAL_KEYS) + tuple(
     sorted((GLOBAL_KEYS | LOCAL_KEYS) - set(_GEOMETRY_ORDER)))
-JOINT_KEYS = ("name", "type", "body_i", "body_j") + GEOMETRY_KEYS + ("length",)
+JOINT_KEYS = ("name", "type", "body_i", "body_j") + GEOMETRY_KEYS
+
+
+def joint_keys(jtype=None) -> tuple:
+    """The keys a joint entry may have: the common ones plus the parameters of its type (of
+    every registered type when the type is unknown), generated from the live registry."""
+    from ..constraints import JOINT_TYPES
+    types = [JOINT_TYPES[jtype]] if isinstance(jtype, str) and jtype in JOINT_TYPES else \
+        list(JOINT_TYPES.values())
+    extra = []
+    for cls in types:
+        extra += [par.name for par in cls.parameters if par.name not in extra]
+    return JOINT_KEYS + tuple(extra)
 DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
 SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "cylinder": ("type", "radius", "length", "center", "axis", "color"),
@@ -62,15 +74,6 @@ ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator
                  "correct_initial", "hold")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
 ANALYSIS_TYPES = ("dynamic", "kinematic")
-
-#: how each force parameter is written; parameters of force types added later default to "any"
-FORCE_PARAM_KINDS = {"body": "body", "body_i": "body", "body_j": "body", "joint": "joint",
-                     "point": "point", "point_i": "point", "point_j": "point",
-                     "direction": "vector", "frame": "string", "magnitude": "law",
-                     "actuator": "law", "stiffness": "number", "damping": "number",
-                     "natural_length": "number", "rest_angle": "number"}
-FORCE_REQUIRED = {"point_force": ("body", "direction"), "torque": ("body", "direction"),
-                  "spring_damper": ("body_i", "body_j"), "rotational_spring_damper": ("joint",)}
 
 # builder keyword -> place in the file, for relabelling the builder's messages
 _BODY_FIELDS = {"r": ("position",), "rdot": ("velocity",), "omega": ("angular_velocity",),
@@ -811,7 +814,8 @@ def _parse(P, data, default_name="model"):
         joints = []
     for i, d in enumerate(joints):
         path = ("joints", i)
-        if not _mapping(P, path, d, JOINT_KEYS, ("name", "type", "body_i", "body_j")):
+        if not _mapping(P, path, d, joint_keys(d.get("type") if isinstance(d, dict) else None),
+                        ("name", "type", "body_i", "body_j")):
             continue
         n0 = len(P)
         complete = all(k in d for k in ("name", "type", "body_i", "body_j"))
@@ -827,14 +831,17 @@ def _parse(P, data, default_name="model"):
         geometry = {k: d[k] for k in GEOMETRY_KEYS if k in d}
         for key, val in geometry.items():
             _vector(P, path + (key,), val, or_name=key in ("point_i", "point_j"))
-        if "length" in d:
-            _number(P, path + ("length",), d["length"], positive=True)
+        params = {}
+        if isinstance(d.get("type"), str) and d["type"] in JOINT_TYPES:
+            for par in JOINT_TYPES[d["type"]].parameters:
+                if par.name in d and _number(P, path + (par.name,), d[par.name],
+                                             positive=par.positive):
+                    params[par.name] = d[par.name]
         if len(P) != n0 or not complete or \
                 not {d["body_i"], d["body_j"]} <= ok_bodies | {GROUND}:
             continue        # problems here, or in a body it joins (reported there)
         try:
-            b.add_joint(d["type"], d["name"], d["body_i"], d["body_j"], length=d.get("length"),
-                        **geometry)
+            b.add_joint(d["type"], d["name"], d["body_i"], d["body_j"], **params, **geometry)
         except ModelError as exc:
             _relabel(P, path, f"joints[{d['name']!r}]", str(exc))
             continue
@@ -893,7 +900,7 @@ def _parse(P, data, default_name="model"):
     forces = _section(data, "forces")
     if not _list(P, ("forces",), forces, "force elements"):
         forces = []
-    valid_types = [t for t in FORCE_TYPES if t != "user"]
+    valid_types = [t for t, cls in FORCE_TYPES.items() if cls.in_files]
     for i, d in enumerate(forces):
         path = ("forces", i)
         if not isinstance(d, dict):
@@ -904,18 +911,19 @@ def _parse(P, data, default_name="model"):
             P.add(path, "missing required key 'type' (force types: "
                         + ", ".join(valid_types) + ")")
             continue
-        if ftype == "user":
-            P.add(path + ("type",), "user forces take a Python callable and cannot be "
+        if isinstance(ftype, str) and ftype in FORCE_TYPES and not FORCE_TYPES[ftype].in_files:
+            P.add(path + ("type",), f"{ftype} forces take a Python callable (or other Python "
+                                    "objects) and cannot be "
                                     "described in a model file; add them in Python with "
-                                    "ModelBuilder.add_force('user', ...) after load_builder()")
+                                    f"ModelBuilder.add_force({ftype!r}, ...) after load_builder()")
             continue
         if ftype not in FORCE_TYPES:
             P.add(path + ("type",), f"unknown force type {_name(ftype)}"
                                     f"{_suggest(ftype, valid_types)}; valid types: "
                                     + ", ".join(valid_types))
             continue
-        allowed = ("name", "type") + tuple(FORCE_TYPES[ftype].allowed)
-        required = ("name",) + FORCE_REQUIRED.get(ftype, ())
+        allowed = ("name", "type") + FORCE_TYPES[ftype].allowed()
+        required = ("name",) + tuple(FORCE_TYPES[ftype].required)
         _mapping(P, path, d, allowed, required)
         n0 = len(P)
         complete = all(k in d for k in required)
@@ -925,7 +933,7 @@ def _parse(P, data, default_name="model"):
         for key, val in d.items():
             if key in ("name", "type") or key not in allowed:
                 continue
-            kind = FORCE_PARAM_KINDS.get(key, "any")
+            kind = FORCE_TYPES[ftype].parameters.get(key, "any")
             where = path + (key,)
             if kind == "body":
                 if _reference(P, where, val, declared_bodies, "body", (GROUND,)):
@@ -937,6 +945,8 @@ def _parse(P, data, default_name="model"):
                 _vector(P, where, val, or_name=True)
             elif kind == "vector":
                 _vector(P, where, val)
+            elif kind == "matrix":
+                _matrix(P, where, val)
             elif kind == "string":
                 _string(P, where, val)
             elif kind == "number":
@@ -1208,8 +1218,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
             if key in spec.geometry and spec.geometry[key] is not None:
                 val = spec.geometry[key]
                 d[key] = val if isinstance(val, str) else _floats(val)
-        if spec.length is not None:
-            d["length"] = float(spec.length)
+        for key, value in spec.params.items():
+            d[key] = float(value)
         joints.append(d)
     if joints:
         out["joints"] = joints
@@ -1223,12 +1233,14 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         drivers.append(d)
     if drivers:
         out["drivers"] = drivers
+    from ..forces import FORCE_TYPES
     forces = []
     for k, spec in enumerate(s["forces"].values()):
-        if spec.type == "user":
-            P.add(("forces", k), f"force {spec.name!r} is a user force (a Python callable) and "
-                                 "cannot be written to a model file; add it in Python with "
-                                 "ModelBuilder.add_force('user', ...) after load_builder()")
+        if not FORCE_TYPES[spec.type].in_files:
+            P.add(("forces", k), f"force {spec.name!r} is a {spec.type} force (it holds Python "
+                                 "objects) and cannot be written to a model file; add it in "
+                                 f"Python with ModelBuilder.add_force({spec.type!r}, ...) after "
+                                 "load_builder()")
             continue
         d = {"name": spec.name, "type": spec.type}
         d.update({key: _plain(val, P, ("forces", k, key))

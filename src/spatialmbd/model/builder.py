@@ -177,8 +177,7 @@ class ModelBuilder:
         return name
 
     # ----------------------------------------------------------------------------- joints
-    def add_joint(self, type: str, name: str, body_i: str, body_j: str, *,
-                  length: Optional[float] = None, **geometry) -> str:
+    def add_joint(self, type: str, name: str, body_i: str, body_j: str, **keywords) -> str:
         """Add a joint of ``type`` (see spatialmbd.constraints.JOINT_TYPES) between two bodies.
 
         Geometry, either global (in the initial configuration):
@@ -187,13 +186,16 @@ class ModelBuilder:
             axis2 (second axis, on body j: universal cross axis, n1/p1 vector);
         or local (body axes; a point may also be the name of a named point of the body):
             point_i, point_j, axis_i, axis_j, ref_i, ref_j.
-        length: link length of spherical_spherical / spherical_revolute (m); default: as
-        assembled.
+        Parameters of the type by name (its ``parameters`` declaration), e.g. length of
+        spherical_spherical / spherical_revolute (m; default: as assembled), pitch of a screw.
         """
+        from ..constraints import canonical_name
         what = f"joints[{name!r}]"
         if type not in JOINT_TYPES:
             raise ModelError(f"{what}: unknown joint type {type!r}; valid types: "
                              + ", ".join(sorted(JOINT_TYPES)))
+        type = canonical_name(type)
+        jtype = JOINT_TYPES[type]
         self._check_new_name(name, "joint")
         for body in (body_i, body_j):
             if body != GROUND and body not in self.bodies:
@@ -202,20 +204,29 @@ class ModelBuilder:
         if body_i == body_j:
             raise ModelError(f"{what}: joins body {body_i!r} to itself; a joint needs two "
                              "different bodies")
+        param_names = [par.name for par in jtype.parameters]
+        params = {k: v for k, v in keywords.items() if k in param_names and v is not None}
+        geometry = {k: v for k, v in keywords.items() if k not in param_names}
         keys = set(geometry)
         unknown = keys - GLOBAL_KEYS - LOCAL_KEYS
         if unknown:
-            raise ModelError(f"{what}: unknown geometry keyword(s) {sorted(unknown)}; use "
-                             f"{sorted(GLOBAL_KEYS)} (global) or {sorted(LOCAL_KEYS)} (local)")
+            import difflib
+            close = difflib.get_close_matches(sorted(unknown)[0], sorted(GLOBAL_KEYS | LOCAL_KEYS)
+                                              + param_names, n=1)
+            raise ModelError(f"{what}: unknown geometry keyword(s) {sorted(unknown)}"
+                             + (f" (did you mean {close[0]!r}?)" if close else "")
+                             + f" for a {type} joint; use {sorted(GLOBAL_KEYS)} (global) or "
+                             f"{sorted(LOCAL_KEYS)} "
+                             "(local)" + (f", and its parameters {param_names}"
+                                          if param_names else ""))
         if keys & GLOBAL_KEYS and keys & LOCAL_KEYS:
             raise ModelError(f"{what}: mixes global ({sorted(keys & GLOBAL_KEYS)}) and local "
                              f"({sorted(keys & LOCAL_KEYS)}) geometry; use one form")
-        if length is not None:
-            length = float(length)
-            if not length > 0:
-                raise ModelError(f"{what}.length: must be positive, got {length}")
+        for par in jtype.parameters:
+            if par.name in params:
+                params[par.name] = par.check(params[par.name], what)
         spec = JointSpec(type=type, name=name, body_i=body_i, body_j=body_j,
-                         geometry=dict(geometry), length=length)
+                         geometry=dict(geometry), params=params)
         from .compile import resolve_joint  # validates the geometry now, with the bodies known
         resolve_joint(spec, self.bodies)
         self.joints[name] = spec

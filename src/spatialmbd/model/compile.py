@@ -1,6 +1,8 @@
 """Turning the builder's specs into the frozen Model: joint geometry in body axes, groups by type."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..constraints import DRIVER_TYPES, JOINT_TYPES, JointGeometry
@@ -11,23 +13,6 @@ from .specs import BodySpec, JointSpec
 
 GROUND = "ground"
 
-# which geometric inputs each joint type needs: point (on i), axis (on i), point2 (on j), axis2
-# (on j). Types without point2/axis2 use the same global point/axis on both bodies.
-NEEDS = {
-    "spherical": {"point"},
-    "revolute": {"point", "axis"},
-    "cylindrical": {"point", "axis"},
-    "translational": {"point", "axis"},
-    "planar": {"point", "axis"},
-    "fixed": {"point"},
-    "universal": {"point", "axis", "axis2"},
-    "spherical_spherical": {"point", "point2"},
-    "spherical_revolute": {"point", "axis", "point2"},
-    "n1": {"axis", "axis2"},
-    "n2": {"axis", "point", "point2"},
-    "p1": {"axis", "axis2"},
-    "p2": {"axis", "point", "point2"},
-}
 LOCAL_NAME = {"point": "point_i", "point2": "point_j", "axis": "axis_i", "axis2": "axis_j"}
 
 
@@ -85,7 +70,8 @@ def resolve_joint(spec: JointSpec, bodies: dict) -> JointGeometry:
     """Local geometry (s_i, s_j, R_i, R_j, length) of one joint, from global or local input."""
     what = f"joints[{spec.name!r}]"
     g = spec.geometry
-    needs = NEEDS[spec.type]
+    jtype = JOINT_TYPES[spec.type]
+    needs = jtype.inputs
     r_i, A_i, pts_i = _pose(bodies, spec.body_i)
     r_j, A_j, pts_j = _pose(bodies, spec.body_j)
     local = any(k in g for k in ("point_i", "point_j", "axis_i", "axis_j", "ref_i", "ref_j"))
@@ -142,19 +128,10 @@ def resolve_joint(spec: JointSpec, bodies: dict) -> JointGeometry:
             guess = guess - u_j * (guess @ u_j)
             R_j = _triad(u_j, guess if np.linalg.norm(guess) > 1e-6 else None, f"{what}.ref_j")
         P_i, P_j = r_i + A_i @ s_i, r_j + A_j @ s_j
-    if spec.type == "universal":
-        cos = (A_i @ R_i[:, 0]) @ (A_j @ R_j[:, 0])
-        if abs(cos) > 1e-6:
-            raise ModelError(f"{what}: the two cross axes of a universal joint must be "
-                             f"perpendicular when assembled (cos of their angle = {cos:.3g})")
-    length = 0.0
-    if spec.type in ("spherical_spherical", "spherical_revolute"):
-        length = spec.length if spec.length is not None else float(np.linalg.norm(P_j - P_i))
-        if not length > 0:
-            raise ModelError(f"{what}: the two points coincide, so the link length is 0; give "
-                             "distinct points or length > 0")
+    jtype.check_assembled(what, A_i @ R_i[:, 0], A_j @ R_j[:, 0])
+    param = jtype.resolve_parameters(spec.params, P_i, P_j, what)
     return JointGeometry(s_i=s_i[None], s_j=s_j[None], R_i=R_i[None], R_j=R_j[None],
-                         length=np.array([length]))
+                         param=param[None])
 
 
 def _vector3(value, what) -> np.ndarray:
@@ -198,13 +175,14 @@ def compile_model(builder):
     for kind, specs in drivers_by_kind.items():
         if kind == "coordinate":
             zero = JointGeometry(np.zeros((1, 3)), np.zeros((1, 3)), np.eye(3)[None],
-                                 np.eye(3)[None], np.zeros(1))
+                                 np.eye(3)[None], np.zeros((1, 0)))
             geom = JointGeometry.stack([zero] * len(specs))
             bi = [index[s.body] for s in specs]
             bj = [nb] * len(specs)
             coord = [COORDINATES.index(s.coordinate) for s in specs]
         else:
-            geom = JointGeometry.stack([joint_geometry[s.joint] for s in specs])
+            geom = JointGeometry.stack([replace(joint_geometry[s.joint], param=np.zeros((1, 0)))
+                                        for s in specs])
             bi = [index[builder.joints[s.joint].body_i] for s in specs]
             bj = [index[builder.joints[s.joint].body_j] for s in specs]
             coord = None

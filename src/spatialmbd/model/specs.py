@@ -41,7 +41,8 @@ class JointSpec:
 
     geometry: the keywords given to ``add_joint``; either global ones in the assembled
     configuration (point, point2, axis, axis2, reference) or local ones on each body (point_i,
-    point_j, axis_i, axis_j, ref_i, ref_j). length: for composite joints (m), None = as assembled.
+    point_j, axis_i, axis_j, ref_i, ref_j). params: the type's parameters by name (see the
+    type's ``parameters``), e.g. length of composite joints (m; absent = as assembled), pitch.
     """
 
     type: str
@@ -49,7 +50,12 @@ class JointSpec:
     body_i: str
     body_j: str
     geometry: dict
-    length: Optional[float] = None
+    params: dict = field(default_factory=dict)
+
+    @property
+    def length(self) -> Optional[float]:
+        """The link length of composite joints (m), None = as assembled."""
+        return self.params.get("length")
 
 
 @dataclass

