@@ -254,3 +254,26 @@ def test_cli_sweep_writes_results_and_plot(tmp_path, capsys):
     assert main(["sweep", str(PENDULUM), "--param", "bodies.pendulum.mass", "--output",
                  "min(pendulum.z)"]) == 2
     assert "write PATH=VALUES" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------ examples
+def _example(name):
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / "sweeps" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_example_pendulum_period_runs(capsys):
+    assert _example("pendulum_period").main(["--members", "3"]) == 0
+    assert "max relative error" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_examples_slider_crank_and_flyball_run(tmp_path, capsys):
+    assert _example("slider_crank_torque").main(["--quick"]) == 0
+    assert _example("flyball_stiffness").main(["--members", "2", "--t-end", "0.05", "-o",
+                                               str(tmp_path / "k.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "d(output)/d(mass)" in out and "sleeve" in out

@@ -13,13 +13,14 @@ from spatialmbd.sweep import points, save_result, sweep
 MODEL = Path(__file__).resolve().parents[1] / "flyball_governor.yaml"
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scheduler", default="serial")
     ap.add_argument("--t-end", type=float, default=0.5, help="simulated time [s]")
     ap.add_argument("-o", "--out", help="result file (.nc, .csv or .parquet)")
-    args = ap.parse_args()
-    k = np.geomspace(2e4, 8e5, 5)                     # N/m
+    ap.add_argument("--members", type=int, default=5)
+    args = ap.parse_args(argv)
+    k = np.geomspace(2e4, 8e5, args.members)          # N/m
     space = points({"forces.spring_A.stiffness": k, "forces.spring_B.stiffness": k})
     analysis = dict(type="dynamic", t_end=args.t_end, output_step=0.01,
                     method={"name": "projection"},

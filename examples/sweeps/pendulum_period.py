@@ -36,12 +36,12 @@ def exact_period(amplitude_deg):
     return 4 * np.sqrt(L_eq / G) * ellipk(k**2)          # scipy's ellipk takes m = k^2
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--members", type=int, default=24)
     ap.add_argument("--scheduler", default="serial")
     ap.add_argument("--plot", help="write a figure (.png)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     amplitudes = np.linspace(5.0, 175.0, args.members)
     analysis = dict(type="dynamic", t_end=2.6 * exact_period(amplitudes.max()),
                     output_step=0.01, integrator=dict(name="rk45", rtol=1e-10, atol=1e-12))
