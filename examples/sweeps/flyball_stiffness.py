@@ -27,7 +27,8 @@ def main(argv=None):
                     integrator={"name": "scipy-radau", "rtol": 1e-6, "atol": 1e-8})
     ds = sweep(MODEL, space, {"sleeve_final": "final(slider.z)", "sleeve_min": "min(slider.z)",
                               "ball_x_final": "final(rod_A.tip.x)"}, analysis, args.scheduler)
-    print(f"{'k [N/m]':>10} {'sleeve z(T) [m]':>16} {'min z [m]':>10} {'ball x(T) [m]':>15} status")
+    print(f"{'k [N/m]':>10} {'sleeve z(T) [m]':>16} {'min z [m]':>10} "
+          f"{'ball x(T) [m]':>15} status")
     for j in range(k.size):
         print(f"{k[j]:10.3g} {ds['sleeve_final'].values[j]:16.6f} "
               f"{ds['sleeve_min'].values[j]:10.6f} {ds['ball_x_final'].values[j]:15.6f} "

@@ -38,9 +38,10 @@ def main(argv=None):
                          args.scheduler, relative_steps=steps)
     print("\nd(output)/d(mass) [N m / kg] (error estimate)")
     for o in sens["output"].values:
-        row = "  ".join(f"{p.split('.')[1]}: {float(sens.derivative.sel(output=o, parameter=p)):+.5f}"
-                        f" ({float(sens.error.sel(output=o, parameter=p)):.1e})"
-                        for p in sens["parameter"].values)
+        row = "  ".join(
+            f"{p.split('.')[1]}: {float(sens.derivative.sel(output=o, parameter=p)):+.5f}"
+            f" ({float(sens.error.sel(output=o, parameter=p)):.1e})"
+            for p in sens["parameter"].values)
         print(f"{o:>5}: {row}")
     return 0 if (sens["status"] == "success").all() else 1
 

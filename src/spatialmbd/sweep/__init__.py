@@ -16,6 +16,7 @@ from .params import (ParameterSpace, as_space, get_path, grid, latin_hypercube, 
 from .sensitivity import forward_sensitivities, sensitivities
 
 __all__ = ["sweep", "grid", "points", "latin_hypercube", "ParameterSpace", "parse_range",
+           "as_space",
            "Output", "parse_outputs", "period", "REDUCTIONS", "set_path", "get_path",
            "save_result", "to_dataframe", "SweepJob", "run_chunk", "sensitivities",
            "forward_sensitivities", "simulate_batch"]

@@ -36,7 +36,6 @@ import numpy as np
 
 from ..dynamics import system as cs
 from ..errors import ModelError
-from ..integrators.explicit import rk_combine
 from ..integrators.runge_kutta_adaptive import DOPRI_AB, DOPRI_C, dopri_error, dopri_interpolate
 from ..jit import njit
 
@@ -457,7 +456,6 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
     if setup is None:
         setup = BatchSetup(models[0], analysis.method, analysis.method_options)
     t_out = output_times(analysis.t_end, analysis.output_step, analysis.t_eval, 0.0)
-    B = len(models)
     Fs = np.stack([setup.pack_F(m) for m in models])
     Y0 = np.stack([setup.initial_state(m, Fs[k], analysis) for k, m in enumerate(models)])
     return _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, accelerations,
@@ -495,7 +493,8 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
             model=model, t=t_out, q=Y[b, :, :7 * nb].reshape(nt, nb, 7),
             v=Y[b, :, 7 * nb:13 * nb].reshape(nt, nb, 6),
             vdot=Yd[b].reshape(nt, nb, 6) if with_outputs else np.full((nt, nb, 6), np.nan),
-            lam=Lam[b] if with_outputs else np.full((nt, m), np.nan), work=Y[b, :, -1], status="success" if ok else "failed", message=msg,
+            lam=Lam[b] if with_outputs else np.full((nt, m), np.nan), work=Y[b, :, -1],
+            status="success" if ok else "failed", message=msg,
             counters=dict(nfev=int(counters[b, 0]), steps=int(counters[b, 1]),
                           rejected=int(counters[b, 2]), wall_time=wall / B)))
     return out

@@ -250,7 +250,6 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
 
     Members that fail are recorded (status "failed", message); they never raise.
     """
-    from ..io.modelfile import Analysis
     space = as_space(params)
     outs = parse_outputs(outputs)
     if engine not in ("simulate", "batch"):
@@ -297,7 +296,8 @@ def _make_job(model, space: ParameterSpace, outs, analysis, engine, batch_option
     elif analysis is None:
         adict = None
     else:
-        raise ModelError(f"analysis: expected an Analysis or a dict, got {type(analysis).__name__}")
+        raise ModelError(f"analysis: expected an Analysis or a dict, got "
+                         f"{type(analysis).__name__}")
     if isinstance(model, Model):
         data = model_to_dict(model)
         factory = None
@@ -393,7 +393,6 @@ def _assemble(space, outs, rows, job, meta):
 def to_dataframe(ds):
     """A tidy pandas DataFrame of a sweep Dataset: one row per member (scalar outputs), or one
     row per member and output time when there are time-series outputs."""
-    import pandas as pd
     names = json.loads(ds.attrs["parameters"])
     scalar = [v for v in ds.data_vars if "time" not in ds[v].dims]
     series = [v for v in ds.data_vars if "time" in ds[v].dims]

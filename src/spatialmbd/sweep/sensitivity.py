@@ -215,7 +215,8 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
         Fa, Fb = setup.pack_F(mp_), setup.pack_F(mm_)
         Fp.append(Fa)
         Fm.append(Fb)
-        S0[:, j] = (setup.initial_state(mp_, Fa, ap_) - setup.initial_state(mm_, Fb, am_)) / (2 * d)
+        S0[:, j] = (setup.initial_state(mp_, Fa, ap_)
+                    - setup.initial_state(mm_, Fb, am_)) / (2 * d)
     I, mpar = setup.system.I, setup.mp
     W = setup.system.W.copy()
     nb = m0.nb
