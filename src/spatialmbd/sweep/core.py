@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .outputs import Columns, parse_outputs
-from .params import ParameterSpace, as_space, set_path, split
+from .params import ParameterSpace, as_space, plain_copy, set_path, split
 
 __all__ = ["sweep", "SweepJob", "run_chunk", "to_dataframe", "save_result"]
 
@@ -59,7 +59,7 @@ class SweepJob:
         from ..io.modelfile import Analysis, load_model
         model_values, analysis_values = split(member, self.factory is not None)
         if self.factory is None:
-            data = copy.deepcopy(self.data)
+            data = plain_copy(self.data)
             for path, value in model_values.items():
                 set_path(data, path, value)
             data["analysis"] = self._analysis(analysis_values, self.analysis)
@@ -73,7 +73,7 @@ class SweepJob:
 
     @staticmethod
     def _analysis(values: dict, base: dict) -> dict:
-        adict = copy.deepcopy(base)
+        adict = plain_copy(base)
         for path, value in values.items():
             set_path(adict, path, value)
         return adict

@@ -42,41 +42,67 @@ def period(t: np.ndarray, x: np.ndarray) -> float:
     """Mean time (s) between upward zero crossings of x(t); NaN with fewer than two crossings.
 
     Each crossing is bracketed by two samples and located as the root of the cubic through the
-    four samples around it (bisection on that cubic), so the error is O(dt^4) for smooth x.
+    four samples around it, so the error is O(dt^4) for smooth x.
     """
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
-    idx = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
-    times = []
-    for k in idx:
-        lo, hi = max(0, k - 1), min(t.size, k + 3)
-        if hi - lo < 4:
-            lo, hi = max(0, hi - 4), min(t.size, max(hi, lo + 4))
-        tt, xx = t[lo:hi], x[lo:hi]
-        a, b = t[k], t[k + 1]
-        fa = x[k]
-        for _ in range(60):                      # bisection on the interpolating polynomial
-            m = 0.5 * (a + b)
-            fm = _lagrange(tt, xx, m)
-            if (fm < 0.0) == (fa < 0.0):
-                a, fa = m, fm
-            else:
-                b = m
-        times.append(0.5 * (a + b))
+    times = crossing_times(t, x)
     if len(times) < 2:
         return math.nan
     return (times[-1] - times[0]) / (len(times) - 1)
 
 
-def _lagrange(tt, xx, s) -> float:
-    out = 0.0
-    for j in range(tt.size):
-        w = 1.0
-        for i in range(tt.size):
-            if i != j:
-                w *= (s - tt[i]) / (tt[j] - tt[i])
-        out += w * xx[j]
-    return out
+def crossing_times(t: np.ndarray, x: np.ndarray) -> list:
+    """Times (s) of the upward zero crossings of x(t) (x[k] < 0 <= x[k+1]), each the root in
+    [t_k, t_k+1] of the cubic through the four samples around it (Newton's method on the
+    cubic, safeguarded by bisection of the bracket)."""
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    idx = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
+    return [_cubic_root(t, x, int(k)) for k in idx]
+
+
+def _window(n: int, k: int):
+    """Four sample indices around the bracket [k, k+1] (fewer when there are fewer samples)."""
+    lo = max(0, min(k - 1, n - 4))
+    return lo, min(n, lo + 4)
+
+
+def cubic_coefficients(t, x, k):
+    """(a, c): the polynomial through the samples around [t_k, t_k+1] as
+    sum_i c[i] (s - a)^i, a = t_k (lowest degree first)."""
+    lo, hi = _window(t.size, k)
+    a = t[k]
+    tt = t[lo:hi] - a
+    c = np.linalg.solve(np.vander(tt, hi - lo, increasing=True), x[lo:hi])
+    return a, c
+
+
+def _poly(c, s):
+    value, slope = 0.0, 0.0
+    for ci in c[::-1]:
+        slope = slope * s + value
+        value = value * s + ci
+    return value, slope
+
+
+def _cubic_root(t, x, k) -> float:
+    a, c = cubic_coefficients(t, x, k)
+    lo, hi = 0.0, t[k + 1] - a
+    flo = x[k]
+    s = lo + (hi - lo) * (-flo) / (x[k + 1] - flo)     # the linear-interpolation root
+    for _ in range(50):
+        f, df = _poly(c, s)
+        if (f < 0.0) == (flo < 0.0):
+            lo = s
+        else:
+            hi = s
+        step = f / df if df != 0.0 else math.inf
+        s_new = s - step
+        if not lo < s_new < hi:                          # Newton left the bracket: bisect
+            s_new = 0.5 * (lo + hi)
+        if abs(s_new - s) <= 1e-15 * max(1.0, abs(a)) + 4 * np.finfo(float).eps * abs(s):
+            return a + s_new
+        s = s_new
+    return a + s
 
 
 REDUCTIONS: dict = {

@@ -234,9 +234,21 @@ def set_path(data: dict, path: str, value) -> None:
     parent[key] = value.tolist() if isinstance(value, np.ndarray) else value
 
 
+def plain_copy(value):
+    """A deep copy of plain data (dicts, lists and immutable leaves), several times faster
+    than copy.deepcopy on a model dictionary."""
+    if isinstance(value, dict):
+        return {k: plain_copy(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [plain_copy(v) for v in value]
+    if isinstance(value, (str, int, float, bool, type(None), tuple)):
+        return value
+    return copy.deepcopy(value)
+
+
 def apply(data: dict, member: dict) -> dict:
     """A deep copy of the model dictionary with a member's values set."""
-    out = copy.deepcopy(data)
+    out = plain_copy(data)
     for path, value in member.items():
         set_path(out, path, value)
     return out

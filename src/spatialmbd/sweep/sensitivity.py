@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .core import SUCCESS, _make_job, sweep
-from .outputs import parse_outputs, _lagrange
+from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs
 from .params import ParameterSpace, get_path, points
 
 __all__ = ["sensitivities", "forward_sensitivities"]
@@ -310,24 +310,12 @@ def _reduce_derivative(reduction, t, x, s):
         if idx.size < 2:
             return math.nan, np.full(s.shape[1], np.nan)
         dts = []
-        for k in (idx[0], idx[-1]):
-            lo = max(0, k - 1)
-            hi = min(t.size, lo + 4)
-            lo = max(0, hi - 4)
-            tt = t[lo:hi]
-            a, b = t[k], t[k + 1]
-            fa = x[k]
-            for _ in range(60):
-                m = 0.5 * (a + b)
-                fm = _lagrange(tt, x[lo:hi], m)
-                if (fm < 0.0) == (fa < 0.0):
-                    a, fa = m, fm
-                else:
-                    b = m
-            tc = 0.5 * (a + b)
-            dx = 1e-6 * (tt[-1] - tt[0])
-            xdot = (_lagrange(tt, x[lo:hi], tc + dx) - _lagrange(tt, x[lo:hi], tc - dx)) / (2 * dx)
-            sc = np.array([_lagrange(tt, s[lo:hi, j], tc) for j in range(s.shape[1])])
+        for k in (int(idx[0]), int(idx[-1])):
+            tc = _cubic_root(t, x, k)                         # as outputs.period does
+            a, c = cubic_coefficients(t, x, k)
+            xdot = _poly(c, tc - a)[1]
+            sc = np.array([_poly(cubic_coefficients(t, s[:, j], k)[1], tc - a)[0]
+                           for j in range(s.shape[1])])
             dts.append(-sc / xdot)                            # x(t_c(p), p) = 0
         return period(t, x), (dts[1] - dts[0]) / (idx.size - 1)
     raise ModelError(f"forward sensitivities: reduction {reduction!r} not supported")
