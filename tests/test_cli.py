@@ -259,14 +259,14 @@ def test_examples_list_and_write(tmp_path, capsys):
 def test_plot(tmp_path, pendulum_h5, capsys):
     # every format is checked in test_plotting.py; here the command line
     outs = [tmp_path / "fig.svg", tmp_path / "fig.png"]
-    assert main(["plot", str(pendulum_h5), "-q", "pendulum.z", "-q", "energy.error",
+    assert main(["plot", str(pendulum_h5), "-y", "pendulum.z", "-y", "energy.error",
                  "-o", str(outs[0]), "-o", str(outs[1]), "--title", "pendulum"]) == 0
     assert capsys.readouterr().out.splitlines() == [f"figure written to {o}" for o in outs]
     svg = outs[0].read_text()
     assert svg.lstrip().startswith("<?xml") and "<svg" in svg and "pendulum" in svg
     assert outs[1].read_bytes()[:4] == b"\x89PNG" and outs[1].stat().st_size > 1000
     capsys.readouterr()
-    assert main(["plot", str(pendulum_h5), "-q", "pendulum.w", "-o",
+    assert main(["plot", str(pendulum_h5), "-y", "pendulum.w", "-o",
                  str(tmp_path / "w.png")]) == 2
     assert "did you mean" in capsys.readouterr().err
     assert main(["plot", str(pendulum_h5), "-o", str(tmp_path / "fig.gif")]) == 2
@@ -362,3 +362,26 @@ def test_validate_unknown_case_and_a_real_one(capsys):
     assert main(["validate", "slider_crank_kinematics"]) == 0
     out = capsys.readouterr().out
     assert "Slider-crank kinematics: pass" in out and "all 1 validation cases passed" in out
+
+
+def test_warmup_and_the_cold_cache_notice(capsys):
+    """`spatialmbd warmup` compiles everything (here: loads it); a cold cache is announced at
+    once and then every few seconds, never silent."""
+    import io
+    import time
+    from spatialmbd.jit import cache_is_warm, compile_notice
+    assert main(["warmup"]) == 0
+    out = capsys.readouterr().out
+    assert "[1/" in out and "ready in" in out
+    assert cache_is_warm()
+    stream = io.StringIO()
+    with compile_notice(stream=stream, every=0.05, force=True):
+        time.sleep(0.18)
+    lines = stream.getvalue().splitlines()
+    assert lines[0].startswith("compiling the numerical kernels")
+    assert sum("still compiling" in ln for ln in lines) >= 2
+    assert lines[-1].startswith("compiled in")
+    stream = io.StringIO()
+    with compile_notice(stream=stream):            # warm: nothing said
+        pass
+    assert stream.getvalue() == ""

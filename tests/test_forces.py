@@ -91,13 +91,21 @@ def test_spring_damper_signs_and_rate():
     state = BodyState.from_qv(model.q0, None, 0.0)
     g = generalized(model, state, 0.0)
     assert np.allclose(g[0, :3], [10.0, 0, 0]) and np.allclose(g[1, :3], [-10.0, 0, 0])
-    group = model.force_groups[0]
+    # the kernel's length and rate, read through its energy (k = 2, l0 = 0: V = l^2) and its
+    # non-conservative power (c = 0, unit actuator force: P = -ldot)
+    b.add_force("spring_damper", "probe", body_i="a", body_j="b", stiffness=2.0,
+                natural_length=0.0, actuator=1.0)
+    probe = b.compile().force_groups[0]
     rng = np.random.default_rng(3)
     q0, v = random_state(rng, 2)
     h = 1e-6
-    length = lambda q: group._kinematics(BodyState.from_qv(q, None, 0.0))[2][0]  # noqa: E731
+
+    def length(q):
+        state = BodyState.from_qv(q, None, 0.0)
+        return np.sqrt(probe._run(state, 0.0)[1][1])
     rate = (length(q_along(q0, v, h)) - length(q_along(q0, v, -h))) / (2 * h)
-    assert group._kinematics(BodyState.from_qv(q0, v, 0.0))[4][0] == pytest.approx(rate, rel=1e-7)
+    ldot = -probe._run(BodyState.from_qv(q0, v, 0.0), 0.0)[2][1]
+    assert ldot == pytest.approx(rate, rel=1e-7)
 
 
 def test_user_force_and_gravity_enter_g():

@@ -124,3 +124,19 @@ def test_coordinate_and_translation_drivers():
     assert np.allclose(res.vdot[:, 0, 2], -2.0 * np.sin(2 * t), atol=1e-10)
     # the angle driver passes pi without trouble: e0 = cos(3t/2)
     assert np.allclose(np.abs(res.q[:, 0, 3]), np.abs(np.cos(1.5 * t)), atol=1e-12)
+
+
+def test_mobility_of_a_state_off_the_manifold_is_that_of_the_mechanism():
+    """The Bricard linkage 1.5e-6 off its constraint manifold (as a long run leaves it) still
+    has one degree of freedom: the rank is taken at the assembled state."""
+    from spatialmbd import models
+    from spatialmbd.rotations import normalize_p
+    model = models.bricard().compile()
+    q = model.q0.copy()
+    rng = np.random.default_rng(0)
+    q[:, 3:] = normalize_p(q[:, 3:] + 4e-7 * rng.normal(size=(model.nb, 4)))
+    mob = mobility(model, q)
+    assert mob.violation > 1e-6 and 0 < mob.correction < 1e-5
+    assert (mob.grubler, mob.dof, mob.n_redundant) == (0, 1, 1)
+    assert "violates the constraints" in mob.report()
+    assert mob.singular_values[-1] < 1e-12       # at the given state it is 2e-7

@@ -357,7 +357,7 @@ BAD = [
     (("spatialmbd",), 2, "spatialmbd: ", "schema version 2"),
     (("gravty",), [0, 0, 1], "gravty: ", "did you mean 'gravity'"),
     (("gravity",), [0, 0, "g"], "gravity[2]: ", "expected a number"),
-    (("analysis", "type"), "static", "analysis.type: ", "valid: dynamic, kinematic"),
+    (("analysis", "type"), "statics", "analysis.type: ", "valid: dynamic, kinematic"),
     (("analysis", "t_end"), 0, "analysis.t_end: ", "must be > 0"),
     (("analysis", "t_end"), DELETE, "analysis: ", "missing required key 't_end'"),
     (("analysis", "output_step"), -0.1, "analysis.output_step: ", "must be > 0"),
@@ -536,7 +536,7 @@ def test_absent_analysis_gives_documented_defaults():
     _, an = load_builder(data)
     assert an == Analysis()
     assert (an.type, an.t_end, an.output_step, an.method, an.integrator, an.correct_initial,
-            an.hold) == ("dynamic", 1.0, None, "standard", "rk45", True, None)
+            an.hold) == ("dynamic", 1.0, None, "projection", "rk45", True, None)
     assert (an.step, an.rtol, an.atol, an.method_options, an.integrator_options) == \
         (None, None, None, {}, {})
 

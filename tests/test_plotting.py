@@ -156,5 +156,48 @@ def test_animation_from_a_kinematic_results_file(tmp_path):
                                  re.S).group(1))
     assert [b["name"] for b in scene["bodies"]] == ["crank", "rod", "slider"]
     assert len(scene["t"]) == 16
-    np.testing.assert_allclose(np.reshape(scene["bodies"][2]["r"], (-1, 3)), k.q[:, 2, :3],
-                               rtol=1e-5, atol=1e-6)
+    from spatialmbd.viewer import decode_float32            # per-frame data: float32, base64
+    q = decode_float32(scene["bodies"][2]["q"]).reshape(-1, 7)
+    np.testing.assert_allclose(q[:, :3], k.q[:, 2, :3], rtol=1e-6, atol=1e-7)
+
+
+def test_springs_and_reaction_arrows_in_the_scene(tmp_path):
+    b = ModelBuilder("spring_pendulum")
+    b.add_body("bob", 2.0, (0.01, 0.01, 0.01), r=(0.5, 0, 0))
+    b.add_joint("revolute", "pin", "ground", "bob", point=(0, 0, 0), axis=(0, 1, 0))
+    b.add_force("spring_damper", "k", body_i="ground", body_j="bob", point_i=(0.5, 0, 0.4),
+                point_j=(0.1, 0, 0), stiffness=50.0, damping=0.5)
+    model = b.compile()
+    scene = static_scene(model)
+    assert scene["springs"] == [{"name": "k", "kind": "spring_damper", "body_i": -1,
+                                 "point_i": [0.5, 0.0, 0.4], "body_j": 0,
+                                 "point_j": [0.1, 0.0, 0.0]}]
+    r = simulate(model, 0.2, output_step=0.02)
+    anim = animation_scene(r, reactions=True)
+    (arrow,) = anim["arrows"]
+    reaction = r.reactions()["pin"]                            # on body i = ground -> drawn on j
+    assert arrow["name"] == "pin" and arrow["body"] == 0
+    np.testing.assert_allclose(arrow["vectors"], reaction.force_j)
+    np.testing.assert_allclose(arrow["point_local"], [-0.5, 0, 0], atol=1e-12)
+    write_animation(r, tmp_path / "s.html", reactions=True)
+    with pytest.raises(ValueError, match="cannot give the joint reactions"):
+        animation_scene(load_results(save_results(r, tmp_path / "r.h5")), reactions=True)
+
+
+def test_mode_shape_scene():
+    from spatialmbd.animation import mode_shape_scene
+    from spatialmbd.rotations import A_from_p
+    model = models.double_pendulum().compile()
+    shape = np.zeros((model.nb, 6))
+    shape[0, :3] = [0.0, 0.0, 2.0]                              # body 0 moves along z
+    shape[1, 3:] = [0.0, 1.0, 0.0]                              # body 1 turns about y
+    scene = mode_shape_scene(model, model.q0, shape, amplitude=0.1, n_frames=5, frequency=2.0)
+    np.testing.assert_allclose(scene["t"], [0, 0.125, 0.25, 0.375, 0.5])
+    r0 = model.q0[0, :3]
+    # s(t) = 0.1 / 2 sin(2 pi t / T): +0.05 at the quarter period
+    np.testing.assert_allclose(scene["bodies"][0]["r"][1], r0 + [0, 0, 0.1], atol=1e-12)
+    np.testing.assert_allclose(scene["bodies"][0]["r"][2], r0, atol=1e-12)
+    A0, A1 = A_from_p(model.q0[1, 3:]), A_from_p(scene["bodies"][1]["p"][1])
+    c, s = np.cos(0.05), np.sin(0.05)
+    Ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])           # 0.05 rad about global y
+    np.testing.assert_allclose(A1, Ry @ A0, atol=1e-12)

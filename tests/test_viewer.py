@@ -24,7 +24,8 @@ import time
 import numpy as np
 import pytest
 
-from spatialmbd.viewer import animation_html, default_shapes, write_animation_html
+from spatialmbd.viewer import (animation_html, decode_float32, default_shapes,
+                               write_animation_html)
 
 CHROMIUM = os.environ.get("SPATIALMBD_CHROMIUM", "/usr/bin/chromium")
 SHOT_W, SHOT_H = 800, 600
@@ -103,15 +104,36 @@ def _embedded_scene(html_text):
 # ----------------------------------------------------------------------------------------------
 # pure-Python tests
 # ----------------------------------------------------------------------------------------------
-def test_html_is_offline():
-    text = animation_html(double_pendulum_scene(), title="offline check")
-    assert "http://" not in text and "https://" not in text
+def _body_q(body):
+    """(n_samples, 7) r then p of an embedded body (base64 float32)."""
+    return decode_float32(body["q"]).reshape(-1, 7)
+
+
+@pytest.mark.parametrize("renderer", ["auto", "canvas"])
+def test_html_is_offline(renderer):
+    text = animation_html(double_pendulum_scene(), title="offline check", renderer=renderer)
+    # the XHTML namespace in three.js (document.createElementNS) is a name, not a resource
+    text_without_ns = text.replace("http://www.w3.org/1999/xhtml", "")
+    assert "http://" not in text_without_ns and "https://" not in text_without_ns
     assert not re.search(r"<script[^>]*\bsrc\s*=", text, re.I), "external script"
     assert not re.search(r"<link[^>]*rel=\"?stylesheet", text, re.I), "external stylesheet"
     assert not re.search(r"@import|url\(\s*['\"]?(?!data:)", text), "external CSS resource"
     assert not re.search(r"\b(fetch|XMLHttpRequest|importScripts)\s*\(", text)
     assert "{{" not in text  # every placeholder substituted
     assert "<title>offline check</title>" in text
+    assert ("var THREE=" in text) == (renderer == "auto")
+    if renderer == "auto":  # three.js's MIT notice travels with the embedded bundle
+        assert "Permission is hereby granted, free of charge" in text
+
+
+def test_three_bundle_is_package_data():
+    from importlib import resources
+    viewer = resources.files("spatialmbd.viewer")
+    bundle = viewer.joinpath("three.min.js").read_text(encoding="utf-8")
+    notice = viewer.joinpath("THREE_LICENSE").read_text(encoding="utf-8")
+    assert bundle.startswith("/*! three.js ") and "THREE=" in bundle
+    assert "</script" not in bundle.lower()
+    assert "MIT License" in notice and "three.js authors" in notice
 
 
 def test_embedded_data_round_trip():
@@ -122,10 +144,9 @@ def test_embedded_data_round_trip():
     assert len(data["bodies"]) == 2
     for got, want in zip(data["bodies"], scene["bodies"]):
         assert got["name"] == want["name"] and got["color"] == want["color"]
-        np.testing.assert_allclose(np.reshape(got["r"], (-1, 3)), want["r"], rtol=1e-5,
-                                   atol=1e-6)
-        np.testing.assert_allclose(np.reshape(got["p"], (-1, 4)), want["p"], rtol=1e-5,
-                                   atol=1e-6)
+        q = _body_q(got)  # float32: 2^-24 relative rounding
+        np.testing.assert_allclose(q[:, :3], want["r"], rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(q[:, 3:], want["p"], rtol=1e-6, atol=1e-7)
         assert [s["type"] for s in got["shapes"]] == [s["type"] for s in want["shapes"]]
     assert data["bodies"][0]["shapes"][1]["axis"] == [0, 1, 0]
     assert [j["name"] for j in data["joints"]] == ["pivot", "elbow"]
@@ -140,7 +161,7 @@ def test_numbers_rounded_and_script_safe():
     scene["bodies"][0]["name"] = "</script><b>x</b>"
     scene["t"] = scene["t"] + 1.0 / 3.0
     text = animation_html(scene, title="a <b>bold</b> {{SCENE_JSON}} title")
-    assert text.count("</script>") == 2  # only the two real closing tags
+    assert text.count("</script>") == 4  # only the real closing tags (scene and 3 scripts)
     assert "a &lt;b&gt;bold&lt;/b&gt; {{SCENE_JSON}} title" in text
     data = _embedded_scene(text)
     assert data["bodies"][0]["name"] == "</script><b>x</b>"
@@ -150,13 +171,20 @@ def test_numbers_rounded_and_script_safe():
 
 
 def test_write_animation_html_and_size(tmp_path):
-    path = write_animation_html(tmp_path / "sub" / "chain.html", chain_scene(500, 5))
+    path = write_animation_html(tmp_path / "sub" / "chain.html", chain_scene(500, 5),
+                                renderer="canvas")
     assert path == tmp_path / "sub" / "chain.html" and path.is_file()
     size = path.stat().st_size
-    # 500 frames x 5 bodies x 7 numbers at 6 significant digits, plus ~30 kB of viewer
-    assert size < 320_000, size
+    # 500 frames x 5 bodies x 7 float32 in base64 (93 kB), times at 6 significant digits
+    # (~6 kB), plus ~45 kB of viewer
+    assert size < 160_000, size
     data = _embedded_scene(path.read_text(encoding="utf-8"))
-    assert len(data["t"]) == 500 and len(data["bodies"][4]["p"]) == 2000
+    assert len(data["t"]) == 500 and _body_q(data["bodies"][4]).shape == (500, 7)
+    # the WebGL page adds the three.js bundle and its back end, nothing per frame
+    from importlib import resources
+    bundle = len(resources.files("spatialmbd.viewer").joinpath("three.min.js").read_bytes())
+    auto = write_animation_html(tmp_path / "auto.html", chain_scene(500, 5))
+    assert 0 < auto.stat().st_size - size - bundle < 20_000
 
 
 def test_static_body_and_defaults():
@@ -164,7 +192,7 @@ def test_static_body_and_defaults():
                                           "shapes": {"type": "sphere", "radius": 0.1}}]}
     data = _embedded_scene(animation_html(scene))
     b = data["bodies"][0]
-    assert b["r"] == [1, 2, 3] and b["p"] == [1, 0, 0, 0]
+    assert _body_q(b).tolist() == [[1, 2, 3, 1, 0, 0, 0]]
     assert b["color"].startswith("#") and b["shapes"][0]["center"] == [0, 0, 0]
     assert data["up"] == [0, 0, 1] and data["joints"] == [] and data["ground"] == []
 
@@ -178,12 +206,47 @@ def test_static_body_and_defaults():
     (lambda s: s["bodies"][0]["shapes"].append({"type": "box", "size": [1, 0, 1]}), "size"),
     (lambda s: s["bodies"][0].update(color="red"), "colour"),
     (lambda s: s["joints"].append({"name": "j", "body": 2}), "body"),
+    (lambda s: s.update(springs=[{"kind": "rope"}]), "unknown kind"),
+    (lambda s: s.update(springs=[{"body_i": 5}]), "body_i"),
+    (lambda s: s.update(arrows=[{"vectors": np.zeros((3, 3))}]), r"\['vectors'\]"),
+    (lambda s: s.update(points=[{"positions": np.full((201, 3), np.inf)}]), "non-finite"),
 ])
 def test_scene_validation(mutate, match):
     scene = double_pendulum_scene()
     mutate(scene)
     with pytest.raises(ValueError, match=match):
         animation_html(scene)
+
+
+def test_springs_arrows_points_embedded():
+    scene = double_pendulum_scene(n_frames=21)
+    force = np.stack([np.zeros(21), np.zeros(21), np.linspace(1, 3, 21)], axis=1)
+    scene["springs"] = [{"name": "k", "kind": "spring_damper", "body_i": -1,
+                         "point_i": [1, 0, 0], "body_j": 1, "point_j": [0.5, 0, 0],
+                         "turns": 6}]
+    scene["arrows"] = [{"name": "F", "kind": "reaction", "body": 0, "point_local": [-0.5, 0, 0],
+                        "vectors": force}]
+    scene["points"] = [{"name": "c", "positions": force, "radius": 0.02}]
+    data = _embedded_scene(animation_html(scene))
+    assert data["springs"] == [{"name": "k", "kind": "spring_damper", "body_i": -1,
+                                "point_i": [1, 0, 0], "body_j": 1, "point_j": [0.5, 0, 0],
+                                "turns": 6}]
+    np.testing.assert_allclose(decode_float32(data["arrows"][0]["vectors"]).reshape(-1, 3),
+                               force, rtol=1e-7)
+    assert data["arrows"][0]["point"] == [-0.5, 0, 0] and data["arrows"][0]["body"] == 0
+    np.testing.assert_allclose(decode_float32(data["points"][0]["positions"]).reshape(-1, 3),
+                               force, rtol=1e-7)
+
+
+def test_capsule_drawn_as_cylinder_and_two_spheres():
+    scene = {"t": [0.0], "bodies": [{"name": "c", "r": [0, 0, 0], "p": [1, 0, 0, 0], "shapes": [
+        {"type": "capsule", "radius": 0.1, "length": 0.6, "axis": [2, 0, 0],
+         "center": [0, 1, 0], "color": "#112233"}]}]}
+    shapes = _embedded_scene(animation_html(scene, renderer="canvas"))["bodies"][0]["shapes"]
+    assert [s["type"] for s in shapes] == ["cylinder", "sphere", "sphere"]
+    assert shapes[0]["axis"] == [1, 0, 0] and shapes[0]["length"] == 0.6
+    assert [s["center"] for s in shapes[1:]] == [[-0.3, 1, 0], [0.3, 1, 0]]
+    assert all(s["radius"] == 0.1 and s["color"] == "#112233" for s in shapes)
 
 
 def _box_inertia(mass, size):
@@ -245,7 +308,9 @@ class CDPPipe:
         b = fcntl.fcntl(from_chrome_w, fcntl.F_DUPFD, 10)
         os.close(to_chrome_r)
         os.close(from_chrome_w)
-        flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+        # WebGL through SwiftShader (software GL), so the WebGL renderer runs headless too
+        flags = ["--headless", "--no-sandbox", "--use-angle=swiftshader",
+                 "--enable-unsafe-swiftshader", "--disable-dev-shm-usage",
                  "--remote-debugging-pipe", f"--user-data-dir={self.profile}", "--no-first-run",
                  "--no-default-browser-check", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync", "--disable-quic",
@@ -321,14 +386,18 @@ class CDPPipe:
         return f"\n--- chromium stderr (tail) ---\n{tail}" if tail else ""
 
     # -- pages ---------------------------------------------------------------------------------
-    def open_page(self, url):
-        """Open ``url`` in a new tab (domains enabled first, so early errors are seen)."""
+    def open_page(self, url, init_script=None):
+        """Open ``url`` in a new tab (domains enabled first, so early errors are seen);
+        ``init_script`` runs in the page before any of its own scripts."""
         target = self.call("Target.createTarget", {"url": "about:blank"})["targetId"]
         session = self.call("Target.attachToTarget",
                             {"targetId": target, "flatten": True})["sessionId"]
         self._targets[session] = target
         for domain in ("Page", "Runtime", "Log"):
             self.call(f"{domain}.enable", session=session)
+        if init_script:
+            self.call("Page.addScriptToEvaluateOnNewDocument", {"source": init_script},
+                      session=session)
         self.call("Emulation.setDeviceMetricsOverride",
                   {"width": SHOT_W, "height": SHOT_H, "deviceScaleFactor": 1, "mobile": False},
                   session=session)
@@ -422,8 +491,8 @@ def pendulum_page(tmp_path_factory):
     return write_animation_html(path, double_pendulum_scene(), title="double pendulum")
 
 
-def _load(browser, path, fragment):
-    session = browser.open_page(path.resolve().as_uri() + fragment)
+def _load(browser, path, fragment, init_script=None):
+    session = browser.open_page(path.resolve().as_uri() + fragment, init_script)
     deadline = time.monotonic() + 10
     while not browser.evaluate(session, "!!(window.spatialmbdViewer && "
                                         "window.spatialmbdViewer.ready)"):
@@ -540,3 +609,113 @@ def test_browser_degenerate_scenes(browser, tmp_path):
         assert _n_colours(_image(browser.screenshot(session))) > 50
         assert browser.errors(session) == [], name
         browser.close_page(session)
+
+
+# ----------------------------------------------------------------------------------------------
+# WebGL renderer (SwiftShader) and the Canvas fallback: the screenshot must show the scene
+# ----------------------------------------------------------------------------------------------
+# Make WebGL unavailable before any page script runs (as in a browser without GPU support).
+_NO_WEBGL = """(function () {
+  var orig = HTMLCanvasElement.prototype.getContext;
+  HTMLCanvasElement.prototype.getContext = function (kind) {
+    if (/webgl/i.test(String(kind))) { return null; }
+    return orig.apply(this, arguments);
+  };
+})();"""
+
+_BODY_HUES = {"#4e79a7": (2, 1, 0), "#f28e2b": (0, 1, 2)}  # channel order, most to least
+
+
+def _body_pixels(img, xy, colour, half=9):
+    """Pixels near screen point ``xy`` with the body colour's channel order and saturation."""
+    x, y = int(round(xy[0])), int(round(xy[1]))
+    patch = img[max(0, y - half):y + half + 1, max(0, x - half):x + half + 1].reshape(-1, 3)
+    hi, mid, lo = _BODY_HUES[colour]
+    ok = (patch[:, hi] >= patch[:, mid]) & (patch[:, mid] >= patch[:, lo]) & (
+        patch[:, hi] - patch[:, lo] > 40)
+    return int(ok.sum())
+
+
+def _check_scene_shown(browser, session, expected_renderer, name):
+    assert browser.evaluate(session, "spatialmbdViewer.renderer()") == expected_renderer, \
+        browser.evaluate(session, "spatialmbdViewer.fallbackReason()")
+    img = _image(browser.screenshot(session))
+    out_dir = os.environ.get("SPATIALMBD_SCREENSHOT_DIR")
+    if out_dir:
+        os.makedirs(out_dir, exist_ok=True)
+        from PIL import Image
+        Image.fromarray(img.astype(np.uint8)).save(os.path.join(out_dir, name + ".png"))
+    background = img[5:20, 300:340].reshape(-1, 3).mean(axis=0)   # above the scene
+    assert np.all(background > 200), f"{name}: page background {background} (blank/black?)"
+    # each link's colour is at its centre of mass as projected by the viewer's camera
+    for k, colour in enumerate(("#4e79a7", "#f28e2b")):
+        xy = browser.evaluate(session, f"spatialmbdViewer.screenPosition({k}, [0, 0, 0])")
+        assert xy is not None and 0 <= xy[0] < SHOT_W and 0 <= xy[1] < SHOT_H - 50
+        n = _body_pixels(img, xy, colour)
+        assert n > 150, f"{name}: body {k} ({colour}) not drawn at {xy}: {n} of 361 pixels"
+    # and not everywhere: far from the bodies (a corner of the floor) is not body-coloured
+    assert _body_pixels(img, (SHOT_W - 60, SHOT_H - 120), "#4e79a7") < 20
+    return img
+
+
+@pytest.mark.browser
+def test_browser_webgl_renderer_draws_the_scene(browser, tmp_path):
+    scene = double_pendulum_scene()
+    scene["springs"] = [{"name": "k", "kind": "spring", "body_i": -1, "point_i": [0.8, 0, 0.3],
+                         "body_j": 1, "point_j": [0.5, 0, 0], "color": "#222222"}]
+    scene["arrows"] = [{"name": "R", "kind": "reaction", "body": -1, "point_local": [0, 0, 0],
+                        "vectors": np.tile([0.0, 0.0, 30.0], (201, 1)), "color": "#d62728"}]
+    path = write_animation_html(tmp_path / "gl.html", scene, title="webgl")
+    session = _load(browser, path, "#t=0.5")
+    img = _check_scene_shown(browser, session, "webgl", "webgl_pendulum")
+    # the spring: dark pixels along the line from its ground point to its body point
+    a = browser.evaluate(session, "spatialmbdViewer.screenPosition(-1, [0.8, 0, 0.3])")
+    b = browser.evaluate(session, "spatialmbdViewer.screenPosition(1, [0.5, 0, 0])")
+    dark = 0
+    for s in np.linspace(0.2, 0.8, 7):
+        x, y = (1 - s) * np.asarray(a) + s * np.asarray(b)
+        patch = img[int(y) - 12:int(y) + 13, int(x) - 12:int(x) + 13].reshape(-1, 3)
+        dark += int((patch.max(axis=1) < 90).any())
+    assert dark >= 5, f"spring helix not drawn ({dark} of 7 stations)"
+    # the reaction arrow: red pixels above the pivot
+    tip = browser.evaluate(session, "spatialmbdViewer.screenPosition(-1, [0, 0, 0])")
+    patch = img[int(tip[1]) - 80:int(tip[1]) - 5, int(tip[0]) - 8:int(tip[0]) + 9].reshape(-1, 3)
+    assert ((patch[:, 0] > 150) & (patch[:, 1] < 90) & (patch[:, 2] < 90)).sum() > 30
+    assert browser.errors(session) == []
+    # the GPU goes away mid-session: the Canvas renderer takes over, the scene stays visible
+    browser.evaluate(session, "document.getElementById('gl-canvas').getContext('webgl2')"
+                              ".getExtension('WEBGL_lose_context').loseContext()")
+    deadline = time.monotonic() + 5
+    while browser.evaluate(session, "spatialmbdViewer.renderer()") != "canvas":
+        assert time.monotonic() < deadline, "no fallback after the WebGL context was lost"
+        time.sleep(0.05)
+    browser.evaluate(session, "spatialmbdViewer.setTime(0.5)")
+    assert "context was lost" in browser.evaluate(session, "spatialmbdViewer.fallbackReason()")
+    _check_scene_shown(browser, session, "canvas", "canvas_after_context_loss")
+    assert browser.errors(session) == []
+    browser.close_page(session)
+
+
+@pytest.mark.browser
+def test_browser_canvas_fallback_without_webgl(browser, tmp_path):
+    path = write_animation_html(tmp_path / "fallback.html", double_pendulum_scene())
+    session = _load(browser, path, "#t=0.5", init_script=_NO_WEBGL)
+    assert "WebGL 2 is not available" in browser.evaluate(session,
+                                                          "spatialmbdViewer.fallbackReason()")
+    assert browser.evaluate(session, "document.getElementById('gl-canvas')") is None
+    _check_scene_shown(browser, session, "canvas", "canvas_fallback")
+    assert browser.errors(session) == []
+    browser.close_page(session)
+
+
+@pytest.mark.browser
+def test_browser_instancing_draw_calls_do_not_grow_with_bodies(browser, tmp_path):
+    path = write_animation_html(tmp_path / "chain.html", chain_scene(20, 200))
+    session = _load(browser, path, "#t=1")
+    assert browser.evaluate(session, "spatialmbdViewer.renderer()") == "webgl"
+    calls = browser.evaluate(session, "spatialmbdViewer.drawCalls()")
+    assert browser.errors(session) == []
+    browser.close_page(session)
+    # 200 boxes in one instanced mesh, plus the grid (2), the ground axes (3) and the pools of
+    # line-like items: a dozen calls, where one mesh per body would need 200
+    assert 0 < calls <= 12, calls

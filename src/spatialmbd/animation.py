@@ -4,8 +4,11 @@
 ``shapes`` given to ``ModelBuilder.add_body``, or, when there are none, a box with the body's
 inertia, :func:`spatialmbd.viewer.default_shapes`, turned onto the principal axes when the
 inertia tensor is not diagonal), joint markers at each joint point on body i, the ground
-shapes and gravity (the camera's "down"). :func:`animation_scene` adds the time series r, p of
-every body; :func:`write_animation` writes the page.
+shapes, spring-damper elements (drawn as helices / dampers between their attachment points) and
+gravity (the camera's "down"). :func:`animation_scene` adds the time series r, p of every body
+and, on request, the joint reaction forces as arrows (``reactions=True``, from
+``Results.reactions()``); :func:`mode_shape_scene` animates a small-motion mode shape about a
+configuration; :func:`write_animation` writes the page.
 
 Works with dynamic Results, KinematicResults and LoadedResults (the static scene is stored in
 HDF5 results files, so no model is needed to animate one).
@@ -19,7 +22,8 @@ import numpy as np
 
 from .viewer import default_shapes, write_animation_html
 
-__all__ = ["static_scene", "animation_scene", "write_animation", "body_shapes"]
+__all__ = ["static_scene", "animation_scene", "write_animation", "body_shapes",
+           "mode_shape_scene"]
 
 #: default upper limit on the number of frames embedded in a page
 MAX_FRAMES = 1000
@@ -68,9 +72,29 @@ def static_scene(model) -> dict:
             joints.append({"name": name, "type": g.name,
                            "body": -1 if bi >= model.nb else bi,
                            "point_local": [float(x) for x in g.geometry.s_i[n]]})
-    return {"bodies": bodies, "joints": joints,
+    return {"bodies": bodies, "joints": joints, "springs": _springs(model),
             "ground": _plain(list(state.get("ground_shapes", []) or [])),
             "gravity": [float(x) for x in np.asarray(model.gravity, dtype=float)]}
+
+
+def _springs(model) -> list:
+    """Two-point force elements (spring_damper) as viewer springs: body -1 is the ground."""
+    out = []
+    for g in getattr(model, "force_groups", ()):
+        if not all(hasattr(g, key) for key in ("bi", "bj", "s_i", "s_j")):
+            continue                         # not a two-point element
+        stiffness = np.broadcast_to(np.asarray(getattr(g, "k", 1.0), dtype=float), (g.n,))
+        damping = np.broadcast_to(np.asarray(getattr(g, "c", 0.0), dtype=float), (g.n,))
+        for n, name in enumerate(g.names):
+            kind = ("spring_damper" if stiffness[n] > 0 and damping[n] > 0 else
+                    "damper" if damping[n] > 0 else "spring")
+            bi, bj = int(g.bi[n]), int(g.bj[n])
+            out.append({"name": name, "kind": kind,
+                        "body_i": -1 if bi >= model.nb else bi,
+                        "point_i": [float(x) for x in g.s_i[n]],
+                        "body_j": -1 if bj >= model.nb else bj,
+                        "point_j": [float(x) for x in g.s_j[n]]})
+    return out
 
 
 def _plain(value):
@@ -96,12 +120,15 @@ def _frames(t: np.ndarray, q: np.ndarray, max_frames: Optional[int]) -> np.ndarr
     return idx
 
 
-def animation_scene(results, *, model=None, max_frames: Optional[int] = MAX_FRAMES) -> dict:
+def animation_scene(results, *, model=None, max_frames: Optional[int] = MAX_FRAMES,
+                    reactions: bool = False) -> dict:
     """The viewer scene dict of a motion (see spatialmbd.viewer.animation for its keys).
 
     results: Results, KinematicResults or LoadedResults (an HDF5 file's contents).
     model: the Model, when the results do not carry it. max_frames: at most this many frames
     (evenly spread; None for all). Non-finite states (after a failure) are left out.
+    reactions: also draw each joint's reaction force on its body i (N, global axes, at the
+    joint point; needs results with multipliers, i.e. dynamic Results).
     """
     model = model if model is not None else getattr(results, "model", None)
     if model is not None:
@@ -119,7 +146,10 @@ def animation_scene(results, *, model=None, max_frames: Optional[int] = MAX_FRAM
     if idx.size == 0:
         raise ValueError("no finite state to animate (the analysis failed at its first time)")
     scene = {"t": t[idx], "bodies": [], "joints": base.get("joints", []),
+             "springs": base.get("springs", []),
              "ground": base.get("ground", []), "gravity": base.get("gravity")}
+    if reactions:
+        scene["arrows"] = _reaction_arrows(results, model, idx)
     for k, body in enumerate(base["bodies"]):
         entry = dict(body)
         entry["r"] = q[idx, k, :3]
@@ -128,18 +158,96 @@ def animation_scene(results, *, model=None, max_frames: Optional[int] = MAX_FRAM
     return scene
 
 
+def _reaction_arrows(results, model, idx) -> list:
+    """Reaction force on body i of every joint, as arrows at the joint point (one scale)."""
+    if model is None or not hasattr(results, "reactions") or getattr(results, "lam",
+                                                                       None) is None:
+        raise ValueError("reaction arrows need the Results of a dynamic analysis with their "
+                         "model (from simulate); these results cannot give the joint reactions "
+                         "(a results file or a kinematic analysis): animate the model file "
+                         "with --reactions instead")
+    index = {name: k for k, name in enumerate(model.body_names)}
+    arrows = []
+    for name, reaction in results.reactions().items():
+        force = np.asarray(reaction.force_i, dtype=float)[idx]
+        if reaction.body_i in index:
+            body, point = index[reaction.body_i], _joint_point_local(model, name)
+        else:                                # body i is the ground: draw it on body j
+            if reaction.body_j not in index:
+                continue
+            body, point = index[reaction.body_j], _joint_point_local(model, name, "s_j")
+            force = np.asarray(reaction.force_j, dtype=float)[idx]
+        arrows.append({"name": name, "kind": "reaction", "body": body, "point_local": point,
+                       "vectors": force, "color": "#d62728"})
+    big = max([float(np.max(np.linalg.norm(a["vectors"], axis=1))) for a in arrows] + [0.0])
+    for a in arrows:                         # one scale for all, so the arrows compare
+        if big > 0:
+            a["scale"] = _scene_size(model) * 0.3 / big
+    return arrows
+
+
+def _joint_point_local(model, name, which="s_i") -> list:
+    for g in model.constraint_groups:
+        if name in g.names:
+            return [float(x) for x in getattr(g.geometry, which)[list(g.names).index(name)]]
+    return [0.0, 0.0, 0.0]
+
+
+def _scene_size(model) -> float:
+    """A length of the scene (m) for arrow scales: the spread of the bodies and joint points."""
+    r = np.asarray([b.r for b in (getattr(model, "builder_state", None) or {}).get(
+        "bodies", {}).values()] or [[0.0, 0.0, 0.0]], dtype=float)
+    size = float(np.max(np.ptp(np.vstack([r, np.zeros((1, 3))]), axis=0)))
+    return size if size > 0 else 1.0
+
+
+def mode_shape_scene(model, q0, shape, *, amplitude: float = 0.1, n_frames: int = 61,
+                     frequency: Optional[float] = None) -> dict:
+    """A scene that animates one mode shape about the configuration q0.
+
+    q0: (nb, 7) configuration [r, p] per body. shape: (nb, 6) mode in velocity space
+    [delta r (m), delta theta (rad, global rotation vector)] per body (e.g. an eigenvector of the
+    linearized equations). The bodies move as r0 + s(t) delta r and rotate by s(t) delta theta,
+    with s(t) = amplitude sin(2 pi t / T) over one period T = 1 / frequency (frequency in Hz;
+    T = 1 s when not given) and amplitude relative to the largest component of ``shape``.
+    """
+    from .rotations import rotate_p
+    q0 = np.asarray(q0, dtype=float).reshape(model.nb, 7)
+    shape = np.asarray(shape, dtype=float).reshape(model.nb, 6)
+    if not np.all(np.isfinite(shape)) or np.max(np.abs(shape)) == 0:
+        raise ValueError("mode_shape_scene: the mode shape must be finite and non-zero")
+    period = 1.0 / float(frequency) if frequency else 1.0
+    t = np.linspace(0.0, period, int(n_frames))
+    s = float(amplitude) / np.max(np.abs(shape)) * np.sin(2 * np.pi * t / period)
+    base = static_scene(model)
+    scene = {"t": t, "bodies": [], "joints": base["joints"], "springs": base["springs"],
+             "ground": base["ground"], "gravity": base["gravity"]}
+    for k, body in enumerate(base["bodies"]):
+        entry = dict(body)
+        entry["r"] = q0[k, :3] + s[:, None] * shape[k, :3]
+        entry["p"] = rotate_p(np.broadcast_to(q0[k, 3:], (t.size, 4)),
+                              s[:, None] * shape[k, 3:])
+        scene["bodies"].append(entry)
+    return scene
+
+
 def write_animation(results, path, *, model=None, title: Optional[str] = None,
-                    max_frames: Optional[int] = MAX_FRAMES) -> pathlib.Path:
-    """Write the offline HTML animation of ``results`` to ``path`` (atomically)."""
+                    max_frames: Optional[int] = MAX_FRAMES, reactions: bool = False,
+                    renderer: str = "auto") -> pathlib.Path:
+    """Write the offline HTML animation of ``results`` to ``path`` (atomically).
+
+    reactions: draw the joint reaction forces (see :func:`animation_scene`). renderer: "auto"
+    (WebGL with the Canvas fallback) or "canvas" (no three.js bundle, a smaller page).
+    """
     from .io.results_io import atomic_write
     from .viewer.animation import animation_html
-    scene = animation_scene(results, model=model, max_frames=max_frames)
+    scene = animation_scene(results, model=model, max_frames=max_frames, reactions=reactions)
     if title is None:
         m = model if model is not None else getattr(results, "model", None)
         stored = getattr(results, "model_dict", None)
         name = m.name if m is not None else (stored or {}).get("name")
         title = f"spatialmbd: {name}" if name else "spatialmbd animation"
-    text = animation_html(scene, title=title)
+    text = animation_html(scene, title=title, renderer=renderer)
     path = pathlib.Path(path)
     with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")

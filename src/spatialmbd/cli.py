@@ -2,8 +2,9 @@
 
     spatialmbd run MODEL [options]        run the analysis of a model file, write the results
     spatialmbd info MODEL                 bodies, joints, drivers, forces, degrees of freedom
-    spatialmbd plot RESULTS -q Q -o FIG   time plots from a results file
+    spatialmbd plot RESULTS -y Q -o FIG   plots from a results file (--x: against any column)
     spatialmbd animate IN -o FILE.html    offline HTML animation (results file or model file)
+    spatialmbd import FILE.xml -o M.yaml  MJCF / URDF -> model file (extra spatialmbd[mjcf])
     spatialmbd examples [NAME]            list the example models, or write one as a model file
     spatialmbd demo                       the chapter 15 study (figure and table)
     spatialmbd validate [--full]          the validation suite
@@ -68,8 +69,42 @@ def _load(path: str):
         raise UsageError(f"no such model file: {path}")
     if p.is_dir():
         raise UsageError(f"{path} is a directory, not a model file")
+    if p.suffix.lower() in MJCF_SUFFIXES:        # MJCF / URDF: imported, default analysis
+        from .io.modelfile import load_model, model_to_dict
+        return load_model(model_to_dict(_import_mjcf(p, lenient=False)))
     from .io.modelfile import load_model
     return load_model(p)
+
+
+MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
+
+
+def _import_mjcf(path, lenient: bool):
+    """ModelBuilder of an MJCF/URDF file; what is left out is printed as a warning."""
+    from .importers import import_mjcf
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        builder = import_mjcf(path, strict=not lenient)
+    for w in caught:
+        _err(f"warning: {w.message}")
+    return builder
+
+
+def cmd_import(args) -> int:
+    src = pathlib.Path(args.input)
+    if not src.is_file():
+        raise UsageError(f"no such MJCF/URDF file: {args.input}")
+    builder = _import_mjcf(src, lenient=args.lenient)
+    from .io.modelfile import save_model
+    out = pathlib.Path(args.output or (src.stem + ".yaml"))
+    if out.suffix.lower() not in (".yaml", ".yml", ".json"):
+        raise UsageError(f"output file {str(out)!r}: the name must end in .yaml, .yml or .json")
+    save_model(builder, out, header=f"imported from {src.name} by spatialmbd import "
+                                    "(MuJoCo's compiler)")
+    if not args.quiet:
+        print(f"{len(builder.bodies)} bodies, {len(builder.joints)} joints, "
+              f"{len(builder.forces)} force elements: model written to {out}")
+    return 0
 
 
 def _check_name(kind: str, name: str) -> str:
@@ -105,6 +140,21 @@ def _positive(text: str) -> float:
     return value
 
 
+class _QuietOrQuantity(argparse.Action):
+    """``-q`` of ``plot``: quiet, as in every other command; ``-q QUANTITY ...`` (its old
+    meaning) still selects quantities, with a DeprecationWarning."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if not values:
+            namespace.quiet = True
+            return
+        message = ("`spatialmbd plot -q QUANTITY` is deprecated: -q means quiet in every "
+                   "command; use -y QUANTITY (or --quantity)")
+        warnings.warn(message, DeprecationWarning, stacklevel=2)
+        print(f"warning: {message}", file=sys.stderr)
+        namespace.quantity = list(namespace.quantity or []) + list(values)
+
+
 def _add_analysis_options(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("analysis options (override the model file's analysis)")
     g.add_argument("--method", metavar="M",
@@ -133,14 +183,20 @@ def _apply_overrides(analysis, args):
     """A copy of ``analysis`` with the command-line options applied; notes for the user."""
     notes = []
     changes = {}
-    kinematic = str(getattr(analysis, "type", "dynamic")).lower().startswith("kin")
+    kind = str(getattr(analysis, "type", "dynamic")).lower()
+    kinematic = kind != "dynamic"
     dynamic_only = [opt for opt, value in (("--method", args.method),
                                            ("--integrator", args.integrator),
                                            ("--step", args.step), ("--rtol", args.rtol),
                                            ("--atol", args.atol)) if value is not None]
     if kinematic and dynamic_only:
         raise UsageError(f"{', '.join(dynamic_only)}: only for dynamic analyses; this model "
-                         "file asks for a kinematic analysis")
+                         f"file asks for a{'n' if kind[0] in 'aeiou' else ''} {kind} "
+                         "analysis")
+    if kind in ("static", "modal") and (args.t_end is not None or
+                                        args.output_step is not None):
+        raise UsageError(f"--t-end/--output-step: a {kind} analysis is at one time (set "
+                         "'time' in the model file's analysis section)")
     if args.method is not None:
         _check_name("method", args.method)
         old = _name_of(analysis.method)
@@ -252,11 +308,15 @@ def cmd_run(args) -> int:
     from .io.results_io import save_results, to_dataframe
     model, analysis = _load(args.model)
     analysis, notes = _apply_overrides(analysis, args)
+    if getattr(args, "outputs", None):
+        analysis = _with_outputs(model, analysis, args.outputs)
     outs = _output_paths(args, pathlib.Path(args.model).stem, ".csv", RESULT_SUFFIXES)
     if not args.quiet:
         for note in notes:
             print(f"note: {note}")
     results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet)
+    if getattr(analysis, "type", "dynamic") in ENGINEERING_TYPES:
+        return _write_engineering(results, analysis, outs, wall, warning_texts, args.quiet)
     table = to_dataframe(results)
     for out in outs:
         save_results(results, out, analysis=analysis, table=table)
@@ -267,6 +327,63 @@ def cmd_run(args) -> int:
     if results.status != "success":
         _err(_failure_line(results))
         return 1
+    return 0
+
+
+def _with_outputs(model, analysis, tokens):
+    """``analysis`` with the requests of ``--outputs`` added: shorthands (joints, drivers,
+    forces, bodies, momentum, energy, all) or KIND:NAME (joint:pivot, imu:link.tip)."""
+    from .outputs import KINDS, parse_outputs
+    extra = []
+    for token in tokens:
+        if ":" in token:
+            kind, _, of = token.partition(":")
+            if kind not in KINDS:
+                raise UsageError(f"--outputs {token}: {kind!r} is not one of "
+                                 + ", ".join(KINDS))
+            extra.append({"type": kind, "of": of} if of else {"type": kind})
+        else:
+            extra.append(token)
+    requests = list(getattr(analysis, "outputs", None) or []) + extra
+    try:
+        parse_outputs(model, requests)
+    except ModelError as exc:
+        raise UsageError(f"--outputs: {exc}") from None
+    return dataclasses.replace(analysis, outputs=requests)
+ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
+
+
+def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> int:
+    """Files and summary of an engineering analysis (spatialmbd.analyses): its table as CSV,
+    or HDF5 with the positions over time. Modal analyses: CSV, one row per mode; HDF5, the
+    motion of the lowest mode that is not a rigid-body one (for ``spatialmbd animate``)."""
+    from .io.results_io import save_results
+    table = results.to_dataframe()
+    notes = []
+    for out in outs:
+        if out.suffix.lower() == ".csv":
+            table.to_csv(out, index=False)
+        elif analysis.type == "modal":
+            kinds = list(results.table["kind"])
+            k = next((i for i, c in enumerate(kinds) if c != "rigid-body"), 0)
+            if not kinds:
+                raise UsageError(f"output file {str(out)!r}: the model has no modes to animate")
+            motion = results.motion(k, amplitude=0.1)
+            save_results(motion, out, analysis=analysis)
+            notes.append(f"{out} holds the motion of mode {k} ({kinds[k]}, "
+                         f"{results.table['frequency_hz'][k]:.6g} Hz, largest entry 0.1 m or "
+                         "rad); write a .csv for the table of all modes")
+        else:
+            save_results(results.results, out, analysis=analysis, table=table)
+    if not quiet:
+        print(results.summary())
+        print(f"wall time {wall:.3g} s")
+        for w in warning_texts:
+            print(f"warning: {w}")
+        for out in outs:
+            print(f"results written to {out} ({len(table)} rows, {len(table.columns)} columns)")
+        for note in notes:
+            print(f"note: {note}")
     return 0
 
 
@@ -306,6 +423,11 @@ def cmd_info(args) -> int:
     for name, spec in forces.items():
         lines.append(f"  {name:16s} {spec.type}")
     lines.append("analysis: " + _describe_analysis(analysis))
+    requests = getattr(analysis, "outputs", None)
+    if requests:
+        from .outputs import parse_outputs
+        lines.append("outputs: " + ", ".join(
+            f"{r.kind} {r.of}" if r.of else r.kind for r in parse_outputs(model, requests)))
     lines.append("mobility:")
     lines.append(textwrap.indent(mobility(model).report(), "  "))
     print("\n".join(lines))
@@ -316,11 +438,18 @@ def _describe_analysis(analysis) -> str:
     if analysis is None:
         return "none"
     parts = [str(getattr(analysis, "type", "?"))]
+    if parts[0] in ("static", "modal"):                     # one time, no integration
+        parts.append(f"at t = {getattr(analysis, 'time', 0.0):g} s")
+        if getattr(analysis, "steady", False):
+            rate = getattr(analysis, "frame_rate", None)
+            parts.append("about the initial steady motion"
+                         + (f", frame turning at {rate} rad/s" if rate else ""))
+        return ", ".join(parts)
     for key, label in (("t_end", "t_end"), ("output_step", "output step")):
         value = getattr(analysis, key, None)
         if value is not None:
             parts.append(f"{label} {value:g} s")
-    if not str(parts[0]).lower().startswith("kin"):
+    if str(parts[0]).lower() == "dynamic":
         for key in ("method", "integrator"):
             value = _name_of(getattr(analysis, key, None))
             if value:
@@ -348,7 +477,7 @@ def cmd_plot(args) -> int:
         raise UsageError(f"{len(labels)} --labels for {len(loaded)} results files")
     log = True if args.log else (False if args.linear else None)
     fig = plot_results(loaded if len(loaded) > 1 else loaded[0], args.quantity or None,
-                       labels=labels, log=log, title=args.title)
+                       labels=labels, log=log, title=args.title, x=args.x)
     from .plotting import save_figure
     for out in outs:
         save_figure(fig, out)
@@ -387,7 +516,9 @@ def cmd_animate(args) -> int:
             status = 1
         title = args.title or f"spatialmbd: {model.name}"
     for out in outs:
-        write_animation(results, out, model=model, title=title, max_frames=args.max_frames)
+        write_animation(results, out, model=model, title=title, max_frames=args.max_frames,
+                        reactions=getattr(args, "reactions", False),
+                        renderer=getattr(args, "renderer", "auto"))
         if not args.quiet:
             print(f"animation written to {out}")
     if status:
@@ -513,7 +644,7 @@ def build_parser() -> argparse.ArgumentParser:
             spatialmbd examples pendulum_ch15 --write . # write pendulum_ch15.yaml
             spatialmbd info pendulum_ch15.yaml          # bodies, joints, degrees of freedom
             spatialmbd run pendulum_ch15.yaml -o pendulum.h5
-            spatialmbd plot pendulum.h5 -q pendulum.z energy.error -o pendulum.png
+            spatialmbd plot pendulum.h5 -y pendulum.z energy.error -o pendulum.png
             spatialmbd animate pendulum.h5 -o pendulum.html
             spatialmbd <command> --help                 # options of a command
 
@@ -545,12 +676,17 @@ def build_parser() -> argparse.ArgumentParser:
                 spatialmbd run pendulum.yaml --method baumgarte --integrator rk4 --step 1e-3
                 spatialmbd run pendulum.yaml --t-end 2 --output-step 0.01 -o p.csv -o p.h5
                 spatialmbd run model.yaml --quiet -o results.h5 && echo ok
+                spatialmbd run slider_crank.yaml --outputs joints drivers -o crank.h5
                 """)
     p.add_argument("model", metavar="MODEL", help="model file (.yaml, .yml or .json)")
     _add_analysis_options(p)
     p.add_argument("-o", "--output", action="append", metavar="OUT",
                    help="results file, .csv or .h5 (repeat for several); default "
                         "<model stem>.csv in the current directory")
+    p.add_argument("--outputs", nargs="+", metavar="REQ",
+                   help="also record these outputs (added to the file's outputs section): "
+                        "joints, drivers, forces, bodies, momentum, energy, all, or KIND:NAME "
+                        "such as joint:pivot, force:spring, imu:link.tip (docs/outputs.md)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar, no summary (errors are still reported)")
     p.set_defaults(func=cmd_run)
@@ -569,19 +705,32 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("plot", "plot quantities of a results file against time",
                 "Plot columns of one or more results files (.h5 or .csv) against time. A "
                 "QUANTITY is a column name (pendulum.z, pivot.pendulum.fz, energy.error, "
-                "violation.position, ...), a pattern (pendulum.*, *.fz), a body name (its "
-                "x, y, z), a joint name (its reaction forces), 'energy' or 'violation'. "
-                "Columns of one kind share a panel. Default: body positions, energy error and "
+                "violation.position, and the requested outputs such as pivot.angle or "
+                "spring.force: see docs/outputs.md), a pattern (pendulum.*, *.fz), a body "
+                "name (its x, y, z), a joint name (its reaction forces), 'energy' or "
+                "'violation'. Columns of one kind share a panel; --x puts any column on the "
+                "horizontal axis instead of time. Default: body positions, energy error and "
                 "constraint violation. The figure format follows the extension: .png, .svg "
                 "or .pdf (default <results stem>.png in the current directory).",
                 """
-                spatialmbd plot pendulum.h5 -q pendulum.z energy.error -o pendulum.png
-                spatialmbd plot pendulum.h5 -q 'pendulum.*' -q '*.fz' -o p.pdf
-                spatialmbd plot a.h5 b.h5 --labels standard baumgarte -q violation --log -o v.svg
+                spatialmbd plot pendulum.h5 -y pendulum.z energy.error -o pendulum.png
+                spatialmbd plot pendulum.h5 -y 'pendulum.*' -y '*.fz' -o p.pdf
+                spatialmbd plot a.h5 b.h5 --labels standard baumgarte -y violation --log -o v.svg
+                spatialmbd plot pendulum.h5 --x pivot.angle -y pivot.angle_rate -o phase.png
+                spatialmbd plot crank.h5 --x crank_drive.coordinate -y D.translation -o s.png
                 """)
     p.add_argument("results", nargs="+", metavar="RESULTS", help="results file(s), .h5 or .csv")
-    p.add_argument("-q", "--quantity", action="extend", nargs="+", metavar="QUANTITY",
-                   help="what to plot (repeatable; patterns allowed)")
+    p.add_argument("-y", "--y", "--quantity", dest="quantity", action="extend", nargs="+",
+                   metavar="QUANTITY",
+                   help="what to plot (repeatable; patterns allowed; several series per "
+                        "figure)")
+    p.add_argument("--x", metavar="QUANTITY",
+                   help="the column on the horizontal axis (default t): phase plots, "
+                        "force against deflection, a joint coordinate against the crank angle")
+    p.add_argument("-q", dest="legacy_q", action=_QuietOrQuantity, nargs="*",
+                   metavar="QUANTITY",
+                   help="quiet, as in every command (-q QUANTITY ... is the deprecated "
+                        "spelling of -y)")
     p.add_argument("-o", "--output", action="append", metavar="FIG",
                    help="figure file .png, .svg or .pdf (repeat for several)")
     p.add_argument("--labels", nargs="+", metavar="LABEL", help="legend labels of the files")
@@ -591,7 +740,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="linear y axes everywhere (default: log for violations only)")
     p.add_argument("--title", help="figure title")
     p.add_argument("--quiet", action="store_true", help="print nothing")
-    p.set_defaults(func=cmd_plot)
+    p.set_defaults(func=cmd_plot, quantity=None)
 
     p = command("animate", "write an offline HTML animation",
                 "Write a self-contained HTML animation (no network needed) of an HDF5 results "
@@ -608,9 +757,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-frames", type=int, default=1000, metavar="N",
                    help="at most N frames, evenly spread (default 1000)")
     p.add_argument("--title", help="page title")
+    p.add_argument("--renderer", choices=("auto", "canvas"), default="auto",
+                   help="auto: WebGL (three.js embedded) with the Canvas renderer as fallback; "
+                        "canvas: Canvas only, a much smaller page")
+    p.add_argument("--reactions", action="store_true",
+                   help="draw the joint reaction forces as arrows (model files only)")
     _add_analysis_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.set_defaults(func=cmd_animate)
+
+    p = command("import", "convert an MJCF or URDF file to a spatialmbd model file",
+                "Read an MJCF (.xml) or URDF (.urdf) file with MuJoCo's compiler (optional "
+                "extra: pip install 'spatialmbd[mjcf]') and write the equivalent model file: "
+                "bodies with their mass properties, hinge/slide/ball joints as revolute/"
+                "translational/spherical joints, connect/weld equalities as exact spherical/"
+                "fixed joints. Features with no exact counterpart (tendons, actuators, joint "
+                "couplings, contact pairs, ...) are an error naming them, or with --lenient a "
+                "warning. `run`, `info` and `animate` also accept these files directly.",
+                """
+                spatialmbd import robot.urdf -o robot.yaml
+                spatialmbd import scene.xml --lenient -o scene.yaml
+                spatialmbd run four_bar.xml --t-end 2 -o four_bar.h5
+                """)
+    p.add_argument("input", metavar="FILE", help="MJCF (.xml) or URDF (.urdf) file")
+    p.add_argument("-o", "--output", metavar="MODEL.yaml",
+                   help="model file to write (.yaml, .yml or .json); default <stem>.yaml")
+    p.add_argument("--lenient", action="store_true",
+                   help="leave out features with no exact counterpart, with a warning")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but warnings")
+    p.set_defaults(func=cmd_import)
 
     p = command("examples", "list the example models or write one as a model file",
                 "Without NAME: list the example models. With NAME: describe it; with --write "
@@ -626,7 +801,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--write", metavar="DIR", help="write the model file(s) into DIR")
     p.add_argument("--format", choices=("yaml", "json"), default="yaml",
                    help="model file format (default yaml)")
-    p.add_argument("--quiet", action="store_true", help="print nothing")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=cmd_examples)
 
     p = command("demo", "run the chapter 15 study (figure and table)",
@@ -640,7 +815,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--outdir", default="ch15_study", metavar="DIR",
                    help="output directory (default ./ch15_study)")
     p.add_argument("--quick", action="store_true", help="shorter runs (a quick check)")
-    p.add_argument("--quiet", action="store_true", help="print nothing")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=cmd_demo)
 
     p = command("validate", "run the validation suite",
@@ -657,8 +832,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the complete version (longer runs, every output instant)")
     p.add_argument("--out", metavar="PATH",
                    help="also write the table to PATH (a directory, or a .md/.txt file)")
-    p.add_argument("--quiet", action="store_true", help="print only failures")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only failures")
     p.set_defaults(func=cmd_validate)
+
+    p = command("warmup", "compile the numerical kernels now (once per machine)",
+                "Compile every numerical kernel (all methods, integrators, kinematics, force "
+                "elements) into the on-disk cache, with progress, so that later runs start at "
+                "once. Otherwise this happens on the first run, which then says so.",
+                """
+                spatialmbd warmup
+                """)
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
+    p.set_defaults(func=cmd_warmup)
 
     from .sweep.cli import add_parser as add_sweep_parser      # spatialmbd sweep (issue 15)
     add_sweep_parser(command, _add_analysis_options)
@@ -668,6 +853,39 @@ def build_parser() -> argparse.ArgumentParser:
 # ----------------------------------------------------------------------------------------------
 # entry point
 # ----------------------------------------------------------------------------------------------
+def cmd_warmup(args) -> int:
+    """Compile every kernel now (each method, the integrators' fused stages, kinematics, the
+    force elements), so that later runs start at once."""
+    import time
+    from .jit import cache_is_warm, compile_notice
+    from . import models
+    from .kinematics import kinematic_analysis
+    from .simulate import simulate
+    start = time.perf_counter()
+    warm = cache_is_warm()
+    steps = [("kinematics", lambda: kinematic_analysis(
+        models.slider_crank(crank_speed=6.0).compile(), [0.0, 0.01]))]
+    fly = models.flyball_governor().compile()
+    for method in ("standard", "baumgarte", "penalty", "augmented_lagrangian", "projection"):
+        steps.append((f"dynamics, {method}", lambda m=method: simulate(
+            fly, 1e-3, method=m, integrator="rk45", output_step=1e-3)))
+    steps.append(("fixed-step and implicit integrators", lambda: [
+        simulate(fly, 2e-3, integrator=i, step=1e-3) for i in ("rk4", "bdf4")]))
+    with compile_notice(force=not warm and not args.quiet, every=10.0):
+        for k, (what, run) in enumerate(steps):
+            if not args.quiet:
+                print(f"[{k + 1}/{len(steps)}] {what}", flush=True)
+            run()
+    if not args.quiet:
+        print(f"ready in {time.perf_counter() - start:.1f} s"
+              + (" (the cache was already warm)" if warm else ""))
+    return 0
+
+
+#: commands that may compile kernels on their first run (they get the compile notice)
+_COMPUTING = (cmd_run, cmd_demo, cmd_validate)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the command line ``argv`` (default sys.argv[1:]); return the exit status."""
     parser = build_parser()
@@ -681,6 +899,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     debug = getattr(args, "debug", False)
     file_error = _model_file_error()
     try:
+        if getattr(args, "func", None) in _COMPUTING and not getattr(args, "quiet", False):
+            from .jit import compile_notice
+            with compile_notice():
+                return args.func(args)
         return args.func(args)
     except KeyboardInterrupt:
         if debug:

@@ -38,8 +38,8 @@ _OPTIONS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 
 _PKG = os.path.dirname(os.path.abspath(__file__))
 #: the sources of compiled code (and of everything it calls), relative to the package
-HOT_PATH = ("jit.py", "rotations.py", "state.py", "constraints", "dynamics", "integrators",
-            "sweep/batch.py")
+HOT_PATH = ("jit.py", "rotations.py", "state.py", "constraints", "forces", "dynamics",
+            "integrators", "sweep/batch.py")
 
 
 def _source_hash() -> str:
@@ -176,6 +176,65 @@ def _prune(path: str) -> None:
 
 if ENABLED:
     _install_cache_locator()
+
+
+def cache_is_warm() -> bool:
+    """True when compiled code of the current sources is on disk, so a new process loads it in
+    about a second instead of compiling (tens of seconds, once per machine and version)."""
+    if not ENABLED:
+        return True
+    for root, _ in _roots():
+        try:
+            names = os.listdir(root)
+        except OSError:
+            continue
+        if any(n.startswith("system.") and n.endswith(".nbi") for n in names):
+            return True
+    return False
+
+
+class compile_notice:
+    """Context manager: when the compile cache is cold, say so at once and then every
+    ``every`` seconds how long compiling has taken, on ``stream`` (stderr), until the block
+    ends -- a first run is never silent. Does nothing when the cache is warm."""
+
+    def __init__(self, stream=None, every: float = 5.0, force: bool = False):
+        import sys
+        self.stream = stream if stream is not None else sys.stderr
+        self.every = every
+        self.active = force or not cache_is_warm()
+
+    def __enter__(self):
+        if not self.active:
+            return self
+        import threading
+        import time
+        self._start = time.perf_counter()
+        self._done = threading.Event()
+        self._say("compiling the numerical kernels for this machine (first run only; later "
+                  "runs load them in about a second). `spatialmbd warmup` does this ahead.")
+
+        def tick():
+            while not self._done.wait(self.every):
+                self._say(f"  ... still compiling ({time.perf_counter() - self._start:.0f} s)")
+        self._thread = threading.Thread(target=tick, daemon=True)
+        self._thread.start()
+        return self
+
+    def _say(self, text):
+        try:
+            print(text, file=self.stream, flush=True)
+        except (OSError, ValueError):
+            pass
+
+    def __exit__(self, *exc):
+        if self.active:
+            import time
+            self._done.set()
+            self._thread.join()
+            self._say(f"compiled in {time.perf_counter() - self._start:.0f} s (cached for "
+                      "later runs)")
+        return False
 
 
 def njit(fn=None, **options):

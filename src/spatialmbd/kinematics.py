@@ -20,7 +20,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import ConvergenceError, ModelError, SingularMatrixError
+from .errors import ConvergenceError, ModelError, SingularMatrixError, SpatialMBDError
 from .rotations import rotate_p
 from .state import BodyState
 
@@ -169,6 +169,10 @@ class Mobility:
     n_equations: int
     redundant: list = field(default_factory=list)   # (row, element, type, label)
     singular_values: np.ndarray = None
+    #: max |Phi| of the state given, and how far (max |dx| in the 6-per-body space) it was
+    #: moved onto Phi = 0 before the rank was taken (0: it was assembled already)
+    violation: float = 0.0
+    correction: float = 0.0
 
     @property
     def n_redundant(self) -> int:
@@ -181,6 +185,10 @@ class Mobility:
                  f"redundant equations: {self.n_redundant}"]
         for row, name, typ, lab in self.redundant:
             lines.append(f"  equation {row}: {name} ({typ}, {lab})")
+        if self.correction:
+            lines.append(f"(the state given violates the constraints by {self.violation:.3g}; "
+                         f"the rank is taken at the assembled state {self.correction:.3g} "
+                         "away)")
         return "\n".join(lines)
 
 
@@ -189,10 +197,30 @@ def mobility(model, q: Optional[np.ndarray] = None, t: float = 0.0,
     """Gruebler count next to the numerical rank of D (SVD) and the redundant equations.
 
     Redundant equations are found by QR with column pivoting of D^T: the rows of D that the
-    pivoting leaves after the first rank pivots depend linearly on earlier ones.
+    pivoting leaves after the first rank pivots depend linearly on earlier ones. A state that
+    violates the constraints (max |Phi| > ASSEMBLED) is first moved onto Phi = 0 (minimum-norm
+    Newton), because off the manifold the rank is not that of the mechanism; the result says
+    how far (``violation``, ``correction``). tol: singular values above it count (default
+    max(m, n) eps s_max 1e3, scaled to the matrix).
     """
     q = model.q0 if q is None else np.asarray(q).reshape(model.nb, 7)
-    D = _dense(model.assembler.evaluate(q, None, t).D)
+    cv = model.assembler.evaluate(q, None, t)
+    violation = float(np.abs(cv.phi).max()) if cv.phi.size else 0.0
+    correction = 0.0
+    if violation > ASSEMBLED:
+        # D at a state off the constraint manifold has its would-be-zero singular values
+        # raised to the size of the violation, so a rank test there miscounts (a Bricard
+        # linkage 1e-6 off its manifold looks rigid): take the rank at the nearest assembled
+        # state, found by the minimum-norm Newton iteration
+        try:
+            q_assembled, _ = solve_positions(model, q, t)
+        except SpatialMBDError:
+            q_assembled = None
+        if q_assembled is not None:
+            dq = q_assembled - q
+            correction = float(max(np.abs(dq[:, :3]).max(), np.abs(dq[:, 3:]).max()))
+            cv = model.assembler.evaluate(q_assembled, None, t)
+    D = _dense(cv.D)
     m, n = D.shape
     if m == 0:
         return Mobility(6 * model.nb, 0, 6 * model.nb, 0, [], np.zeros(0))
@@ -207,7 +235,12 @@ def mobility(model, q: Optional[np.ndarray] = None, t: float = 0.0,
             name, typ, lab = model.equation_labels[row]
             redundant.append((int(row), name, typ, lab))
     return Mobility(grubler=6 * model.nb - m, rank=rank, dof=n - rank, n_equations=m,
-                    redundant=redundant, singular_values=s)
+                    redundant=redundant, singular_values=s, violation=violation,
+                    correction=correction)
+
+
+#: a state with max |Phi| above this is assembled before its mobility is taken
+ASSEMBLED = 1e-9
 
 
 # ------------------------------------------------------------------------------- analysis

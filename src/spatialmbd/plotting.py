@@ -5,9 +5,13 @@ Quantities are columns of the results table (:func:`spatialmbd.io.results_io.to_
 patterns select several (``pendulum.*``, ``*.fz``, ``link?.z``), and a few shorthands exist:
 a body name (its x, y, z), a joint name (its reaction forces on both bodies), ``energy``
 (kinetic, gravitational, elastic and total energy) and ``violation`` (|Phi| and |D v - nu|).
+The requested outputs (joint coordinates, spring forces, driver efforts ...; docs/outputs.md)
+are columns too: ``pivot.angle``, ``spring.force``, ``motor.effort``.
 
-The selected columns are grouped by kind (positions, velocities, forces, energy, ...): one
-panel per kind, with the unit on its axis, all panels sharing the time axis. Files are written
+The selected columns are grouped by kind (positions, velocities, forces, energy, ...; the
+requested outputs by unit): one panel per kind, with the unit on its axis, all panels sharing
+the horizontal axis: time, or any column given as ``x`` (phase plots, force against
+deflection, a joint coordinate against the crank angle). Files are written
 atomically; the format follows the extension: ``.png``, ``.svg`` or ``.pdf``.
 """
 from __future__ import annotations
@@ -43,13 +47,23 @@ _EXACT_KIND = {
 _LOG_KINDS = {"violation_position", "violation_velocity", "violation_sq"}
 
 
-def _kind(column: str) -> tuple:
+def _kind(column: str, units: Optional[dict] = None) -> tuple:
+    """(panel key, axis label) of a column: the standard kinds by name, the requested outputs
+    (docs/outputs.md) by their unit."""
     if column in _EXACT_KIND:
         return _EXACT_KIND[column]
     if column.startswith("energy."):
         return ("energy", "energy [J]")
     last = column.rsplit(".", 1)[-1]
+    if column in (units or {}) and not (last in _SUFFIX_KIND and ".imu." not in column):
+        unit = units[column]
+        return ("unit:" + unit, f"[{unit}]")
     return _SUFFIX_KIND.get(last, ("other:" + column, column))
+
+
+def _units(table) -> dict:
+    from .outputs import column_units
+    return column_units(table.columns, getattr(table, "attrs", {}).get("units"))
 
 
 def _table(results):
@@ -132,9 +146,9 @@ def _new_figure(n_panels: int, width: float = 8.0, height: Optional[float] = Non
 
 def plot_results(results, quantities: Optional[Sequence[str]] = None, path=None, *,
                  labels: Optional[Sequence[str]] = None, log: Optional[bool] = None,
-                 title: Optional[str] = None):
-    """Plot columns of one or several results against time; return the Figure (and write it
-    to ``path`` when given).
+                 title: Optional[str] = None, x: Optional[str] = None):
+    """Plot columns of one or several results against time (or against the column ``x``);
+    return the Figure (and write it to ``path`` when given).
 
     results: Results, KinematicResults, LoadedResults or a DataFrame, or a list of them (the
         same quantities are then drawn for each, labelled by ``labels``).
@@ -142,6 +156,9 @@ def plot_results(results, quantities: Optional[Sequence[str]] = None, path=None,
         positions, energy error and position violation.
     log: logarithmic y axes for every panel (True), none (False) or only the constraint
         violation panels (None).
+    x: the column on the horizontal axis (default "t"): any output against any other, e.g.
+        a phase plot (``x="pivot.angle"``, quantities ``pivot.angle_rate``), force against
+        deflection, a joint coordinate against the crank angle.
     """
     many = isinstance(results, (list, tuple))
     items = list(results) if many else [results]
@@ -157,21 +174,38 @@ def plot_results(results, quantities: Optional[Sequence[str]] = None, path=None,
         selected = default_quantities(columns)
     if not selected:
         raise ValueError("nothing to plot: the results have no columns besides t")
+    x = x or "t"
+    if x != "t":
+        found = select_columns(columns, [x])
+        if len(found) != 1:
+            raise ValueError(f"--x must name one column, {x!r} names {len(found)}: "
+                             + ", ".join(found[:6]))
+        x = found[0]
+        selected = [c for c in selected if c != x] or selected
+    for tab, lab in zip(tables[1:], labels[1:]):
+        if x not in tab.columns:
+            raise ValueError(f"results {lab!r} lack the x column {x!r}")
     for tab, lab in zip(tables[1:], labels[1:]):
         absent = [c for c in selected if c not in tab.columns]
         if absent:
             raise ValueError(f"results {lab!r} lack column(s) {', '.join(absent[:5])}")
 
+    units = _units(tables[0])
     panels: dict = {}
     for c in selected:
-        key, ylabel = _kind(c)
+        key, ylabel = _kind(c, units)
         panels.setdefault(key, (ylabel, []))[1].append(c)
+    for key, (ylabel, cols) in list(panels.items()):
+        if key.startswith("unit:"):                        # name the quantities of the panel
+            names = list(dict.fromkeys(c.rsplit(".", 1)[-1] for c in cols))
+            text = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
+            panels[key] = (f"{text} {ylabel}", cols)
     fig = _new_figure(len(panels))
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     styles = ["-", "--", ":", "-."]
     for ax, (key, (ylabel, cols)) in zip(axes, panels.items()):
         for k, (tab, lab) in enumerate(zip(tables, labels)):
-            t = tab["t"].to_numpy()
+            t = tab[x].to_numpy()
             for c in cols:
                 name = f"{lab}: {c}" if lab else c
                 ax.plot(t, tab[c].to_numpy(), styles[k % len(styles)], label=name, lw=1.2)
@@ -181,7 +215,11 @@ def plot_results(results, quantities: Optional[Sequence[str]] = None, path=None,
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small", loc="best", ncol=1 if len(cols) * len(tables) <= 6 else 2)
-    axes[-1].set_xlabel("time t [s]")
+    if x == "t":
+        axes[-1].set_xlabel("time t [s]")
+    else:
+        unit = units.get(x) or _kind(x, units)[1]
+        axes[-1].set_xlabel(f"{x} [{unit}]" if x in units else f"{x} ({unit})")
     if title:
         fig.suptitle(title)
     if path is not None:

@@ -57,6 +57,9 @@ class Results:
     redundant_joints: list = field(default_factory=list)
     messages: list = field(default_factory=list)
     settings: dict = field(default_factory=dict)
+    #: what :meth:`outputs` and the tables record besides the standard columns
+    #: (:class:`spatialmbd.outputs.Output` requests; see docs/outputs.md)
+    output_requests: list = field(default_factory=list)
 
     # ----------------------------------------------------------------------------------------
     @classmethod
@@ -211,7 +214,27 @@ class Results:
         for key in ("kinetic", "gravitational", "elastic", "work_nonconservative", "total",
                     "error"):
             cols[f"energy.{key}"] = en[key]
-        return pd.DataFrame(cols)
+        from .outputs import compute_outputs, output_units
+        cols.update(compute_outputs(self))
+        df = pd.DataFrame(cols)
+        df.attrs["units"] = output_units(self)
+        return df
+
+    # ---------------------------------------------------------------------------- outputs
+    def outputs(self, requests=None):
+        """A DataFrame (column t, then ``<prefix>.<quantity>``) of the requested engineering
+        outputs: joint coordinates, force elements, drivers, momentum, energy per body, IMU
+        (:mod:`spatialmbd.outputs`; default: this result's ``output_requests``)."""
+        import pandas as pd
+        from .outputs import compute_outputs, output_units
+        df = pd.DataFrame({"t": self.t, **compute_outputs(self, requests)})
+        df.attrs["units"] = output_units(self, requests)
+        return df
+
+    def to_xarray(self):
+        """An xarray Dataset of this result (:func:`spatialmbd.outputs.to_xarray`)."""
+        from .outputs import to_xarray
+        return to_xarray(self)
 
     def summary(self) -> str:
         c = self.counters

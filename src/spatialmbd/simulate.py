@@ -57,28 +57,37 @@ def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float =
     return t
 
 
-def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
+def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45",
              output_step: Optional[float] = None, t_eval: Optional[Sequence[float]] = None,
              step: Optional[float] = None, rtol: Optional[float] = None,
              atol: Optional[float] = None, method_options: Optional[dict] = None,
              integrator_options: Optional[dict] = None, q0=None, v0=None,
              correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
-             progress=False, t0: float = 0.0) -> Results:
+             progress=False, t0: float = 0.0, outputs=None) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
-    method: "standard", "baumgarte", "penalty", "augmented_lagrangian", "projection" or a
-        Method instance (method_options: its parameters, e.g. alpha, beta).
+    method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
+        constraint violation stays at round-off), "standard", "baumgarte", "penalty",
+        "augmented_lagrangian" or a Method instance (method_options: its parameters, e.g.
+        alpha, beta).
     integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "scipy-..." or an Integrator
         (step: fixed step size in s; rtol/atol for adaptive ones; integrator_options: others).
     output_step / t_eval: the output times (dense output; default 500 intervals).
     q0, v0: initial state (nb, 7) and (nb, 6); default the model's. correct_initial: apply the
         chapter 14 corrections first (hold: coordinates kept fixed, {"body": ["x", ...]}).
-    progress: True for a progress bar on runs longer than about a second, or a callable(t).
+    progress: True for a progress bar on runs longer than about a second (on a terminal; when
+        stderr is not a terminal, e.g. a log file, one plain line at most every 5 s), or a
+        callable(t).
+    outputs: what to record besides the standard columns (:mod:`spatialmbd.outputs`): Output
+        requests, dicts or shorthands ("joints", "drivers", "forces", "bodies", "all");
+        checked before the run, kept as ``results.output_requests``.
 
     Returns Results (status "success" or "failed" with everything computed up to the failure).
     """
+    from .outputs import parse_outputs
     nb = model.nb
     t_out = output_times(t_end, output_step, t_eval, t0)
+    requests = parse_outputs(model, outputs)
     meth = get_method(method, **(method_options or {}))
     integ_opts = dict(integrator_options or {})
     for key, value in (("step", step), ("rtol", rtol), ("atol", atol)):
@@ -141,7 +150,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     wall = time.perf_counter() - start
     if res.status != "success":
         messages.append(res.message)
-    return Results.from_integration(
+    results = Results.from_integration(
         model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
         message=res.message, counters=res.counters.as_dict(), wall_time=wall,
         correction=correction, redundant_joints=redundant_joints, messages=messages,
@@ -149,6 +158,8 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
                       method=meth.name, method_options=meth.parameters(),
                       integrator=integ.name, integrator_options=_integrator_options(integ),
                       correct_initial=correct_initial))
+    results.output_requests = requests
+    return results
 
 
 #: above this many entries of D the dense rank analysis (SVD) is not attempted
@@ -213,6 +224,8 @@ def _compiled_rhs(model, eom, meth, track_work):
     status = meth.status
 
     def finish(t, y, ydot, code):
+        if code < 0 and model.force_groups and not np.all(np.isfinite(system.g)):
+            eom._raise_non_finite(system.state, t)     # names the force element
         if code < 0:
             code = status(code, system, t, y, ydot)
         if code < 0:
@@ -234,7 +247,7 @@ def _compiled_rhs(model, eom, meth, track_work):
         return rhs
 
     F, I, W = system.F, system.I, system.W
-    forces = model.force_groups
+    forces = system.python_forces            # the compiled ones are inside the kernels
     state = system.state
 
     def rhs(t, y):
@@ -323,20 +336,40 @@ def _integrator_options(integ) -> dict:
 
 
 class _Progress:
-    """A tqdm bar that appears only when the run has taken more than about a second."""
+    """Progress of a run that has taken more than about a second.
 
-    def __init__(self, t0, t1):
+    On a terminal: a tqdm bar. Otherwise (stderr redirected to a log file or a pipe): a plain
+    line ``progress: t = ... of ... s (..%), ... s elapsed`` at most every ``interval`` seconds,
+    never a carriage return."""
+
+    def __init__(self, t0, t1, stream=None, interval: float = 5.0):
+        import sys
         self.t0, self.t1 = t0, t1
         self.start = time.perf_counter()
         self.bar = None
         self.last = t0
+        self.stream = stream if stream is not None else sys.stderr
+        isatty = getattr(self.stream, "isatty", None)
+        self.terminal = bool(isatty and isatty())
+        self.interval = interval
+        self.next_line = self.start + 1.0
 
     def __call__(self, t):
+        now = time.perf_counter()
+        if not self.terminal:
+            if now >= self.next_line:
+                span = self.t1 - self.t0
+                share = 100.0 * (t - self.t0) / span if span > 0 else 100.0
+                print(f"progress: t = {t:.6g} of {self.t1:.6g} s ({share:.0f}%), "
+                      f"{now - self.start:.0f} s elapsed", file=self.stream, flush=True)
+                self.next_line = now + self.interval
+            return
         if self.bar is None:
-            if time.perf_counter() - self.start < 1.0:
+            if now - self.start < 1.0:
                 return
             from tqdm import tqdm
             self.bar = tqdm(total=self.t1 - self.t0, unit="s(sim)", leave=False,
+                            file=self.stream,
                             bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
         self.bar.update(t - self.last)
         self.last = t

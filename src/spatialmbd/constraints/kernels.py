@@ -141,12 +141,17 @@ class JointTable:
             start += g.n
         self.has_drivers = bool(self._drivers)
 
+    #: further time-dependent tables to set with the drivers (the compiled force elements')
+    also_set = ()
+
     def set_time(self, t: float) -> None:
         """law = (f, f', f'') of every driver at time t."""
         for sl, g in self._drivers:
             values = g.law_values(t)
             if values is not None:
                 self.law[sl] = values
+        for setter in self.also_set:
+            setter(t)
 
 
 def _table(group) -> JointTable:

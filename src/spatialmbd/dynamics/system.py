@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from ..constraints.kernels import JointRows, JointTable, evaluate_instances
+from ..forces.kernels import ForceTable, evaluate_forces
 from ..integrators.explicit import rk_combine
 from ..jit import array_view, njit
 from ..rotations import rotate_p_scalar
@@ -41,8 +42,8 @@ from . import sparse as spc
 # --------------------------------------------------------------------------------- layout
 # The packed buffers and their compiled views are declared once, in :mod:`.layout`.
 from .layout import (BODY_FIELDS, CONS_FIELDS, FIELDS, KFIELDS, SCHUR_FIELDS, Body, Cons,  # noqa
-                     KSys, Schur, bare, body_views, cons_views, field_view, pack, schur_views,
-                     unpack_k)
+                     KSys, Schur, bare, body_views, cons_views, field_view, force_views, pack,
+                     schur_views, unpack_k)
 
 
 # --------------------------------------------------------------------------------- helpers
@@ -124,7 +125,24 @@ def stage_state(t, y, normalize, F, I, W):
     normalize (a float, 1.0 or 0.0): use p / |p|. Returns False if g is not finite."""
     bo = body_views(F, I, W)
     _state(t, y, normalize, bo, cons_views(F, I, W))
+    _forces(bo, force_views(F, I, W))
     return finite(bo.g)
+
+
+@njit(inline="always")
+def _forces(bo, fo):
+    """The compiled force elements into g, with the total power of their non-conservative
+    parts into g_power (one evaluation gives force, energy and power)."""
+    bo.g_power[0] = 0.0
+    if fo.fkind.size:
+        S = (bo.r, bo.A, bo.rdot, bo.omega, bo.p)
+        G = JointRows(fo.fbi, fo.fbj, fo.fs_i, fo.fs_j, fo.fR_i, fo.fR_j, fo.fparam, fo.flaw,
+                      fo.fcoord)
+        evaluate_forces(fo.fkind, S, G, bo.g, fo.fenergy, fo.fpower, fo.fscratch)
+        total = 0.0
+        for k in range(fo.fpower.size):
+            total += fo.fpower[k]
+        bo.g_power[0] = total
 
 
 @njit(inline="always")
@@ -301,13 +319,14 @@ def copy_v(y, v):
 
 
 @njit(inline="always")
-def write_ydot(p, omega, rdot, vdot, lam, nu, drv, ydot):
-    """ydot = [qdot (5.12), vdot, power of the drivers lam^T nu]."""
+def write_ydot(p, omega, rdot, vdot, lam, nu, drv, g_power, ydot):
+    """ydot = [qdot (5.12), vdot, power of the drivers lam^T nu and of the compiled force
+    elements' non-conservative parts]."""
     nb = vdot.size // 6
     qdot_into(p, omega, rdot, array_view(ydot, 0, (nb, 7)))
     for j in range(6 * nb):
         ydot[7 * nb + j] = vdot[j]
-    power = 0.0
+    power = g_power[0]
     for k in range(drv.size):
         power += lam[drv[k]] * nu[drv[k]]
     if ydot.size > 13 * nb:
@@ -316,7 +335,7 @@ def write_ydot(p, omega, rdot, vdot, lam, nu, drv, ydot):
 
 @njit(inline="always")
 def _write_ydot(bo, co, ydot):
-    write_ydot(bo.p, bo.omega, bo.rdot, bo.vdot, co.lam, co.nu, co.drv, ydot)
+    write_ydot(bo.p, bo.omega, bo.rdot, bo.vdot, co.lam, co.nu, co.drv, bo.g_power, ydot)
 
 
 #: status codes of the compiled right-hand sides (>= 0: success; the augmented Lagrangian
@@ -666,7 +685,13 @@ class System:
         self.keep = keep
         inc = self._incidence(keep)
         G = table.G
+        self.force_table = ft = ForceTable(model.force_groups)
+        self.python_forces = [g for g in model.force_groups if not g.compiled]
+        Gf = ft.G
         arrays = dict(
+            fkind=ft.kind, fbi=Gf.bi, fbj=Gf.bj, fs_i=Gf.s_i, fs_j=Gf.s_j, fR_i=Gf.R_i,
+            fR_j=Gf.R_j, fparam=Gf.param, fcoord=Gf.coord, flaw=ft.law, fenergy=np.zeros(ft.n),
+            fpower=np.zeros(ft.n), fscratch=np.zeros((1, 12)), g_power=np.zeros(1),
             mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
             weight=model.mass[:, None] * model.gravity[None, :],
             s_i=G.s_i, s_j=G.s_j, R_i=G.R_i, R_j=G.R_j, param=G.param,
@@ -689,7 +714,7 @@ class System:
                         for k, (name, buf, _) in enumerate(FIELDS) if buf == "W"}
         self._kpack = None
         self._kshared = [None]                # the penalty pack, shared with the clones
-        self.fused = not self.python_groups and not model.force_groups
+        self.fused = not self.python_groups and not self.python_forces
         self._bind()
 
     def _bind(self):
@@ -699,6 +724,11 @@ class System:
         table = copy_module.copy(self.table)
         table.law = self.law                  # drivers write their (f, f', f'') here
         table.G = table.G._replace(law=self.law)
+        self.flaw = w("flaw")                 # the force elements' laws, likewise
+        if self.force_table.has_laws:
+            flaw, forces = self.flaw, self.force_table
+            table.also_set = [lambda t: forces.set_time(t, flaw)]
+            table.has_drivers = True
         self.table = table
         self.state = BodyState(r=w("r"), A=w("A"), rdot=w("rdot"), omega=w("omega"),
                                p=w("p"))
@@ -807,9 +837,9 @@ class System:
                 sl = slice(off, off + g.size)
                 phi[sl], nu[sl], gamma[sl] = e.phi.ravel(), e.nu.ravel(), e.gamma.ravel()
                 D[sl] = e.D.reshape(-1, 12)
-        if self.model.force_groups:
+        if self.python_forces:
             gen = np.zeros((self.nb + 1, 6))
-            for group in self.model.force_groups:
+            for group in self.python_forces:
                 group.evaluate(state, t, gen)
             g = self.g if W is None else self.fields(W, "g")
             g += gen[:self.nb].ravel()
@@ -850,8 +880,9 @@ class System:
             self.table.set_time(t)
             if not own:
                 self.fields(W, "law")[:] = self.law
+                self.fields(W, "flaw")[:] = self.flaw
         ok = stage_state(t, y, 1.0 if normalize else 0.0, self.F, self.I, self.W if own else W)
-        if self.python_groups or self.model.force_groups:
+        if self.python_groups or self.python_forces:
             ok = self.python_stage(t, None if own else W) and ok
         return ok
 

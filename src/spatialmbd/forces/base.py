@@ -34,6 +34,42 @@ class ForceType(abc.ABC):
     parameters: ClassVar[dict] = {}
     required: ClassVar[tuple] = ()
     in_files: ClassVar[bool] = True
+    #: the compiled kernel of one instance (see :mod:`.kernels`); None: evaluate in Python
+    kernel: ClassVar = None
+    #: number of numeric parameters the kernel reads from the table's param columns
+    n_param: ClassVar[int] = 0
+
+    @property
+    def compiled(self) -> bool:
+        """True when the group runs in the fused compiled dispatch."""
+        from .kernels import KIND_ID
+        return type(self).kernel is not None and self.name in KIND_ID
+
+    def columns(self) -> dict:
+        """The force-table columns of the instances (compiled types): bi, bj (n,), s_i, s_j
+        (n, 3) in body axes, R_i, R_j (n, 3, 3), param (n, n_param); absent ones are zero."""
+        raise ModelError(f"force type {self.name!r} declares a kernel but no columns()")
+
+    #: the motion laws of the instances (MotionLawSet), or None
+    laws = None
+
+    @property
+    def time_dependent(self) -> bool:
+        """True if a law of an instance changes with time (then it is set at every time)."""
+        from ..motion import Constant
+        return self.laws is not None and any(
+            cls is not Constant for cls, _, _ in self.laws._groups)
+
+    def law_values(self, t: float) -> np.ndarray:
+        """(n, 3): f, f', f'' of each instance's law at t (zeros without laws)."""
+        out = np.zeros((self.n, 3))
+        if self.laws is not None:
+            out[:, 0], out[:, 1], out[:, 2] = self.laws(t)
+        return out
+
+    def _run(self, state, t):
+        from .kernels import evaluate_group
+        return evaluate_group(self, state, t)
 
     @classmethod
     def allowed(cls) -> tuple:
@@ -62,17 +98,22 @@ class ForceType(abc.ABC):
     def build(cls, specs, context) -> "ForceType":
         """The group of all specs of this type (context: body index, joint geometry)."""
 
-    @abc.abstractmethod
     def evaluate(self, state: BodyState, t: float, g: np.ndarray) -> None:
-        """Add the generalized forces of every instance to g (nb+1, 6)."""
+        """Add the generalized forces of every instance to g (nb+1, 6) (compiled types: through
+        the kernel; others override this)."""
+        g += self._run(state, t)[0]
 
     def potential_energy(self, state: BodyState, t: float) -> float:
         """Potential energy stored in the elements (J)."""
-        return 0.0
+        if type(self).kernel is None:
+            return 0.0
+        return float(np.sum(self._run(state, t)[1]))
 
     def nonconservative_power(self, state: BodyState, t: float) -> float:
         """Power delivered to the bodies by non-conservative parts (W)."""
-        return 0.0
+        if type(self).kernel is None:
+            return 0.0
+        return float(np.sum(self._run(state, t)[2]))
 
 
 def add_to_bodies(g: np.ndarray, body: np.ndarray, f: np.ndarray, n: np.ndarray) -> None:
@@ -135,6 +176,9 @@ def register(cls):
     if missing:
         raise ModelError(f"force type {cls.name!r}: required {sorted(missing)} are not among "
                          "its parameters")
+    if cls.kernel is not None and cls.columns is ForceType.columns:
+        raise ModelError(f"force type {cls.name!r}: a type with a kernel must define columns() "
+                         "(its force-table columns)")
     other = FORCE_TYPES.get(cls.name)
     if other is not None and other.__qualname__ != cls.__qualname__:
         raise ModelError(f"force type {cls.__name__}: the name {cls.name!r} is taken by "

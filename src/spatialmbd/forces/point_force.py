@@ -8,9 +8,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
+from ..constraints.primitives import rotate, row3, v_add, v_cross, v_dot
+from ..jit import njit
 from ..motion import MotionLawSet, make_law
-from ..rotations import cross
-from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point, register
+from .base import ForceType, check_body, check_unknown, local_point, register
+from .kernel_tools import add_wrench
 
 FRAMES = ("global", "body")
 
@@ -30,22 +32,59 @@ def _frame(spec):
     return frame == "body"
 
 
+@njit
+def _vector(S, G, k):
+    """magnitude(t) * direction, the direction in global axes (param[k, 0] = 1: body axes)."""
+    A = S[1]
+    b = G.bi[k]
+    d0, d1, d2 = G.R_i[k, 0, 0], G.R_i[k, 1, 0], G.R_i[k, 2, 0]
+    if G.param[k, 0] != 0.0:
+        d0, d1, d2 = rotate(A, b, d0, d1, d2)
+    m = G.law[k, 0]
+    return (m * d0, m * d1, m * d2)
+
+
+@njit
+def kernel_point_force(S, G, k, g, energy, power, D):
+    r, A, rdot, omega = S[0], S[1], S[2], S[3]
+    b = G.bi[k]
+    f = _vector(S, G, k)
+    s = rotate(A, b, G.s_i[k, 0], G.s_i[k, 1], G.s_i[k, 2])
+    n = v_cross(s, f)                                                  # Eq. (11.2)
+    add_wrench(g, b, f[0], f[1], f[2], n[0], n[1], n[2])
+    w = row3(omega, b)
+    vP = v_add(row3(rdot, b), v_cross(w, s))
+    energy[k] = 0.0
+    power[k] = v_dot(f, vP)
+
+
+@njit
+def kernel_torque(S, G, k, g, energy, power, D):
+    b = G.bi[k]
+    n = _vector(S, G, k)                                               # Eq. (11.4)
+    add_wrench(g, b, 0.0, 0.0, 0.0, n[0], n[1], n[2])
+    energy[k] = 0.0
+    power[k] = v_dot(n, row3(S[3], b))
+
+
 class _Directed(ForceType):
     """Shared by point forces and torques: vector = magnitude(t) * direction (global or body)."""
 
-    def __init__(self, names, body, direction, in_body, laws):
+    n_param = 1
+
+    def __init__(self, names, body, direction, in_body, laws, point=None):
         super().__init__(names)
         self.body = np.asarray(body, dtype=np.intp)
         self.direction = np.asarray(direction, dtype=float)
         self.in_body = np.asarray(in_body, dtype=bool)
+        self.point = np.zeros((self.n, 3)) if point is None else np.asarray(point, dtype=float)
         self.laws = MotionLawSet(laws)
 
-    def _vectors(self, state, t):
-        mag = self.laws(t)[0]
-        dirs = np.where(self.in_body[:, None],
-                        np.einsum("nij,nj->ni", state.A[self.body], self.direction),
-                        self.direction)
-        return mag[:, None] * dirs
+    def columns(self):
+        R = np.zeros((self.n, 3, 3))
+        R[:, :, 0] = self.direction
+        return dict(bi=self.body, s_i=self.point, R_i=R,
+                    param=self.in_body.astype(float)[:, None])
 
 
 @register
@@ -54,10 +93,7 @@ class PointForce(_Directed):
     required = ("body", "direction")
     parameters = {"body": "body", "point": "point", "direction": "vector", "magnitude": "law",
                   "frame": "string"}
-
-    def __init__(self, names, body, point, direction, in_body, laws):
-        super().__init__(names, body, direction, in_body, laws)
-        self.point = np.asarray(point, dtype=float)
+    kernel = staticmethod(kernel_point_force)
 
     @classmethod
     def validate(cls, spec, builder):
@@ -71,20 +107,9 @@ class PointForce(_Directed):
     @classmethod
     def build(cls, specs, ctx):
         return cls([s.name for s in specs], [ctx.index[s.params["body"]] for s in specs],
-                   [local_point(s, ctx.builder, s.params["body"], "point") for s in specs],
                    [_direction(s) for s in specs], [_frame(s) for s in specs],
-                   [make_law(s.params.get("magnitude", 1.0)) for s in specs])
-
-    def evaluate(self, state, t, g):
-        f = self._vectors(state, t)
-        s = np.einsum("nij,nj->ni", state.A[self.body], self.point)
-        add_to_bodies(g, self.body, f, cross(s, f))            # Eq. (11.2)
-
-    def nonconservative_power(self, state, t):
-        f = self._vectors(state, t)
-        s = np.einsum("nij,nj->ni", state.A[self.body], self.point)
-        vP = state.rdot[self.body] + cross(state.omega[self.body], s)
-        return float(np.sum(f * vP))
+                   [make_law(s.params.get("magnitude", 1.0)) for s in specs],
+                   point=[local_point(s, ctx.builder, s.params["body"], "point") for s in specs])
 
 
 @register
@@ -94,6 +119,7 @@ class Torque(_Directed):
     name = "torque"
     required = ("body", "direction")
     parameters = {"body": "body", "direction": "vector", "magnitude": "law", "frame": "string"}
+    kernel = staticmethod(kernel_torque)
 
     @classmethod
     def validate(cls, spec, builder):
@@ -108,10 +134,3 @@ class Torque(_Directed):
         return cls([s.name for s in specs], [ctx.index[s.params["body"]] for s in specs],
                    [_direction(s) for s in specs], [_frame(s) for s in specs],
                    [make_law(s.params.get("magnitude", 1.0)) for s in specs])
-
-    def evaluate(self, state, t, g):
-        n = self._vectors(state, t)
-        add_to_bodies(g, self.body, np.zeros_like(n), n)
-
-    def nonconservative_power(self, state, t):
-        return float(np.sum(self._vectors(state, t) * state.omega[self.body]))

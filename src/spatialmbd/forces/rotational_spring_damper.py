@@ -12,15 +12,37 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..constraints import primitives as prim
+from ..constraints.drivers import wrap_angle
+from ..constraints.primitives import angle_row
 from ..errors import ModelError
+from ..jit import njit
 from ..motion import MotionLawSet, make_law
-from .base import ForceType, add_to_bodies, check_unknown, register
+from .base import ForceType, check_unknown, register
+from .kernel_tools import add_wrench
+
+
+@njit
+def kernel(S, G, k, g, energy, power, D):
+    """param = (k, c, theta0), law = actuator tau_a(t); D: the (1, 12) scratch row."""
+    i, j = G.bi[k], G.bj[k]
+    theta, thetad, _ = angle_row(S, i, j, G.R_i, G.R_j, k, D, 0)   # D[0] = D_theta over v_ij
+    stiffness, damping = G.param[k, 0], G.param[k, 1]
+    dtheta = wrap_angle(theta - G.param[k, 2])
+    ta = G.law[k, 0]
+    tau = -(stiffness * dtheta + damping * thetad + ta)
+    add_wrench(g, i, tau * D[0, 0], tau * D[0, 1], tau * D[0, 2], tau * D[0, 3],
+               tau * D[0, 4], tau * D[0, 5])                        # g_ij = tau D_theta^T
+    add_wrench(g, j, tau * D[0, 6], tau * D[0, 7], tau * D[0, 8], tau * D[0, 9],
+               tau * D[0, 10], tau * D[0, 11])
+    energy[k] = 0.5 * stiffness * dtheta * dtheta
+    power[k] = -(damping * thetad + ta) * thetad
 
 
 @register
 class RotationalSpringDamper(ForceType):
     name = "rotational_spring_damper"
+    kernel = staticmethod(kernel)
+    n_param = 3
     required = ("joint",)
     parameters = {"joint": "joint", "stiffness": "number", "damping": "number",
                   "rest_angle": "number", "actuator": "law"}
@@ -63,23 +85,6 @@ class RotationalSpringDamper(ForceType):
                    [float(s.params.get("rest_angle", 0.0)) for s in specs],
                    [make_law(s.params.get("actuator", 0.0)) for s in specs])
 
-    def _torque(self, state, t):
-        theta, D, thetad, _ = prim.relative_angle(state, self.bi, self.bj, self.R_i, self.R_j)
-        dtheta = np.remainder(theta - self.theta0 + np.pi, 2 * np.pi) - np.pi
-        ta = self.laws(t)[0]
-        tau = -(self.k * dtheta + self.c * thetad + ta)
-        return tau, D, dtheta, thetad, ta
-
-    def evaluate(self, state, t, g):
-        tau, D, _, _, _ = self._torque(state, t)
-        gen = tau[:, None] * D                                   # (n, 12) over v_i, v_j
-        add_to_bodies(g, self.bi, gen[:, 0:3], gen[:, 3:6])
-        add_to_bodies(g, self.bj, gen[:, 6:9], gen[:, 9:12])
-
-    def potential_energy(self, state, t):
-        _, _, dtheta, _, _ = self._torque(state, t)
-        return float(0.5 * np.sum(self.k * dtheta**2))
-
-    def nonconservative_power(self, state, t):
-        _, _, _, thetad, ta = self._torque(state, t)
-        return float(-np.sum((self.c * thetad + ta) * thetad))
+    def columns(self):
+        return dict(bi=self.bi, bj=self.bj, R_i=self.R_i, R_j=self.R_j,
+                    param=np.stack([self.k, self.c, self.theta0], axis=1))

@@ -8,15 +8,44 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..constraints.primitives import kin_sub, point, v_dot
 from ..errors import ModelError
+from ..jit import njit
 from ..motion import MotionLawSet, make_law
-from ..rotations import cross
-from .base import ForceType, add_to_bodies, check_body, check_unknown, local_point, register
+from .base import ForceType, check_body, check_unknown, local_point, register
+from .kernel_tools import add_wrench
+
+
+@njit
+def kernel(S, G, k, g, energy, power, D):
+    """param = (k, c, l0), law = actuator f_a(t)."""
+    i, j = G.bi[k], G.bj[k]
+    Pi, Pj = point(S, i, G.s_i, k, 0), point(S, j, G.s_j, k, 1)
+    lv = kin_sub(Pj, Pi)                                                   # Eq. (11.5)
+    x = lv[0]
+    length = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) ** 0.5              # Eq. (11.6)
+    # a zero length leaves the direction undefined: the force becomes NaN and the run stops
+    # with the element named (the right-hand side's finiteness check)
+    u = (x[0] / length, x[1] / length, x[2] / length)                      # Eq. (11.7)
+    ldot = v_dot(u, lv[1])                                                 # Eq. (11.8)
+    stiffness, damping, l0 = G.param[k, 0], G.param[k, 1], G.param[k, 2]
+    fa = G.law[k, 0]
+    f = stiffness * (length - l0) + damping * ldot + fa                    # Eq. (11.10)
+    fi = (f * u[0], f * u[1], f * u[2])                                    # Eq. (11.11)
+    si, sj = Pi[4], Pj[6]                                                  # arms, global
+    add_wrench(g, i, fi[0], fi[1], fi[2], si[1] * fi[2] - si[2] * fi[1],   # Eq. (11.12)
+               si[2] * fi[0] - si[0] * fi[2], si[0] * fi[1] - si[1] * fi[0])
+    add_wrench(g, j, -fi[0], -fi[1], -fi[2], -(sj[1] * fi[2] - sj[2] * fi[1]),
+               -(sj[2] * fi[0] - sj[0] * fi[2]), -(sj[0] * fi[1] - sj[1] * fi[0]))
+    energy[k] = 0.5 * stiffness * (length - l0) ** 2
+    power[k] = -(damping * ldot + fa) * ldot
 
 
 @register
 class SpringDamper(ForceType):
     name = "spring_damper"
+    kernel = staticmethod(kernel)
+    n_param = 3
     required = ("body_i", "body_j")
     parameters = {"body_i": "body", "body_j": "body", "point_i": "point", "point_j": "point",
                   "stiffness": "number", "damping": "number", "natural_length": "number",
@@ -72,39 +101,6 @@ class SpringDamper(ForceType):
                    [float(s.params.get("damping", 0.0)) for s in specs], l0,
                    [make_law(s.params.get("actuator", 0.0)) for s in specs])
 
-    def _kinematics(self, state):
-        si = np.einsum("nij,nj->ni", state.A[self.bi], self.s_i)
-        sj = np.einsum("nij,nj->ni", state.A[self.bj], self.s_j)
-        lvec = state.r[self.bj] + sj - state.r[self.bi] - si                     # Eq. (11.5)
-        ldot_vec = (state.rdot[self.bj] + cross(state.omega[self.bj], sj)
-                    - state.rdot[self.bi] - cross(state.omega[self.bi], si))    # Eq. (11.9)
-        length = np.linalg.norm(lvec, axis=1)                                     # Eq. (11.6)
-        if np.any(length < 1e-12):
-            from ..errors import SimulationError
-            bad = [self.names[k] for k in np.nonzero(length < 1e-12)[0]]
-            raise SimulationError(f"spring-damper(s) {', '.join(bad)}: zero length, the force "
-                                  "direction is undefined")
-        u = lvec / length[:, None]                                                # Eq. (11.7)
-        ldot = np.einsum("ni,ni->n", u, ldot_vec)                                 # Eq. (11.8)
-        return si, sj, length, u, ldot
-
-    def forces(self, state, t):
-        si, sj, length, u, ldot = self._kinematics(state)
-        fa = self.laws(t)[0]
-        f = self.k * (length - self.l0) + self.c * ldot + fa                      # Eq. (11.10)
-        return si, sj, f, u, ldot, fa
-
-    def evaluate(self, state, t, g):
-        si, sj, f, u, _, _ = self.forces(state, t)
-        fi = f[:, None] * u                                                       # Eq. (11.11)
-        add_to_bodies(g, self.bi, fi, cross(si, fi))                           # Eq. (11.12)
-        add_to_bodies(g, self.bj, -fi, cross(sj, -fi))
-
-    def potential_energy(self, state, t):
-        _, _, length, _, _ = self._kinematics(state)
-        return float(0.5 * np.sum(self.k * (length - self.l0) ** 2))
-
-    def nonconservative_power(self, state, t):
-        _, _, _, _, ldot, fa = self.forces(state, t)
-        # power of the forces on the bodies: -(c ldot + f_a) ldot
-        return float(-np.sum((self.c * ldot + fa) * ldot))
+    def columns(self):
+        return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j,
+                    param=np.stack([self.k, self.c, self.l0], axis=1))

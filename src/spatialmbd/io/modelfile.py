@@ -43,9 +43,10 @@ YAML_SUFFIXES = (".yaml", ".yml")
 JSON_SUFFIXES = (".json",)
 
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
-            "ground_shapes", "analysis")
+            "ground_shapes", "analysis", "outputs")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
-             "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color")
+             "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color",
+             "density")
 ORIENTATION_KEYS = ("euler_parameters", "euler_zxz", "euler_zxz_deg", "bryant", "bryant_deg",
                     "matrix")
 _GEOMETRY_ORDER = ("point", "axis", "reference", "point2", "axis2",
@@ -68,12 +69,19 @@ def joint_keys(jtype=None) -> tuple:
 DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
 SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "cylinder": ("type", "radius", "length", "center", "axis", "color"),
-              "sphere": ("type", "radius", "center", "color")}
-SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+              "sphere": ("type", "radius", "center", "color"),
+              "capsule": ("type", "radius", "length", "center", "axis", "color")}
+SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",),
+                  "capsule": ("radius", "length")}
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
-                 "correct_initial", "hold")
+                 "correct_initial", "hold", "steady", "time", "frame_rate")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
-ANALYSIS_TYPES = ("dynamic", "kinematic")
+#: engineering analyses (spatialmbd.analyses): inverse dynamics and quasi-static analysis over
+#: the output times; static equilibrium and modes at one time ("time", s, default 0)
+ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
+ANALYSIS_TYPES = ("dynamic", "kinematic") + ENGINEERING_TYPES
+#: types without output times
+SINGLE_TIME_TYPES = ("static", "modal")
 
 # builder keyword -> place in the file, for relabelling the builder's messages
 _BODY_FIELDS = {"r": ("position",), "rdot": ("velocity",), "omega": ("angular_velocity",),
@@ -342,6 +350,32 @@ def _shape(P, path, value) -> bool:
     return len(P) == n0
 
 
+def _density_body(P, path, d: dict) -> dict:
+    """A body given by ``density`` (kg/m^3) and ``shapes``: the same body with the mass and
+    inertia of its shapes (boxes, cylinders, spheres, capsules exactly)."""
+    from ..importers.massprops import body_mass_properties
+    if "mass" in d or "inertia" in d:
+        P.add(path, "give density (with shapes) or mass and inertia, not both")
+        return d
+    scratch = _Problems()    # the shapes themselves are checked (and reported) with the body
+    if not (_number(P, path + ("density",), d["density"], positive=True)
+            and _list(scratch, path + ("shapes",), d.get("shapes"), "shapes") and d["shapes"]
+            and all(_shape(scratch, path + ("shapes", k), s)
+                    for k, s in enumerate(d["shapes"]))):
+        if not scratch and not d.get("shapes"):
+            P.add(path + ("shapes",), "a body given by its density needs shapes")
+        return d
+    try:
+        mass, inertia = body_mass_properties(d["shapes"], float(d["density"]),
+                                             f"bodies[{d.get('name')!r}]")
+    except ModelError as exc:
+        P.add(path, str(exc))
+        return d
+    out = {k: v for k, v in d.items() if k != "density"}
+    out["mass"], out["inertia"] = mass, inertia.tolist()
+    return out
+
+
 def _color(P, path, value) -> bool:
     if not isinstance(value, str) or not _COLOR.match(value):
         P.add(path, f"expected a colour '#rrggbb', got {_describe(value)}")
@@ -406,13 +440,16 @@ class Analysis:
     intervals) or t_eval (explicit output times). Dynamic only: method and method_options,
     integrator with step (s), rtol, atol (None = the integrator's default) and
     integrator_options, correct_initial, hold ({"body": ["x", ...]}).
+    Engineering analyses (spatialmbd.analyses): "inverse" and "quasi_static" over the output
+    times, "static" and "modal" at ``time`` (s); modal: ``steady`` (about the initial state as
+    a steady motion) and ``frame_rate`` (rad/s, a turning frame for relative equilibria).
     """
 
     type: str = "dynamic"
     t_end: float = 1.0
     output_step: Optional[float] = None
     t_eval: Optional[list] = None
-    method: str = "standard"
+    method: str = "projection"
     method_options: dict = field(default_factory=dict)
     integrator: str = "rk45"
     step: Optional[float] = None
@@ -421,14 +458,27 @@ class Analysis:
     integrator_options: dict = field(default_factory=dict)
     correct_initial: bool = True
     hold: Optional[dict] = None
+    #: the model file's top-level ``outputs:`` section: what to record besides the standard
+    #: columns (:mod:`spatialmbd.outputs`; list of request dicts or shorthand strings)
+    outputs: list = field(default_factory=list)
+    steady: bool = False
+    time: float = 0.0
+    frame_rate: Optional[list] = None
 
     def run(self, model, progress=False):
-        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``."""
+        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``;
+        the result objects of spatialmbd.analyses for the engineering types."""
+        if self.type in ENGINEERING_TYPES:
+            return self._run_engineering(model)
         if self.type == "kinematic":
             from ..kinematics import kinematic_analysis
             from ..simulate import output_times
-            return kinematic_analysis(model, output_times(self.t_end, self.output_step,
-                                                          self.t_eval))
+            from ..outputs import parse_outputs
+            requests = parse_outputs(model, self.outputs)
+            res = kinematic_analysis(model, output_times(self.t_end, self.output_step,
+                                                         self.t_eval))
+            res.output_requests = requests
+            return res
         if self.type != "dynamic":
             raise ModelError(f"analysis type {self.type!r} is not one of {ANALYSIS_TYPES}")
         from ..simulate import simulate
@@ -438,11 +488,38 @@ class Analysis:
                         method_options=dict(self.method_options),
                         integrator_options=dict(self.integrator_options),
                         correct_initial=self.correct_initial, hold=self.hold,
-                        progress=progress)
+                        progress=progress, outputs=list(self.outputs))
+
+    def _run_engineering(self, model):
+        """inverse: InverseDynamicsResults; static: StaticResults at ``time``; quasi_static:
+        QuasiStaticResults; modal: ModalResults about the static equilibrium at ``time`` (or,
+        with ``steady``, about the model's initial state as a steady motion)."""
+        from .. import analyses
+        from ..simulate import output_times
+        if self.type == "static":
+            return analyses.static_equilibrium(model, t=self.time)
+        if self.type == "modal":
+            if self.steady:
+                return analyses.modes(model, t=self.time, steady=True,
+                                      frame_rate=self.frame_rate)
+            sol = analyses.static_equilibrium(model, t=self.time)
+            return analyses.modes(model, sol.q, np.zeros(6 * model.nb), self.time)
+        times = output_times(self.t_end, self.output_step, self.t_eval)
+        if self.type == "inverse":
+            return analyses.inverse_dynamics(model, times)
+        return analyses.quasi_static(model, times)
 
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""
         out: dict = {"type": self.type}
+        if self.type in SINGLE_TIME_TYPES:
+            if self.time:
+                out["time"] = float(self.time)
+            if self.type == "modal" and self.steady:
+                out["steady"] = True
+                if self.frame_rate is not None:
+                    out["frame_rate"] = [float(x) for x in self.frame_rate]
+            return out
         if self.t_eval is not None:
             out["t_eval"] = [float(t) for t in self.t_eval]
         else:
@@ -534,6 +611,8 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
                 and a.t_eval is not None and float(d["t_end"]) != a.t_eval[-1]:
             P.add(tuple(path) + ("t_end",), f"t_end ({d['t_end']!r}) differs from the last "
                                             f"time of t_eval ({a.t_eval[-1]!r}); leave it out")
+    elif "t_end" not in d and kind in SINGLE_TIME_TYPES:
+        pass                                    # one time: "time" (s), default 0
     elif "t_end" not in d:
         P.add(path, "missing required key 't_end' (end time, s), or give t_eval")
     elif _number(P, tuple(path) + ("t_end",), d["t_end"], positive=True):
@@ -542,11 +621,37 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
         if _number(P, tuple(path) + ("output_step",), d["output_step"], positive=True):
             a.output_step = float(d["output_step"])
 
-    if kind == "kinematic":
+    for key, types in (("steady", ("modal",)), ("time", SINGLE_TIME_TYPES)):
+        if key in d and kind not in types:
+            P.add(tuple(path) + (key,), f"applies to {' and '.join(types)} analyses only "
+                                        f"(this analysis is {kind})")
+    if kind in SINGLE_TIME_TYPES:
+        for key in ("t_end", "output_step", "t_eval"):
+            if key in d:
+                P.add(tuple(path) + (key,), f"a {kind} analysis is at one time: give 'time' "
+                                            "(s) instead")
+    if "steady" in d and kind == "modal":
+        if isinstance(d["steady"], bool):
+            a.steady = d["steady"]
+        else:
+            P.add(tuple(path) + ("steady",), f"expected true or false, got "
+                                             f"{_describe(d['steady'])}")
+    if "frame_rate" in d:
+        if kind != "modal" or not d.get("steady", False):
+            P.add(tuple(path) + ("frame_rate",), "applies to modal analyses with steady: true "
+                                                 "only (the rate, rad/s, of the frame turning "
+                                                 "with a relative equilibrium)")
+        elif _vector(P, tuple(path) + ("frame_rate",), d["frame_rate"]):
+            a.frame_rate = [float(x) for x in d["frame_rate"]]
+    if "time" in d and kind in SINGLE_TIME_TYPES:
+        if _number(P, tuple(path) + ("time",), d["time"], nonneg=True):
+            a.time = float(d["time"])
+
+    if kind != "dynamic":
         for key in DYNAMIC_ONLY:
             if key in d:
                 P.add(tuple(path) + (key,), "applies to dynamic analyses only (this analysis "
-                                            "is kinematic)")
+                                            f"is {kind})")
         return a
 
     if "method" in d:
@@ -706,9 +811,13 @@ def _parse(P, data, default_name="model"):
         bodies = []
     for i, d in enumerate(bodies):
         path = ("bodies", i)
-        if not _mapping(P, path, d, BODY_KEYS, ("name", "mass", "inertia")):
+        by_density = isinstance(d, dict) and "density" in d
+        if not _mapping(P, path, d, BODY_KEYS,
+                        ("name", "shapes") if by_density else ("name", "mass", "inertia")):
             continue
         n0 = len(P)             # unknown keys (reported) do not stop the builder's checks
+        if by_density:          # mass properties from the shapes (importers.massprops)
+            d = _density_body(P, path, d)
         complete = all(k in d for k in ("name", "mass", "inertia"))
         if "name" in d and _string(P, path + ("name",), d["name"], "a body name (string)"):
             declared_bodies.append(d["name"])
@@ -976,7 +1085,28 @@ def _parse(P, data, default_name="model"):
         analysis = Analysis()
     else:
         analysis = _parse_analysis(P, ("analysis",), data["analysis"], declared_bodies)
+    if analysis is not None:
+        analysis.outputs = _parse_outputs_section(P, data)
     return b, analysis
+
+
+def _parse_outputs_section(P, data) -> list:
+    """The top-level ``outputs:`` list (docs/outputs.md): shape and keys checked here, element
+    names once the model is compiled (:func:`load_model`)."""
+    from ..outputs import Output
+    items = _section(data, "outputs")
+    out = []
+    if not _list(P, ("outputs",), items, "output requests"):
+        return out
+    for k, item in enumerate(items):
+        if isinstance(item, str):
+            out.append(item)
+            continue
+        try:
+            out.append(Output.from_dict(item).to_dict())
+        except ModelError as exc:
+            P.add(("outputs", k), str(exc))
+    return out
 
 
 # ============================================================================ reading files
@@ -1122,6 +1252,13 @@ def load_model(path_or_dict) -> tuple[Model, Analysis]:
     except ModelError as exc:
         source = None if isinstance(path_or_dict, dict) else path_or_dict
         raise ModelFileError([str(exc)], source) from None
+    if analysis is not None and analysis.outputs:
+        from ..outputs import parse_outputs
+        try:
+            parse_outputs(model, analysis.outputs)
+        except ModelError as exc:
+            source = None if isinstance(path_or_dict, dict) else path_or_dict
+            raise ModelFileError([f"outputs: {exc}"], source) from None
     return model, analysis
 
 
@@ -1253,6 +1390,7 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
     if len(P):
         raise P.error(heading=f"model {s['name']!r} cannot be written to a model file")
     if analysis is not None:
+        outputs = list(getattr(analysis, "outputs", None) or [])
         if isinstance(analysis, dict):
             analysis = Analysis.from_dict(analysis, list(s["bodies"]))
         elif not isinstance(analysis, Analysis):
@@ -1261,6 +1399,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         else:
             analysis = Analysis.from_dict(analysis.to_dict(), list(s["bodies"]))
         out["analysis"] = analysis.to_dict()
+        if outputs:
+            out["outputs"] = _plain(outputs)
     return out
 
 

@@ -18,6 +18,13 @@ DataFrame with one row per output time and self-explaining columns (SI units):
     violation.phi_squared                Phi^T Phi (as plotted in the text's Fig. 15.2)
     energy.kinetic .. energy.error       dynamic only, J (see Results.energy)
     newton.iterations                    kinematic only: Newton iterations at each time
+    <prefix>.<quantity>                  the requested outputs: joint coordinates, force
+                                         elements, drivers, momentum, energy, IMU
+                                         (:mod:`spatialmbd.outputs`, docs/outputs.md)
+
+The table's ``attrs["units"]`` maps the requested outputs to their units (HDF5 keeps every
+column's unit, see below). The naming scheme and this layout are documented once, for users,
+in docs/outputs.md.
 
 CSV (``.csv``)
 --------------
@@ -34,10 +41,12 @@ Written with h5py; every object is a plain dataset, so no PyTables is needed::
     /lam (nt, m)  /work (nt,)                          dynamic analyses
     /newton_iterations (nt,)  /residual (nt,)          kinematic analyses
     /table/<column>          one 1-D dataset per table column (names as above);
-                             attrs["columns"]: JSON list giving the column order
+                             attrs["columns"]: JSON list giving the column order,
+                             attrs["units"]: JSON {column: unit}
     /metadata/<key>          JSON text (scalar string datasets): model (the model-file dict of
                              spatialmbd.io.modelfile.model_to_dict, with the analysis section),
-                             analysis, settings, counters, status, message, messages,
+                             analysis, outputs (the requests), settings, counters, status,
+                             message, messages,
                              wall_time, correction, redundant_joints, body_names,
                              equation_labels, scene (static animation geometry), version
 
@@ -214,7 +223,9 @@ def to_dataframe(results):
         ordered["violation.phi_squared"] = ordered["violation.position"] ** 2
         order = [c for c in ordered if not c.startswith("energy.")] + \
                 [c for c in ordered if c.startswith("energy.")]
-        return pd.DataFrame({c: ordered[c] for c in order})
+        out = pd.DataFrame({c: ordered[c] for c in order})
+        out.attrs["units"] = dict(df.attrs.get("units", {}))
+        return out
     cols = {"t": t}
     cols.update(_body_columns(model, results.q, results.v, results.vdot))
     for name, d in results.points.items():
@@ -226,7 +237,11 @@ def to_dataframe(results):
     cols["violation.velocity"] = viol["velocity"]
     cols["violation.phi_squared"] = viol["position"] ** 2
     cols["newton.iterations"] = np.asarray(results.newton_iterations)
-    return pd.DataFrame(cols)
+    from ..outputs import compute_outputs, output_units
+    cols.update(compute_outputs(results))           # the requested outputs (docs/outputs.md)
+    out = pd.DataFrame(cols)
+    out.attrs["units"] = output_units(results)
+    return out
 
 
 def _is_reaction(column: str, model) -> bool:
@@ -332,7 +347,9 @@ def _metadata(results, analysis) -> dict:
         message=results.message, model=model_dict, model_note=note,
         analysis=_analysis_dict(analysis), body_names=list(model.body_names),
         equation_labels=[list(x) for x in model.equation_labels],
-        point_names=list(model.points), scene=static_scene(model))
+        point_names=list(model.points), scene=static_scene(model),
+        outputs=[r.to_dict() for r in getattr(results, "output_requests", None) or []
+                 if hasattr(r, "to_dict")])
     if kind == "dynamic":
         meta.update(settings=results.settings, counters=results.counters,
                     wall_time=results.wall_time, messages=list(results.messages),
@@ -375,6 +392,7 @@ def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
                 _dataset(f, name, np.asarray(arr))
             tab = f.create_group("table")
             tab.attrs["columns"] = json.dumps([str(c) for c in df.columns])
+            tab.attrs["units"] = json.dumps(column_units_of(df))
             for c in df.columns:
                 _dataset(tab, str(c), df[c].to_numpy())
             grp = f.create_group("metadata")
@@ -506,7 +524,17 @@ def _read_table(f, path):
         raise ValueError(f"{path}: no /table group")
     tab = f["table"]
     cols = json.loads(tab.attrs["columns"])
-    return pd.DataFrame({c: tab[c][()] for c in cols})
+    df = pd.DataFrame({c: tab[c][()] for c in cols})
+    if "units" in tab.attrs:
+        df.attrs["units"] = json.loads(tab.attrs["units"])
+    return df
+
+
+def column_units_of(df) -> dict:
+    """{column: unit} of a results table: the standard columns by their names, the requested
+    outputs from ``df.attrs["units"]`` (docs/outputs.md)."""
+    from ..outputs import column_units
+    return column_units(df.columns, df.attrs.get("units"))
 
 
 def load_results(path) -> LoadedResults:

@@ -153,7 +153,6 @@ def compile_model(builder):
     bodies = [builder.bodies[n] for n in names]
 
     groups = []
-    element_of_joint = {}
     joint_geometry = {}
     by_type: dict[str, list] = {}
     for spec in builder.joints.values():
@@ -165,8 +164,6 @@ def compile_model(builder):
         group = JOINT_TYPES[jtype]([s.name for s in specs],
                                    [index[s.body_i] for s in specs],
                                    [index[s.body_j] for s in specs], JointGeometry.stack(geoms))
-        for k, s in enumerate(specs):
-            element_of_joint[s.name] = (len(groups), k)
         groups.append(group)
 
     drivers_by_kind: dict[str, list] = {}
@@ -190,7 +187,7 @@ def compile_model(builder):
                                          laws=[s.law for s in specs], coordinate=coord))
 
     from ..forces import build_force_groups
-    force_groups = build_force_groups(builder, index, element_of_joint, groups)
+    force_groups = build_force_groups(builder, index, resolve_joint)
 
     return Model(
         name=builder.name,

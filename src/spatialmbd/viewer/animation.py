@@ -1,8 +1,12 @@
 """Self-contained offline HTML animation of a multibody motion.
 
-The page is one HTML file: the scene is embedded as JSON and drawn by our own small Canvas-2D
-software renderer (``viewer.js``, painter's algorithm with flat Lambert shading and outlines).
-It loads nothing from the network and uses no third-party JavaScript.
+The page is one HTML file that loads nothing from the network: the scene is embedded as JSON,
+per-frame arrays as base64 strings of little-endian Float32 values (7 numbers per body and
+frame).  It is drawn with WebGL by three.js (a minified bundle shipped as package data,
+``three.min.js``, MIT licence in ``THREE_LICENSE``, embedded inline; ``webgl.js`` draws with
+one instanced mesh per primitive type), and by our own Canvas-2D software renderer
+(``viewer.js``, painter's algorithm) where WebGL 2 is unavailable or fails, or with
+``renderer="canvas"`` (a much smaller page) or the URL hash ``#renderer=canvas``.
 
 This module only knows plain dictionaries and arrays; it does not depend on the model classes.
 
@@ -15,18 +19,32 @@ Scene dictionary
              global components.  A static body may give r as (3,) and p as (4,).
 shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x, y, z],
              "p": [e0, e1, e2, e3] (optional)}``, ``{"type": "cylinder", "radius", "length",
-             "center", "axis"}``, ``{"type": "sphere", "radius", "center"}``; each may carry its own
-             ``"color"``.
+             "center", "axis"}``, ``{"type": "sphere", "radius", "center"}``, ``{"type":
+             "capsule", "radius", "length" (between the caps' centres), "center", "axis"}`` (drawn
+             as a cylinder and two spheres); each may carry its own ``"color"``.
 ``joints``   optional list of ``{"name", "type", "body": index or -1 (ground), "point_local"}``.
+``springs``  optional list of force elements drawn between two attachment points:
+             ``{"name", "kind": "spring" | "damper" | "spring_damper" | "link", "body_i",
+             "point_i", "body_j", "point_j", "radius" (m, coil radius, optional), "turns"
+             (optional), "color" (optional)}``; body -1 is the ground (points then global, m),
+             otherwise points are in body axes.  "link" is a massless rod.
+``arrows``   optional list of time-varying vectors drawn as arrows: ``{"name", "kind" (e.g.
+             "force", "reaction", "torque"), "body", "point_local", "vectors": (n_frames, 3)
+             in global axes (N or N m), "scale": m per unit (optional: the largest arrow then
+             spans 30 % of the scene), "color"}``.
+``points``   optional list of moving points, e.g. contact points: ``{"name", "positions":
+             (n_frames, 3) global (m), "radius" (m, optional), "color"}``.
 ``ground``   optional list of shapes fixed in global axes.
 ``gravity``  optional [gx, gy, gz]; the initial camera uses up = -gravity (default up = +z).
 
 The page exposes ``window.spatialmbdViewer`` (``setTime(t)``, ``getTime()``, ``nFrames``,
 ``ready``, ``play()``, ``pause()``, ``isPlaying()``, ``fit()``) and honours a URL hash
-``#t=1.25`` (show that time, paused), ``#speed=2``, ``#play=1``.
+``#t=1.25`` (show that time, paused), ``#speed=2``, ``#play=1``, ``#renderer=canvas``;
+``spatialmbdViewer.renderer()`` says which renderer draws ("webgl" or "canvas").
 """
 from __future__ import annotations
 
+import base64
 import html
 import json
 import math
@@ -37,13 +55,14 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["animation_html", "write_animation_html", "default_shapes"]
+__all__ = ["animation_html", "write_animation_html", "default_shapes", "decode_float32"]
 
 #: significant digits of every number embedded in the page
 SIGNIFICANT_DIGITS = 6
 
 _COLOR_RE = re.compile(r"^#[0-9a-fA-F]{6}$")
-_PLACEHOLDER_RE = re.compile(r"\{\{(TITLE|SCENE_JSON|VIEWER_JS)\}\}")
+_PLACEHOLDER_RE = re.compile(r"\{\{(TITLE|SCENE_JSON|VIEWER_JS|THREE_JS|WEBGL_JS)\}\}")
+RENDERERS = ("auto", "canvas")
 _DEGENERATE_SIDE = 1e-3
 _PALETTE = ("#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948", "#b07aa1",
             "#ff9da7", "#9c755f", "#bab0ac")
@@ -63,6 +82,20 @@ def _rounded(values: Any, what: str, sig: int = SIGNIFICANT_DIGITS) -> list:
         x = float(s) + 0.0  # + 0.0 turns -0.0 into 0.0
         out.append(int(x) if x.is_integer() and abs(x) < 1e15 else x)
     return out
+
+
+def _float32_base64(a: np.ndarray, what: str) -> str:
+    """Base64 of the values as little-endian float32 (finite values only)."""
+    a = np.asarray(a, dtype=float)
+    if not np.all(np.isfinite(a)):
+        bad = int(np.flatnonzero(~np.isfinite(a.ravel()))[0])
+        raise ValueError(f"{what}: non-finite value {a.ravel()[bad]!r} at flat index {bad}")
+    return base64.b64encode(np.ascontiguousarray(a, dtype="<f4").tobytes()).decode("ascii")
+
+
+def decode_float32(text: str) -> np.ndarray:
+    """Inverse of the page's per-frame encoding: base64 little-endian float32 -> 1-D array."""
+    return np.frombuffer(base64.b64decode(text), dtype="<f4").astype(float)
 
 
 def _vec(value: Any, n: int, what: str) -> list:
@@ -121,12 +154,26 @@ def _shape(shape: Any, what: str) -> dict:
     elif kind == "sphere":
         out["radius"] = _positive(shape.get("radius"), what + ".radius")
     else:
-        raise ValueError(f"{what}: unknown shape type {kind!r} (use 'box', 'cylinder' or "
-                         "'sphere')")
+        raise ValueError(f"{what}: unknown shape type {kind!r} (use 'box', 'cylinder', "
+                         "'sphere' or 'capsule')")
     out["center"] = _vec(shape.get("center", (0.0, 0.0, 0.0)), 3, what + ".center")
     if shape.get("color") is not None:
         out["color"] = _color(shape["color"], what + ".color")
     return out
+
+
+def _capsule(shape: dict, what: str) -> list:
+    """A capsule (cylinder of ``length`` between two hemispherical caps of ``radius``) as a
+    cylinder and two spheres."""
+    radius = _positive(shape.get("radius"), what + ".radius")
+    length = _positive(shape.get("length"), what + ".length")
+    axis = np.asarray(_unit(shape.get("axis", (0.0, 0.0, 1.0)), 3, what + ".axis"))
+    center = np.asarray(_vec(shape.get("center", (0.0, 0.0, 0.0)), 3, what + ".center"))
+    extra = {"color": shape["color"]} if shape.get("color") is not None else {}
+    return ([dict(type="cylinder", radius=radius, length=length, axis=axis, center=center,
+                  **extra)]
+            + [dict(type="sphere", radius=radius, center=center + s * 0.5 * length * axis,
+                    **extra) for s in (-1.0, 1.0)])
 
 
 def _shapes(shapes: Any, what: str) -> list:
@@ -134,17 +181,95 @@ def _shapes(shapes: Any, what: str) -> list:
         return []
     if isinstance(shapes, dict):
         shapes = [shapes]
-    return [_shape(s, f"{what}[{i}]") for i, s in enumerate(shapes)]
+    out = []
+    for i, s in enumerate(shapes):
+        parts = _capsule(s, f"{what}[{i}]") if isinstance(s, dict) and s.get("type") == \
+            "capsule" else [s]
+        out += [_shape(part, f"{what}[{i}]") for part in parts]
+    return out
 
 
-def _trajectory(value: Any, n_frames: int, width: int, what: str) -> list:
+def _trajectory(value: Any, n_frames: int, width: int, what: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)
     if a.shape == (width,):
         a = a[None, :]
     elif a.shape != (n_frames, width):
         raise ValueError(f"{what}: expected shape ({n_frames}, {width}) (or ({width},) for a "
                          f"static body), got {a.shape}")
-    return _rounded(a, what)
+    if not np.all(np.isfinite(a)):
+        bad = int(np.flatnonzero(~np.isfinite(a.ravel()))[0])
+        raise ValueError(f"{what}: non-finite value {a.ravel()[bad]!r} at flat index {bad}")
+    return a
+
+
+def _body_index(value: Any, n_bodies: int, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (
+            -1 <= int(value) < n_bodies):
+        raise ValueError(f"{what}: must be -1 (ground) or a body index < {n_bodies}, got "
+                         f"{value!r}")
+    return int(value)
+
+
+_SPRING_KINDS = ("spring", "damper", "spring_damper", "link")
+
+
+def _springs(items: Any, n_bodies: int) -> list:
+    out = []
+    for k, sp in enumerate(items or []):
+        what = f"scene['springs'][{k}]"
+        if not isinstance(sp, dict):
+            raise ValueError(f"{what}: a spring must be a dict")
+        kind = sp.get("kind", "spring")
+        if kind not in _SPRING_KINDS:
+            raise ValueError(f"{what}: unknown kind {kind!r}; use one of {_SPRING_KINDS}")
+        entry = {"name": str(sp.get("name", f"spring{k}")), "kind": kind,
+                 "body_i": _body_index(sp.get("body_i", -1), n_bodies, what + "['body_i']"),
+                 "point_i": _vec(sp.get("point_i", (0, 0, 0)), 3, what + "['point_i']"),
+                 "body_j": _body_index(sp.get("body_j", -1), n_bodies, what + "['body_j']"),
+                 "point_j": _vec(sp.get("point_j", (0, 0, 0)), 3, what + "['point_j']")}
+        for key in ("radius", "turns"):
+            if sp.get(key) is not None:
+                entry[key] = _positive(sp[key], f"{what}['{key}']")
+        if sp.get("color") is not None:
+            entry["color"] = _color(sp["color"], what + ".color")
+        out.append(entry)
+    return out
+
+
+def _arrows(items: Any, n_frames: int, n_bodies: int) -> list:
+    out = []
+    for k, ar in enumerate(items or []):
+        what = f"scene['arrows'][{k}]"
+        if not isinstance(ar, dict):
+            raise ValueError(f"{what}: an arrow must be a dict")
+        vectors = _trajectory(ar.get("vectors"), n_frames, 3, what + "['vectors']")
+        entry = {"name": str(ar.get("name", f"arrow{k}")), "kind": str(ar.get("kind", "force")),
+                 "body": _body_index(ar.get("body", -1), n_bodies, what + "['body']"),
+                 "point": _vec(ar.get("point_local", (0, 0, 0)), 3, what + "['point_local']"),
+                 "vectors": _float32_base64(vectors, what + "['vectors']")}
+        if ar.get("scale") is not None:
+            entry["scale"] = _positive(ar["scale"], what + "['scale']")
+        if ar.get("color") is not None:
+            entry["color"] = _color(ar["color"], what + ".color")
+        out.append(entry)
+    return out
+
+
+def _points(items: Any, n_frames: int) -> list:
+    out = []
+    for k, pt in enumerate(items or []):
+        what = f"scene['points'][{k}]"
+        if not isinstance(pt, dict):
+            raise ValueError(f"{what}: a point must be a dict")
+        positions = _trajectory(pt.get("positions"), n_frames, 3, what + "['positions']")
+        entry = {"name": str(pt.get("name", f"point{k}")),
+                 "positions": _float32_base64(positions, what + "['positions']")}
+        if pt.get("radius") is not None:
+            entry["radius"] = _positive(pt["radius"], what + "['radius']")
+        if pt.get("color") is not None:
+            entry["color"] = _color(pt["color"], what + ".color")
+        out.append(entry)
+    return out
 
 
 def _prepare_scene(scene: dict, title: str) -> dict:
@@ -166,15 +291,17 @@ def _prepare_scene(scene: dict, title: str) -> dict:
         what = f"scene['bodies'][{i}]"
         if not isinstance(body, dict):
             raise ValueError(f"{what}: a body must be a dict")
+        r = _trajectory(body.get("r"), n, 3, what + "['r']")
+        p = _trajectory(body.get("p"), n, 4, what + "['p']")
+        if len(r) != len(p):
+            raise ValueError(f"{what}: 'r' and 'p' must both be static or both have "
+                             f"{n} frames")
         b = {"name": str(body.get("name", f"body{i}")),
              "color": _color(body["color"], what + ".color") if body.get("color") is not None
              else _PALETTE[i % len(_PALETTE)],
-             "r": _trajectory(body.get("r"), n, 3, what + "['r']"),
-             "p": _trajectory(body.get("p"), n, 4, what + "['p']"),
+             # (n_samples, 7): r then p per frame, float32 (viewing precision, ~1e-7 relative)
+             "q": _float32_base64(np.concatenate([r, p], axis=1), what),
              "shapes": _shapes(body.get("shapes"), what + "['shapes']")}
-        if len(b["r"]) // 3 != len(b["p"]) // 4:
-            raise ValueError(f"{what}: 'r' and 'p' must both be static or both have "
-                             f"{n} frames")
         out["bodies"].append(b)
 
     for j, joint in enumerate(scene.get("joints") or []):
@@ -192,6 +319,9 @@ def _prepare_scene(scene: dict, title: str) -> dict:
                               "point": _vec(joint.get("point_local", (0.0, 0.0, 0.0)), 3,
                                             what + "['point_local']")})
 
+    out["springs"] = _springs(scene.get("springs"), len(bodies))
+    out["arrows"] = _arrows(scene.get("arrows"), n, len(bodies))
+    out["points"] = _points(scene.get("points"), n)
     out["ground"] = _shapes(scene.get("ground"), "scene['ground']")
     gravity = scene.get("gravity")
     if gravity is not None:
@@ -217,23 +347,36 @@ def _scene_json(data: dict) -> str:
     return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
-def animation_html(scene: dict, *, title: str = "spatialmbd animation") -> str:
-    """Return the complete offline HTML page animating ``scene`` (see the module docstring)."""
+def animation_html(scene: dict, *, title: str = "spatialmbd animation",
+                   renderer: str = "auto") -> str:
+    """Return the complete offline HTML page animating ``scene`` (see the module docstring).
+
+    renderer: "auto" (WebGL through the embedded three.js bundle, ~0.55 MB, with the Canvas
+    renderer as automatic fallback) or "canvas" (Canvas-2D only, no bundle: a page of ~50 kB
+    plus the data).
+    """
+    if renderer not in RENDERERS:
+        raise ValueError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
     data = _prepare_scene(scene, title)
-    js = _resource("viewer.js")
-    if "</script" in js.lower():
-        raise RuntimeError("viewer.js must not contain '</script'")
+    scripts = {"VIEWER_JS": "viewer.js", "THREE_JS": "three.min.js", "WEBGL_JS": "webgl.js"}
+    if renderer == "canvas":
+        scripts = {"VIEWER_JS": "viewer.js"}
     values = {"TITLE": html.escape(str(title)), "SCENE_JSON": _scene_json(data),
-              "VIEWER_JS": js}
+              "THREE_JS": "", "WEBGL_JS": ""}
+    for key, name in scripts.items():
+        js = _resource(name)
+        if "</script" in js.lower():
+            raise RuntimeError(f"{name} must not contain '</script'")
+        values[key] = js
     # one pass, so user text that looks like a placeholder is never expanded
     return _PLACEHOLDER_RE.sub(lambda m: values[m.group(1)], _resource("template.html"))
 
 
-def write_animation_html(path, scene: dict, *, title: str = "spatialmbd animation"
-                         ) -> pathlib.Path:
+def write_animation_html(path, scene: dict, *, title: str = "spatialmbd animation",
+                         renderer: str = "auto") -> pathlib.Path:
     """Write the offline HTML animation of ``scene`` to ``path``; return the path."""
     path = pathlib.Path(path)
-    text = animation_html(scene, title=title)
+    text = animation_html(scene, title=title, renderer=renderer)
     if path.parent != pathlib.Path(""):
         path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text, encoding="utf-8")

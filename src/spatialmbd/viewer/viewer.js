@@ -1,9 +1,13 @@
 /* spatialmbd offline animation viewer.
  *
- * A small Canvas-2D software renderer: convex meshes (box, cylinder, sphere) are transformed
- * per frame, back faces culled, the remaining faces sorted far-to-near (painter's algorithm)
- * and filled with flat Lambert shading; sharp and silhouette edges are outlined.
- * No dependencies, no network.  Scene data: <script type="application/json" id="spatialmbd-scene">.
+ * Owns the data, the time, the camera and the UI.  The 3-D scene is drawn by the WebGL back end
+ * (webgl.js, three.js) when the browser has WebGL 2; otherwise, or when it fails, or with the URL
+ * hash #renderer=canvas, by the small Canvas-2D software renderer below: convex meshes (box,
+ * cylinder, sphere) are transformed per frame, back faces culled, the remaining faces sorted
+ * far-to-near (painter's algorithm) and filled with flat Lambert shading; sharp and silhouette
+ * edges are outlined.  The 2-D canvas always carries the overlays (joint markers, labels, gizmo).
+ * No network.  Scene data: <script type="application/json" id="spatialmbd-scene">; per-frame
+ * arrays are base64 strings of little-endian Float32 values.
  */
 (function () {
   'use strict';
@@ -212,6 +216,24 @@
   // scene data
   // ------------------------------------------------------------------------------------------
   var raw = JSON.parse(document.getElementById('spatialmbd-scene').textContent);
+
+  /* base64 of little-endian float32 values -> Float32Array */
+  function decodeFloat32(text) {
+    var bin = atob(text || ''), n = bin.length >> 2;
+    var view = new DataView(new ArrayBuffer(4 * n)), out = new Float32Array(n), i;
+    for (i = 0; i < 4 * n; i++) { view.setUint8(i, bin.charCodeAt(i)); }
+    for (i = 0; i < n; i++) { out[i] = view.getFloat32(4 * i, true); }
+    return out;
+  }
+  /* a body's "q" (n x 7: r then p) -> separate r (n x 3) and p (n x 4) arrays */
+  function splitQ(q) {
+    var n = Math.floor(q.length / 7), r = new Float32Array(3 * n), p = new Float32Array(4 * n);
+    for (var k = 0; k < n; k++) {
+      for (var i = 0; i < 3; i++) { r[3 * k + i] = q[7 * k + i]; }
+      for (i = 0; i < 4; i++) { p[4 * k + i] = q[7 * k + 3 + i]; }
+    }
+    return { r: r, p: p };
+  }
   if (raw.title) { document.title = raw.title; }
   var T = raw.t || [0];
   var nF = T.length;
@@ -222,12 +244,22 @@
   var bodies = (raw.bodies || []).map(function (b, i) {
     var meshes = (b.shapes || []).map(function (s) { return buildMesh(s, b.color); })
       .filter(function (m) { return m !== null; });
-    return { name: b.name || ('body' + i), color: parseColor(b.color), r: b.r, p: b.p,
-             nSamples: Math.min(b.r.length / 3, b.p.length / 4), meshes: meshes };
+    var rp = typeof b.q === 'string' ? splitQ(decodeFloat32(b.q)) : { r: b.r, p: b.p };
+    return { name: b.name || ('body' + i), color: parseColor(b.color), r: rp.r, p: rp.p,
+             nSamples: Math.min(rp.r.length / 3, rp.p.length / 4), meshes: meshes };
   });
   var groundMeshes = (raw.ground || []).map(function (s) { return buildMesh(s, '#9aa3ad'); })
     .filter(function (m) { return m !== null; });
   var joints = raw.joints || [];
+  var springs = raw.springs || [];
+  var arrows = (raw.arrows || []).map(function (a) {
+    return { name: a.name, kind: a.kind || 'force', body: a.body, point: a.point || [0, 0, 0],
+             vectors: decodeFloat32(a.vectors), scale: a.scale, color: a.color || '#d62728' };
+  });
+  var points = (raw.points || []).map(function (c) {
+    return { name: c.name, positions: decodeFloat32(c.positions), radius: c.radius,
+             color: c.color || '#e15759' };
+  });
 
   /* index k and weight a of time t: value = (1 - a) x[k] + a x[k + 1] */
   function frameAt(t) {
@@ -301,6 +333,95 @@
   grow([1.15 * axLen, 1.15 * axLen, 1.15 * axLen]);
   var bbCenter = scale(add(bbMin, bbMax), 0.5);
   var sceneRadius = Math.max(0.5 * norm(sub(bbMax, bbMin)), 1e-6);
+
+  // ------------------------------------------------------------------------------------------
+  // springs, dampers, massless links, arrows and points: world-space primitives per frame
+  // (segments [a, b, radius, colour], cones [base, tip, radius, colour], dots [p, radius, colour])
+  // ------------------------------------------------------------------------------------------
+  var wire = 0.006 * refSize, wireRadius = wire;
+  function sampleAt(arr, width, fr) {
+    var n = Math.floor(arr.length / width);
+    if (n === 0) { return null; }
+    var k = Math.min(fr.k, n - 1), a = k + 1 < n ? fr.a : 0, out = [];
+    for (var i = 0; i < width; i++) {
+      out.push((1 - a) * arr[width * k + i] + a * (a > 0 ? arr[width * (k + 1) + i] : 0));
+    }
+    return out;
+  }
+  function attach(body, point, poses) {
+    return jointPoint({ body: body, point: point }, poses);
+  }
+  function helix(out, P, Q, radius, turns, color) {
+    var d = sub(Q, P), L = norm(d);
+    if (!(L > 0)) { return; }
+    var wire = Math.min(wireRadius, 0.12 * radius);   // a thin wire on small coils
+    var u = scale(d, 1 / L), B = basisWithAxis(u);
+    var e1 = [B[0], B[3], B[6]], e2 = [B[1], B[4], B[7]];   // columns: normal to u
+    var lead = 0.12 * L, n = Math.max(8, Math.round(16 * turns)), prev = add(P, scale(u, lead));
+    out.segments.push([P, prev, wire, color]);
+    var first = add(prev, scale(e1, radius));   // the coil starts one radius off the axis
+    out.segments.push([prev, first, wire, color]);
+    prev = first;
+    for (var i = 1; i <= n; i++) {
+      var s = i / n, ang = 2 * Math.PI * turns * s;
+      var c = add(add(P, scale(u, lead + s * (L - 2 * lead))),
+                  add(scale(e1, radius * Math.cos(ang)), scale(e2, radius * Math.sin(ang))));
+      out.segments.push([prev, c, wire, color]);
+      prev = c;
+    }
+    var end = add(Q, scale(u, -lead));
+    out.segments.push([prev, end, wire, color], [end, Q, wire, color]);
+  }
+  function damper(out, P, Q, radius, color) {
+    var d = sub(Q, P), L = norm(d);
+    if (!(L > 0)) { return; }
+    var u = scale(d, 1 / L);
+    out.segments.push([P, add(P, scale(u, 0.55 * L)), 0.55 * radius, color]);   // cylinder
+    out.segments.push([add(P, scale(u, 0.3 * L)), Q, 0.22 * radius, '#5b6472']); // piston rod
+  }
+  function arrow(out, O, V, color) {
+    var L = norm(V);
+    if (!(L > 0)) { return; }
+    var head = Math.min(0.35 * L, 0.08 * refSize), tipBase = add(O, scale(V, 1 - head / L));
+    out.segments.push([O, tipBase, 1.6 * wire, color]);
+    out.cones.push([tipBase, add(O, V), 0.35 * head, color]);
+  }
+  var arrowScales = arrows.map(function (a) {
+    if (typeof a.scale === 'number' && a.scale > 0) { return a.scale; }
+    var big = 0;
+    for (var i = 0; i + 2 < a.vectors.length; i += 3) {
+      big = Math.max(big, Math.hypot(a.vectors[i], a.vectors[i + 1], a.vectors[i + 2]));
+    }
+    return big > 0 ? 0.3 * refSize / big : 1;   // the largest arrow: 30 % of the scene size
+  });
+  function extrasAt(fr, poses) {
+    var out = { segments: [], cones: [], dots: [] };
+    springs.forEach(function (sp) {
+      var P = attach(sp.body_i, sp.point_i || [0, 0, 0], poses);
+      var Q = attach(sp.body_j, sp.point_j || [0, 0, 0], poses);
+      // default coil radius: slender (a tenth of the length), never wider than the scene allows
+      var R = sp.radius > 0 ? sp.radius : Math.min(0.035 * refSize, 0.08 * norm(sub(Q, P)));
+      var col = sp.color || '#6b7280';
+      var kind = sp.kind || 'spring';
+      if (kind === 'link') {
+        out.segments.push([P, Q, 2 * wire, col]);
+        out.dots.push([P, 3.5 * wire, col], [Q, 3.5 * wire, col]);
+      } else {
+        if (kind === 'spring' || kind === 'spring_damper') { helix(out, P, Q, R, sp.turns > 0 ? sp.turns : 8, col); }
+        if (kind === 'damper' || kind === 'spring_damper') { damper(out, P, Q, kind === 'damper' ? R : 0.6 * R, col); }
+      }
+    });
+    arrows.forEach(function (a, i) {
+      var V = sampleAt(a.vectors, 3, fr);
+      if (!V) { return; }
+      arrow(out, attach(a.body, a.point, poses), scale(V, arrowScales[i]), a.color);
+    });
+    points.forEach(function (c) {
+      var P = sampleAt(c.positions, 3, fr);
+      if (P) { out.dots.push([P, c.radius > 0 ? c.radius : 0.015 * refSize, c.color]); }
+    });
+    return out;
+  }
 
   // ------------------------------------------------------------------------------------------
   // camera: turntable orbit about `target` with `up` = -gravity
@@ -528,6 +649,11 @@
           ctx.lineWidth = 1.3;
           ctx.stroke();
         }
+      } else if (q.kind === 2) {
+        ctx.beginPath();
+        ctx.arc(q.at[0], q.at[1], q.radius, 0, 2 * Math.PI);
+        ctx.fillStyle = q.color;
+        ctx.fill();
       } else {
         ctx.beginPath();
         ctx.moveTo(q.a[0], q.a[1]);
@@ -579,14 +705,34 @@
   var curTime = tStart, playing = false, speed = 1, lastTs = null, rafId = 0;
   var showLabels = false;
 
+  /* screen size in px of a world length s at point P */
+  function pixels(fr, P, s) {
+    var z = toCam(fr, P)[2];
+    return z > fr.near ? s * fr.focal / z : 0;
+  }
+
   function render() {
     var fr = cameraFrame();
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    var frm = frameAt(curTime);
+    var poses = bodies.map(function (b) { return bodyPose(b, frm); });
+    if (glView) {
+      ctx.clearRect(0, 0, viewW, viewH);
+      try {
+        glView.render({ C: fr.C, f: fr.f, fovy: FOVY, near: fr.near,
+                        far: cam.dist + 20 * sceneRadius, width: viewW, height: viewH, dpr: dpr },
+                      poses, extrasAt(frm, poses));
+      } catch (e) {
+        fallBack(e);
+        render();
+        return;
+      }
+      drawOverlays(fr, poses);
+      return;
+    }
     drawBackground();
     // key light from the upper left of the viewer, in world axes
     var L = normalize(add(add(scale(fr.r, -0.45), scale(fr.u, 0.65)), scale(fr.f, -0.62)));
-    var frm = frameAt(curTime);
-    var poses = bodies.map(function (b) { return bodyPose(b, frm); });
     var camAbove = dot(fr.C, UP) >= grid.level;
     if (camAbove) {
       drawGrid(fr, 1);
@@ -600,9 +746,25 @@
     AXES.forEach(function (ax) {
       addLine(prims, fr, [0, 0, 0], scale(ax[0], axLen), ax[1], 3, 8);
     });
+    var extras = extrasAt(frm, poses);
+    extras.segments.forEach(function (s) {
+      addLine(prims, fr, s[0], s[1], s[3], Math.max(1.5, Math.min(8, pixels(fr, s[0], 2 * s[2]))), 1);
+    });
+    extras.cones.forEach(function (c) { addLine(prims, fr, c[0], c[1], c[3], 6, 2); });
+    extras.dots.forEach(function (d) {
+      var c = toCam(fr, d[0]);
+      if (c[2] > fr.near) {
+        prims.push({ kind: 2, depth: c[2], at: project(fr, c), color: d[2],
+                     radius: Math.max(2, pixels(fr, d[0], d[1])) });
+      }
+    });
     drawPrims(prims);
     if (!camAbove) { drawGrid(fr, 0.6); }
+    drawOverlays(fr, poses);
+  }
 
+  /* axis letters, joint markers, labels and the gizmo: 2-D, on top of either back end */
+  function drawOverlays(fr, poses) {
     // axis letters of the ground frame
     ctx.textAlign = 'center';
     ctx.textBaseline = 'middle';
@@ -613,20 +775,22 @@
         label(ax[2], s[0], s[1], ax[1]);
       }
     });
-    // joint markers (drawn on top so hidden joints stay visible)
+    // joint markers (drawn on top so hidden joints stay visible); smaller when there are many,
+    // so that hundreds of joints do not hide the bodies
+    var mr = joints.length <= 50 ? 4.5 : Math.max(1.5, 4.5 * Math.sqrt(50 / joints.length));
     joints.forEach(function (j) {
       var c = toCam(fr, jointPoint(j, poses));
       if (!(c[2] > fr.near)) { return; }
       var s = project(fr, c);
       ctx.beginPath();
       if (j.body < 0) {
-        ctx.rect(s[0] - 4.5, s[1] - 4.5, 9, 9);
+        ctx.rect(s[0] - mr, s[1] - mr, 2 * mr, 2 * mr);
       } else {
-        ctx.arc(s[0], s[1], 4.5, 0, 2 * Math.PI);
+        ctx.arc(s[0], s[1], mr, 0, 2 * Math.PI);
       }
       ctx.fillStyle = '#ffc21a';
       ctx.fill();
-      ctx.lineWidth = 1.5;
+      ctx.lineWidth = mr > 3 ? 1.5 : 0.75;
       ctx.strokeStyle = '#4a3600';
       ctx.stroke();
       if (showLabels) {
@@ -648,6 +812,42 @@
     ctx.textBaseline = 'alphabetic';
     drawGizmo(fr);
   }
+
+  // ------------------------------------------------------------------------------------------
+  // back end: WebGL (webgl.js) unless unavailable, failing, or #renderer=canvas
+  // ------------------------------------------------------------------------------------------
+  var glView = null, rendererName = 'canvas', fallbackReason = '';
+  function fallBack(err) {
+    fallbackReason = String(err && err.message ? err.message : err);
+    if (glView && glView.canvas && glView.canvas.parentNode) {
+      glView.canvas.parentNode.removeChild(glView.canvas);
+    }
+    glView = null;
+    rendererName = 'canvas';
+    if (window.console) { console.warn('spatialmbd viewer: WebGL renderer unavailable (' + fallbackReason + '); using the Canvas renderer'); }
+  }
+  (function chooseRenderer() {
+    var forced = /(^|[#&;])renderer=canvas(\b|$)/.test(window.location.hash || '');
+    if (forced) { fallbackReason = 'renderer=canvas requested'; return; }
+    if (typeof window.spatialmbdWebGL !== 'function') { fallBack('WebGL back end not included'); return; }
+    try {
+      glView = window.spatialmbdWebGL({
+        host: document.getElementById('view'), before: canvas, up: UP, axLen: axLen,
+        axes: AXES, grid: grid,
+        bodies: (raw.bodies || []).map(function (b) { return { shapes: b.shapes, color: b.color }; }),
+        ground: raw.ground || []
+      });
+      rendererName = 'webgl';
+      // a GPU reset or driver failure later on: continue with the Canvas renderer
+      glView.canvas.addEventListener('webglcontextlost', function (ev) {
+        ev.preventDefault();
+        fallBack('the WebGL context was lost');
+        requestRender();
+      });
+    } catch (e) {
+      fallBack(e);
+    }
+  })();
 
   // ------------------------------------------------------------------------------------------
   // UI
@@ -843,6 +1043,17 @@
       draw();
     },
     errors: viewerErrors,
+    /* 'webgl' or 'canvas', and why the Canvas renderer is used */
+    renderer: function () { return rendererName; },
+    fallbackReason: function () { return fallbackReason; },
+    drawCalls: function () { return glView ? glView.drawCalls() : null; },
+    /* CSS-pixel position [x, y] of a point (body axes, m) of body i (-1: global) now, or null */
+    screenPosition: function (i, pointLocal) {
+      var fr = cameraFrame(), frm = frameAt(curTime);
+      var poses = bodies.map(function (b) { return bodyPose(b, frm); });
+      var c = toCam(fr, jointPoint({ body: i, point: pointLocal || [0, 0, 0] }, poses));
+      return c[2] > fr.near ? project(fr, c) : null;
+    },
     ready: true
   };
   if (!applyHash()) { play(); }

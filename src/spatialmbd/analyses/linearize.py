@@ -1,0 +1,637 @@
+"""Linearization about an equilibrium or a steady motion, and vibration modes.
+
+Reference: (q*, v*, t) with vdot*, lam* from the equations of motion M vdot = g + D^T lam,
+D vdot = gamma (dynamics/eom.py sign convention). Perturbations live in the tangent space:
+q = exp(dx) q* (dx = [dr, dpi] per body, dpi a global rotation vector, 6 per body -- not 7:
+the Euler-parameter normalisation is built in) and v = v* + dv. Differentiating
+A = exp(dpi~) A* gives omega = omega* + dpi' - omega*~ dpi, i.e.
+
+    dv = dx' - W dx,    W = blockdiag(0, omega*~) per body.
+
+Linearizing the residual R(q, v, vdot, lam) = M(q) vdot - g(q, v) - D(q)^T lam = B_q u:
+
+    M dx'' + (R_v - M W) dx' + (R_x - R_v W - M W') dx = D^T dlam + B_q u
+
+with R_x = dR/dx at fixed (v*, vdot*, lam*) and R_v = dR/dv = -dg/dv (gyroscopic term
+omega~J - (J omega)~, damping). The constraints give D dx = 0 to first order, so dx = N z with
+N a basis of the null space of D (orthonormal, or by coordinate partitioning: z are chosen
+body velocity coordinates); premultiplying by N^T removes dlam:
+
+    M_r z'' + C_r z' + K_r z = B_r u,   M_r = N^T M N, C_r = N^T (R_v - M W) N,
+                                        K_r = N^T (R_x - R_v W - M W') N,  B_r = N^T B_q.
+
+At an equilibrium W = 0 and K_r is the reduced tangent stiffness of statics.py (including the
+constraint-curvature term lam^T d2Phi). For a steady motion the basis may follow a frame turning
+at omega_f (``frame_rate``): N(t) = R_f(t) N, N' = Om N, N'' = Om^2 N with Om = blockdiag(
+omega_f~) on every 3-vector, and dx = N z gives
+
+    C_r = N^T (2 M Om + (R_v - M W)) N,   K_r = N^T (M Om^2 + (R_v - M W) Om + K2) N,
+
+constant for a relative equilibrium. A fixed frame (default) is exact when the null space of D
+does not turn along the motion (a rotor about a fixed axis, a top spinning about the vertical);
+otherwise a warning says how fast it turns relative to the chosen frame.
+
+Derivatives: M, the gyroscopic term and their q-dependence analytic; force elements and the
+constraint term D^T lam by central differences (step eps^(1/3), checked against half the step).
+``derivatives="fd"`` differences everything (the tests compare the two).
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Optional, Sequence
+
+import numpy as np
+
+from ..errors import ModelError, SimulationError
+from ..rotations import skew
+from ..state import BodyState
+from .common import (COMPONENTS, central_jacobian, default_step, dense, describe_direction,
+                     driver_rows, null_space, perturb, results_object)
+
+
+class NotEquilibriumError(SimulationError):
+    """Linearization asked about a state that is neither at rest in equilibrium nor declared a
+    steady motion."""
+
+
+class TurningNullSpaceWarning(UserWarning):
+    """The constraint null space turns along the steady motion: frozen-time linearization."""
+
+
+def _skew_blocks(w: np.ndarray) -> np.ndarray:
+    """blockdiag(0, w~) per body (6 nb, 6 nb) for w (nb, 3)."""
+    nb = w.shape[0]
+    W = np.zeros((6 * nb, 6 * nb))
+    for b in range(nb):
+        W[6 * b + 3:6 * b + 6, 6 * b + 3:6 * b + 6] = skew(w[b])
+    return W
+
+
+def _force_elements(model, q, v, t) -> np.ndarray:
+    """Generalized forces of the force elements (6 nb,) at (q, v)."""
+    nb = model.nb
+    g = np.zeros((nb + 1, 6))
+    if model.force_groups:
+        state = BodyState.from_qv(q, v, t)
+        for grp in model.force_groups:
+            grp.evaluate(state, t, g)
+    return g[:nb].reshape(-1)
+
+
+def _global_inertia(model, q):
+    from ..rotations import A_from_p
+    A = A_from_p(np.asarray(q).reshape(-1, 7)[:, 3:])
+    return A @ model.inertia @ np.swapaxes(A, 1, 2)
+
+
+# ------------------------------------------------------------------------------- inputs/outputs
+def _input_columns(model, inputs, D_full, q):
+    """B_q (6 nb, k): generalized force per unit input; input drivers' rows."""
+    nb = model.nb
+    rows = driver_rows(model)
+    cols, dropped = [], []
+    state = BodyState.from_qv(q, None, 0.0)
+    for name in inputs:
+        if name in rows:
+            cols.append(D_full[rows[name]].copy())          # effort lam_k acts as D_k^T lam_k
+            dropped.append(rows[name])
+            continue
+        body, _, comp = name.rpartition(".")
+        forces = ("fx", "fy", "fz", "mx", "my", "mz")
+        if body in model.body_names and comp in forces:
+            col = np.zeros(6 * nb)
+            col[6 * model.body_index(body) + forces.index(comp)] = 1.0
+            cols.append(col)
+            continue
+        group = next((g for g in model.force_groups if name in g.names), None)
+        if group is not None and group.name == "rotational_spring_damper":
+            k = group.names.index(name)             # torque along the joint angle (effort
+            cols.append(_angle_row(model, q, group.bi[k], group.bj[k], group.R_i[k],
+                                   group.R_j[k]))   # convention: -actuator)
+            continue
+        if group is not None and group.name in ("point_force", "torque"):
+            k = group.names.index(name)
+            b = group.body[k]
+            d = group.direction[k]
+            d = state.A[b] @ d if group.in_body[k] else d
+            col = np.zeros(6 * nb)
+            if group.name == "point_force":
+                s = state.A[b] @ group.point[k]
+                col[6 * b:6 * b + 3], col[6 * b + 3:6 * b + 6] = d, np.cross(s, d)
+            else:
+                col[6 * b + 3:6 * b + 6] = d
+            cols.append(col)
+            continue
+        raise ModelError(f"linearize input {name!r}: not a driver, a point_force, torque or "
+                         "rotational_spring_damper element or '<body>.<fx|fy|fz|mx|my|mz>' "
+                         f"(drivers: {', '.join(rows) or 'none'})")
+    B = np.column_stack(cols) if cols else np.zeros((6 * nb, 0))
+    return B, dropped
+
+
+OUTPUT_COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def _angle_row(model, q, body_i, body_j, R_i, R_j) -> np.ndarray:
+    """d(theta)/dv (6 nb,) of the rotation of body j relative to body i about u_i (the angle
+    of angle drivers and rotational springs) at q."""
+    from ..constraints.primitives import relative_angle
+    nb = model.nb
+    state = BodyState.from_qv(q, None, 0.0)
+    _, D, _, _ = relative_angle(state, np.array([body_i]), np.array([body_j]),
+                                np.asarray(R_i)[None], np.asarray(R_j)[None])
+    row = np.zeros(6 * (nb + 1))
+    row[6 * body_i:6 * body_i + 6] += D[0, :6]
+    row[6 * body_j:6 * body_j + 6] += D[0, 6:]
+    return row[:6 * nb]
+
+
+def _joint_angle(model, name):
+    """(body_i, body_j, R_i, R_j) of a revolute or cylindrical joint, or None."""
+    for g in model.constraint_groups:
+        if g.name in ("revolute", "cylindrical") and name in g.names:
+            k = g.names.index(name)
+            return g.body_i[k], g.body_j[k], g.geometry.R_i[k], g.geometry.R_j[k]
+    return None
+
+
+def _output_rows(model, outputs, D_full, q, W, v, t, step):
+    """(C_x, C_v): output = C_x dx + C_v dx' for each named output (dv = dx' - W dx)."""
+    nb = model.nb
+    rows = driver_rows(model)
+    state = BodyState.from_qv(q, None, 0.0)
+    w = np.asarray(v, dtype=float).reshape(nb, 6)[:, 3:]
+    Cx, Cv = [], []
+    for name in outputs:
+        cx, cv = np.zeros(6 * nb), np.zeros(6 * nb)
+        base, _, comp = name.rpartition(".")
+        if name in rows or (comp == "rate" and base in rows):
+            row = D_full[rows[name if name in rows else base]]
+            if name in rows:
+                cx = row.copy()                              # change of the driven coordinate
+            else:                                            # its rate D_k v: D_k dv + ...
+                cv, cx = row.copy(), -row @ W
+                if np.abs(v).max() > 0:                      # ... + d(D_k v*)/dx dx
+                    k = rows[base]
+                    cx = cx + central_jacobian(
+                        lambda dx: np.atleast_1d(dense(model.assembler.evaluate(
+                            perturb(q, dx), None, t).D)[k] @ v), 6 * nb, step,
+                        what=f"d(rate of {base})/dx")[0][0]
+        elif comp in ("angle", "angle_rate") and _joint_angle(model, base) is not None:
+            geo = _joint_angle(model, base)
+            row = _angle_row(model, q, *geo)
+            if comp == "angle":
+                cx = row
+            else:                                    # D_theta dv + d(D_theta v*)/dx dx
+                cv, cx = row.copy(), -row @ W
+                if np.abs(v).max() > 0:
+                    cx = cx + central_jacobian(
+                        lambda dx: np.atleast_1d(_angle_row(model, perturb(q, dx), *geo) @ v),
+                        6 * nb, step, what=f"d(rate of {base})/dx")[0][0]
+        elif base in model.body_names and comp in OUTPUT_COMPONENTS:
+            k = 6 * model.body_index(base) + OUTPUT_COMPONENTS.index(comp) % 6
+            if OUTPUT_COMPONENTS.index(comp) < 6:
+                cx[k] = 1.0
+            else:                                            # dv = dx' - W dx
+                cv[k] = 1.0
+                cx = -W[k].copy()
+        elif base in model.points and comp in ("x", "y", "z", "vx", "vy", "vz"):
+            b, local = model.points[base]
+            s = state.A[b] @ local
+            c = ("x", "y", "z", "vx", "vy", "vz").index(comp)
+            sel = np.zeros(6 * nb)
+            sel[6 * b + c % 3] = 1.0
+            # point displacement dr - s~ dpi (row c of [I, -s~])
+            sel[6 * b + 3:6 * b + 6] = -skew(s)[c % 3]
+            if c < 3:
+                cx = sel
+            else:                    # d(rdot + w x s) = dv_r - s~ dw + w*~ (-s~ dpi)
+                cv, cx = sel, -sel @ W
+                cx[6 * b + 3:6 * b + 6] += -(skew(w[b]) @ skew(s))[c % 3]
+        else:
+            raise ModelError(f"linearize output {name!r}: use '<body>.<x|y|z|rx|ry|rz|vx|vy|vz|"
+                             "wx|wy|wz>', '<body>.<point>.<x|y|z|vx|vy|vz>', "
+                             "'<joint>.angle' / '<joint>.angle_rate' (revolute, cylindrical) "
+                             "or a driver name (its coordinate; '<driver>.rate' for its rate)")
+        Cx.append(cx)
+        Cv.append(cv)
+    return (np.array(Cx).reshape(-1, 6 * nb), np.array(Cv).reshape(-1, 6 * nb))
+
+
+# ------------------------------------------------------------------------------- result
+@dataclass
+class LinearModel:
+    """M z'' + C z' + K z = B_u u in independent coordinates z, and the first-order form
+    x' = A x + B u, y = C_out x + D_out u with x = [z, z'].
+
+    basis (6 nb, n): dx = basis @ z maps z to body tangent coordinates (translation m,
+    rotation vector rad, per body, global axes). coordinates: names of z. inputs, outputs:
+    names. q, v, t: the reference. fd_error: estimated error of the differenced parts.
+    input_reference: the reference value of each input (the effort an input driver delivers
+    at the reference, N m or N; 0 for force inputs, whose reference is part of the model); u
+    is the deviation from it.
+    """
+
+    model: object
+    q: np.ndarray
+    v: np.ndarray
+    t: float
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    B_u: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    C_out: np.ndarray
+    D_out: np.ndarray
+    basis: np.ndarray
+    coordinates: list
+    inputs: list
+    outputs: list
+    steady: bool
+    fd_error: float = 0.0
+    messages: list = field(default_factory=list)
+    input_reference: np.ndarray = None
+
+    @property
+    def n(self) -> int:
+        return self.M.shape[0]
+
+    def frames(self) -> dict:
+        """The matrices as labelled DataFrames: M, C, K, B_u, A, B, C_out, D_out."""
+        import pandas as pd
+        z = list(self.coordinates)
+        x = z + [f"d({c})/dt" for c in z]
+        return dict(M=pd.DataFrame(self.M, index=z, columns=z),
+                    C=pd.DataFrame(self.C, index=z, columns=z),
+                    K=pd.DataFrame(self.K, index=z, columns=z),
+                    B_u=pd.DataFrame(self.B_u, index=z, columns=self.inputs),
+                    A=pd.DataFrame(self.A, index=x, columns=x),
+                    B=pd.DataFrame(self.B, index=x, columns=self.inputs),
+                    C_out=pd.DataFrame(self.C_out, index=self.outputs, columns=x),
+                    D_out=pd.DataFrame(self.D_out, index=self.outputs, columns=self.inputs))
+
+    def summary(self) -> str:
+        ev = np.linalg.eigvals(self.A) if self.A.size else np.zeros(0)
+        lines = [f"linearization about {'a steady motion' if self.steady else 'an equilibrium'}"
+                 f" at t = {self.t:.6g} s: {self.n} independent coordinates, "
+                 f"{len(self.inputs)} inputs, {len(self.outputs)} outputs",
+                 f"largest real part of the eigenvalues of A: "
+                 f"{ev.real.max() if ev.size else 0.0:.6g} 1/s"]
+        lines.extend(self.messages)
+        return "\n".join(lines)
+
+
+def _partition_basis(D: np.ndarray, labels):
+    """Coordinate partitioning: independent velocity coordinates chosen by QR with column
+    pivoting of D (the dependent ones are the first rank pivots); N = [I; -D_d^-1 D_i]."""
+    import scipy.linalg as sla
+    n = D.shape[1]
+    if D.shape[0] == 0:
+        return np.eye(n), list(labels)
+    _, R, piv = sla.qr(D, pivoting=True, mode="economic")
+    d = np.abs(np.diag(R))
+    rank = int(np.sum(d > max(D.shape) * np.finfo(float).eps * 1e3 * (d[0] if d.size else 1)))
+    dep, ind = piv[:rank], np.sort(piv[rank:])
+    N = np.zeros((n, ind.size))
+    N[ind, np.arange(ind.size)] = 1.0
+    N[dep] = -np.linalg.lstsq(D[:, dep], D[:, ind], rcond=None)[0]
+    return N, [labels[i] for i in ind]
+
+
+def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
+              inputs: Sequence[str] = (), outputs: Sequence[str] = (),
+              coordinates: str = "nullspace", derivatives: str = "analytic",
+              step: Optional[float] = None, tol: float = 1e-6,
+              frame_rate: Optional[Sequence[float]] = None) -> LinearModel:
+    """Linear model about (q, v, t) (defaults: the model's q0, v0).
+
+    steady: False -- (q, v) must be an equilibrium (v = 0, no unbalanced force; else
+        NotEquilibriumError: find one with static_equilibrium first); True -- a steady motion
+        (e.g. a spinning top), linearized at this instant.
+    inputs: driver names (the driver is removed from the constraints and its effort, N m or N,
+        becomes the input), point_force / torque element names (their magnitude, N or N m, as
+        an additive input), rotational_spring_damper names (a torque along its joint angle,
+        N m: positive does positive work as the angle increases, i.e. minus its actuator) or
+        "<body>.<fx|fy|fz|mx|my|mz>" (N, N m, global axes, at the CoM).
+    outputs: "<body>.<x|y|z|rx|ry|rz>" (m, rad), "<body>.<vx|..|wz>" (m/s, rad/s),
+        "<body>.<point>.<x|y|z|vx|vy|vz>", "<joint>.angle" / "<joint>.angle_rate" of revolute
+        and cylindrical joints (rad, rad/s), a driver name (change of its coordinate) or
+        "<driver>.rate".
+    coordinates: "nullspace" (orthonormal basis of the null space of D) or "partition"
+        (independent body velocity coordinates, named "<body>.<x|y|z|rx|ry|rz>").
+    derivatives: "analytic" (analytic where the kernels have them) or "fd" (all central
+        differences, step ``step``; default eps^(1/3)).
+    tol: relative size of the unbalanced force below which the state counts as equilibrium.
+    frame_rate: (3,) rad/s, steady motions only: the coordinates z follow a frame turning at
+        this rate about an axis through the origin (N(t) = R_f(t) N). For a relative
+        equilibrium -- the whole mechanism turning steadily, e.g. a pendulum on a driven shaft,
+        a flyball governor -- the linear model is then constant and its frequencies are those
+        seen in the turning frame. Default: a fixed frame.
+    """
+    from ..dynamics.eom import EquationsOfMotion
+    nb = model.nb
+    q = np.array(model.q0 if q is None else q, dtype=float).reshape(nb, 7)
+    q[:, 3:] /= np.linalg.norm(q[:, 3:], axis=1, keepdims=True)
+    v = np.array(model.v0 if v is None else v, dtype=float).reshape(-1)
+    if v.size != 6 * nb:
+        raise ModelError(f"linearize: v must hold {6 * nb} numbers, got {v.size}")
+    if coordinates not in ("nullspace", "partition"):
+        raise ModelError(f"linearize: coordinates {coordinates!r} is not 'nullspace' or "
+                         "'partition'")
+    if derivatives not in ("analytic", "fd"):
+        raise ModelError(f"linearize: derivatives {derivatives!r} is not 'analytic' or 'fd'")
+    step = default_step() if step is None else float(step)
+    eom = EquationsOfMotion(model)
+    ev = eom.evaluate(t, q, v)
+    D_full = dense(ev.cv.D)
+    phi = ev.cv.phi
+    if phi.size and np.abs(phi).max() > 1e-6:
+        raise ModelError(f"linearize: the reference positions violate the constraints (max "
+                         f"|Phi| = {np.abs(phi).max():.3g}); assemble them first "
+                         "(kinematics.solve_positions or static_equilibrium)")
+    B_q, dropped = _input_columns(model, list(inputs), D_full, q)
+    keep = np.setdiff1d(np.arange(model.n_eq), dropped)
+    D = D_full[keep]
+    M = ev.M.dense()
+    g = ev.g
+    m = D.shape[0]
+    # reference accelerations and multipliers with every constraint, input drivers included:
+    # their multipliers are the reference efforts u*, whose forces D_k^T u* stay applied (and
+    # turn with the bodies) while the inputs u are perturbations about them
+    m_all = D_full.shape[0]
+    kkt = np.block([[M, -D_full.T], [D_full, np.zeros((m_all, m_all))]])
+    sol = np.linalg.lstsq(kkt, np.concatenate([g, ev.cv.gamma]), rcond=1e-12)[0]
+    vdot, lam = sol[:6 * nb], sol[6 * nb:]
+    rows_all = driver_rows(model)
+
+    messages = []
+    force_scale = max(float(np.abs(model.mass[:, None] * model.gravity).max()),
+                      float(np.abs(g).max()),
+                      float(np.abs(D_full.T @ lam).max() if m_all else 0), 1e-12)
+    unbalanced = M @ vdot                                   # = g + D^T lam
+    if not steady:
+        if np.abs(v).max() > 1e-9:
+            raise NotEquilibriumError(
+                f"linearize: the reference state moves (max |v| = {np.abs(v).max():.3g}); pass "
+                "steady=True to linearize about a steady motion, or v = 0 for an equilibrium")
+        if np.abs(unbalanced).max() > tol * force_scale:
+            worst = int(np.argmax(np.abs(unbalanced)))
+            raise NotEquilibriumError(
+                "linearize: the reference state is not an equilibrium: unbalanced generalized "
+                f"force {np.abs(unbalanced).max():.4g} (N or N m) on body "
+                f"{model.body_names[worst // 6]!r} ({COMPONENTS[worst % 6]}); find the "
+                "equilibrium first (static_equilibrium) or pass steady=True for a steady motion")
+    qv = q.reshape(nb, 7)
+    w = v.reshape(nb, 6)[:, 3:]
+    wd = vdot.reshape(nb, 6)[:, 3:]
+    W = _skew_blocks(w)
+    Wd = _skew_blocks(wd)
+
+    # R_v = -dg/dv
+    if derivatives == "fd":
+        Rv, err_v = central_jacobian(lambda dv: -eom.evaluate(t, q, v + dv).g, 6 * nb, step,
+                                     what="dg/dv")
+    else:
+        J = _global_inertia(model, q)
+        Rv = np.zeros((6 * nb, 6 * nb))
+        for b in range(nb):                                 # d(omega~ J omega)/d omega
+            sl = slice(6 * b + 3, 6 * b + 6)
+            Rv[sl, sl] = skew(w[b]) @ J[b] - skew(J[b] @ w[b])
+        err_v = 0.0
+        if model.force_groups:
+            Jf, err_v = central_jacobian(lambda dv: -_force_elements(model, q, v + dv, t),
+                                         6 * nb, step, what="d(force elements)/dv")
+            Rv += Jf
+
+    # R_x = dR/dx at fixed v, vdot, lam
+    def residual_fd(dx):
+        qq = perturb(qv, dx)
+        e = eom.evaluate(t, qq, v)
+        return e.M.dot(vdot) - e.g - dense(e.cv.D).T @ lam
+
+    if derivatives == "fd":
+        Rx, err_x = central_jacobian(residual_fd, 6 * nb, step, what="dR/dx")
+    else:
+        J = _global_inertia(model, q)
+        Rx = np.zeros((6 * nb, 6 * nb))
+        for b in range(nb):
+            sl = slice(6 * b + 3, 6 * b + 6)
+            Jw, Jwd = J[b] @ w[b], J[b] @ wd[b]
+            # d(J wdot)/dpi = -(J wdot)~ + J wdot~ ; d(w~ J w)/dpi = w~ (-(J w)~ + J w~)
+            Rx[sl, sl] = (-skew(Jwd) + J[b] @ skew(wd[b])) \
+                + skew(w[b]) @ (-skew(Jw) + J[b] @ skew(w[b]))
+
+        def rest(dx):
+            qq = perturb(qv, dx)
+            Dq = dense(model.assembler.evaluate(qq, None, t).D)
+            return -_force_elements(model, qq, v, t) - Dq.T @ lam
+        Jr, err_x = central_jacobian(rest, 6 * nb, step, what="d(-Q - D^T lam)/dx")
+        Rx += Jr
+
+    C2 = Rv - M @ W
+    K2 = Rx - Rv @ W - M @ Wd
+    labels = [f"{name}.{c}" for name in model.body_names for c in COMPONENTS]
+    if coordinates == "partition":
+        N, zlabels = _partition_basis(D, labels)
+    else:
+        N, rank = null_space(D)
+        zlabels = [f"z{k}" for k in range(N.shape[1])]
+    # basis moving with the frame: N(t) = R_f(t) N, N' = Om N, N'' = Om^2 N
+    Om = np.zeros((6 * nb, 6 * nb))
+    if frame_rate is not None:
+        if not steady:
+            raise ModelError("linearize: frame_rate applies to steady motions (steady=True)")
+        wf = np.asarray(frame_rate, dtype=float).reshape(-1)
+        if wf.size != 3 or not np.all(np.isfinite(wf)):
+            raise ModelError(f"linearize: frame_rate must be 3 finite numbers (rad/s), got "
+                             f"{frame_rate!r}")
+        for k in range(2 * nb):
+            Om[3 * k:3 * k + 3, 3 * k:3 * k + 3] = skew(wf)
+    Ndot, Nddot = Om @ N, Om @ Om @ N
+    if steady and N.shape[1] and m:
+        h = 1e-6
+        Dp = dense(model.assembler.evaluate(perturb(qv, h * v), None, t + h).D)[keep]
+        Dm = dense(model.assembler.evaluate(perturb(qv, -h * v), None, t - h).D)[keep]
+        # rate at which the null space leaves itself, -D^+ D' N, against the frame's rotation
+        out_of = -np.linalg.lstsq(D, (Dp - Dm) / (2 * h) @ N, rcond=None)[0]
+        modelled = Ndot - N @ (N.T @ Ndot)
+        turn = float(np.linalg.norm(out_of - modelled, 2))
+        spin = max(float(np.abs(w).max()), 1.0)
+        if turn > 1e-6 * spin:
+            text = (f"the null space of D turns along the steady motion at {turn:.3g} rad/s "
+                    + ("relative to the frame_rate given" if frame_rate is not None else "")
+                    + ": the linearization freezes it at this instant (approximate). For a "
+                    "mechanism turning steadily as a whole (a relative equilibrium) pass its "
+                    "rate as frame_rate")
+            messages.append(text)
+            warnings.warn(text, TurningNullSpaceWarning, stacklevel=2)
+    Mr = N.T @ M @ N
+    Cr = N.T @ (2 * M @ Ndot + C2 @ N)
+    Kr = N.T @ (M @ Nddot + C2 @ Ndot + K2 @ N)
+    Br = N.T @ B_q
+    n = N.shape[1]
+    Minv = np.linalg.inv(Mr) if n else np.zeros((0, 0))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ Kr, -Minv @ Cr]])
+    B = np.vstack([np.zeros((n, B_q.shape[1])), Minv @ Br])
+    Cx, Cv = _output_rows(model, list(outputs), D_full, q, W, v, t, step)
+    C_out = np.hstack([Cx @ N, Cv @ N])
+    D_out = np.zeros((C_out.shape[0], B.shape[1]))
+    return LinearModel(model=model, q=q, v=v.reshape(nb, 6), t=float(t), M=Mr, C=Cr, K=Kr,
+                       B_u=Br, A=A, B=B, C_out=C_out, D_out=D_out, basis=N,
+                       coordinates=zlabels, inputs=list(inputs), outputs=list(outputs),
+                       steady=steady, fd_error=max(err_x, err_v), messages=messages,
+                       input_reference=np.array([lam[rows_all[n]] if n in rows_all else 0.0
+                                                 for n in inputs]))
+
+
+# ------------------------------------------------------------------------------- modes
+@dataclass
+class ModalResults:
+    """Natural frequencies, damping ratios and mode shapes.
+
+    table: DataFrame, one row per mode: eigenvalue (real, imag; 1/s), omega_n (rad/s),
+    frequency_hz, damped_frequency_hz, damping_ratio, kind ("rigid-body", "oscillatory",
+    "overdamped", "unstable"). shapes (6 nb, k) complex: body tangent coordinates
+    [dx, dy, dz (m), rx, ry, rz (rad)] per body, largest entry 1. linear: the LinearModel.
+    """
+
+    linear: LinearModel
+    eigenvalues: np.ndarray
+    shapes: np.ndarray
+    table: object
+
+    @property
+    def model(self):
+        return self.linear.model
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return self.table["frequency_hz"].to_numpy()
+
+    @property
+    def stable(self) -> bool:
+        return not (self.table["kind"] == "unstable").any()
+
+    def shapes_table(self):
+        """Real parts of the shapes, rows "<body>.<x|y|z|rx|ry|rz>", one column per mode."""
+        import pandas as pd
+        labels = [f"{name}.{c}" for name in self.model.body_names for c in COMPONENTS]
+        return pd.DataFrame(self.shapes.real, index=labels,
+                            columns=[f"mode{k}" for k in range(self.shapes.shape[1])])
+
+    def to_dataframe(self):
+        """One row per mode: the table and the real parts of the shapes (columns
+        "shape.<body>.<x|y|z|rx|ry|rz>")."""
+        import pandas as pd
+        shapes = self.shapes_table().T.add_prefix("shape.").reset_index(drop=True)
+        return pd.concat([self.table.reset_index(drop=True), shapes], axis=1)
+
+    def motion(self, mode: int, amplitude: float = 0.1, cycles: float = 2.0,
+               points_per_cycle: int = 40):
+        """A Results object animating one mode: q(t) = q* moved by amplitude * Re(shape
+        e^{i omega t}) (amplitude in m or rad of the largest entry); rigid-body and overdamped
+        modes move as amplitude * shape * sin(2 pi t) over 1 s cycles."""
+        from ..kinematics import apply_correction
+        s = self.eigenvalues[mode]
+        omega = abs(s.imag)
+        period = 2 * np.pi / omega if omega > 1e-9 else 1.0
+        t = np.linspace(0.0, cycles * period, int(cycles * points_per_cycle) + 1)
+        phi = self.shapes[:, mode]
+        q0 = self.linear.q
+        nb = q0.shape[0]
+        Q = np.empty((t.size, nb, 7))
+        V = np.zeros((t.size, nb, 6))
+        for k, tk in enumerate(t):
+            if omega > 1e-9:
+                dx = amplitude * np.real(phi * np.exp(1j * omega * tk))
+                dv = amplitude * np.real(1j * omega * phi * np.exp(1j * omega * tk))
+            else:
+                dx = amplitude * np.real(phi) * np.sin(2 * np.pi * tk / period)
+                dv = amplitude * np.real(phi) * np.cos(2 * np.pi * tk / period) * 2 * np.pi
+            Q[k] = apply_correction(q0, dx)
+            V[k] = dv.reshape(nb, 6)
+        return results_object(self.model, t, Q, V, np.zeros_like(V),
+                              np.zeros((t.size, self.model.n_eq)),
+                              settings={"analysis": "mode", "mode": mode})
+
+    def summary(self) -> str:
+        lines = [f"modes: {len(self.eigenvalues)} ({'stable' if self.stable else 'UNSTABLE'})"]
+        for k, row in self.table.iterrows():
+            lines.append(f"  mode {k}: {row['kind']:11s} f = {row['frequency_hz']:.6g} Hz "
+                         f"(omega_n {row['omega_n']:.6g} rad/s), damping ratio "
+                         f"{row['damping_ratio']:.4g}; {row['motion']}")
+        return "\n".join(lines)
+
+
+def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResults:
+    """Vibration modes of a LinearModel, or of ``linearize(model, *args, **kwargs)``.
+
+    Undamped, non-gyroscopic systems (C = 0): the symmetric problem K phi = omega^2 M phi
+    (real shapes; omega^2 < 0 is an unstable, divergent direction). Otherwise the eigenvalues
+    s of A: omega_n = |s|, damping ratio -Re(s)/|s|, damped frequency |Im s|. Eigenvalues with
+    |s|^2 below zero_tol times the largest |s|^2 (a stiffness 1e-8 of the largest: the accuracy
+    of the differenced stiffness), or |s| < 1e-6 rad/s, are rigid-body modes.
+    """
+    import pandas as pd
+    lin = model_or_linear if isinstance(model_or_linear, LinearModel) else \
+        linearize(model_or_linear, *args, **kwargs)
+    n = lin.n
+    Ms, Ks = 0.5 * (lin.M + lin.M.T), 0.5 * (lin.K + lin.K.T)
+    scale_c = np.abs(lin.C).max() if lin.C.size else 0.0
+    ref = max(np.abs(lin.K).max() if n else 0.0, 1e-300)
+    if n == 0:
+        s_vals, Z = np.zeros(0, complex), np.zeros((0, 0), complex)
+    elif scale_c <= 1e-10 * np.sqrt(ref * max(np.abs(Ms).max(), 1e-300)):
+        import scipy.linalg as sla
+        lam2, Z = sla.eigh(Ks, Ms)
+        s_vals = np.where(lam2 >= 0, 1j * np.sqrt(np.abs(lam2)), np.sqrt(np.abs(lam2)) + 0j)
+        Z = Z.astype(complex)
+    else:
+        ev, V = np.linalg.eig(lin.A)
+        # one of each complex-conjugate pair (Im >= 0), all real ones
+        pick = [k for k in range(ev.size) if ev[k].imag > 1e-12 * max(1, abs(ev[k]))]
+        reals = [k for k in range(ev.size) if abs(ev[k].imag) <= 1e-12 * max(1, abs(ev[k]))]
+        idx = pick + reals
+        s_vals, Z = ev[idx], V[:n, idx]
+    mag = np.abs(s_vals)
+    big = mag.max() if mag.size else 0.0
+    zero = mag <= max(np.sqrt(zero_tol) * big, 1e-6)
+    if zero.sum() > 1:
+        # a rigid-body coordinate gives a double zero eigenvalue of A (a Jordan block with one
+        # eigenvector): keep one mode per independent zero-frequency shape
+        U, sv, _ = np.linalg.svd(Z[:, zero])
+        r = int(np.sum(sv > 1e-6 * sv[0]))
+        s_vals = np.concatenate([np.zeros(r, complex), s_vals[~zero]])
+        Z = np.hstack([U[:, :r].astype(complex), Z[:, ~zero]])
+        mag = np.abs(s_vals)
+    shapes = lin.basis @ Z if n else np.zeros((6 * lin.model.nb, 0))
+    for k in range(shapes.shape[1]):
+        j = int(np.argmax(np.abs(shapes[:, k])))
+        if abs(shapes[j, k]) > 0:
+            shapes[:, k] = shapes[:, k] / shapes[j, k]
+    kinds = []
+    for s in s_vals:
+        if abs(s) <= max(np.sqrt(zero_tol) * big, 1e-6):
+            kinds.append("rigid-body")
+        elif s.real > 1e-9 * max(abs(s), 1.0):
+            kinds.append("unstable")
+        elif abs(s.imag) > 1e-12 * abs(s):
+            kinds.append("oscillatory")
+        else:
+            kinds.append("overdamped")
+    order = np.lexsort((mag, [k != "rigid-body" for k in kinds]))
+    s_vals, shapes = s_vals[order], shapes[:, order]
+    kinds = [kinds[k] for k in order]
+    mag = np.abs(s_vals)
+    omega_n = np.where(np.array(kinds) == "rigid-body", 0.0, mag)
+    zeta = np.where(omega_n > 0, 0.0 - s_vals.real / np.where(mag > 0, mag, 1), np.nan)
+    zeta[np.abs(zeta) < 1e-12] = 0.0                       # round-off of undamped systems
+    table = pd.DataFrame(dict(
+        real=s_vals.real, imag=s_vals.imag, omega_n=omega_n, frequency_hz=omega_n / (2 * np.pi),
+        damped_frequency_hz=np.abs(s_vals.imag) / (2 * np.pi), damping_ratio=zeta, kind=kinds,
+        motion=[describe_direction(lin.model, shapes[:, k].real if np.abs(shapes[:, k].real).max()
+                                   > 1e-9 else shapes[:, k].imag)
+                for k in range(shapes.shape[1])]))
+    return ModalResults(linear=lin, eigenvalues=s_vals, shapes=shapes, table=table)

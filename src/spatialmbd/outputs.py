@@ -1,0 +1,793 @@
+"""Engineering outputs computed from a result: joint coordinates, force-element and driver
+outputs, momentum, energy per body and IMU signals, and the output requests that name them.
+
+Everything here is evaluated after the analysis, from the recorded states (t, q, v, vdot) and,
+for driver efforts, the multipliers lam; nothing runs inside the time loop. The functions take
+any result with ``model``, ``t``, ``q``, ``v``, ``vdot`` (dynamic :class:`~spatialmbd.results.
+Results` and :class:`~spatialmbd.kinematics.KinematicResults`; efforts need ``lam``).
+
+Requests
+--------
+An :class:`Output` names one thing to record, like an Adams request or an Exudyn sensor::
+
+    Output("joint", "pivot")                 # coordinates and rates of joint "pivot"
+    Output("force", "spring")                # length, deflection, rate, force, power
+    Output("driver", "crank")                # coordinate, rate, effort, power
+    Output("momentum")                       # system: linear, angular about its centre of mass
+    Output("momentum", "link", about=(0, 0, 0))   # one body, angular about a fixed point
+    Output("energy", "link")                 # kinetic and gravitational energy of one body
+    Output("imu", "link.tip")                # acceleration, specific force, angular velocity
+
+``"joints"``, ``"drivers"``, ``"forces"``, ``"bodies"`` (momentum and energy of every body) and
+``"all"`` request every element of a kind. Model files take the same entries in their
+``outputs:`` section (see docs/outputs.md).
+
+Column names
+------------
+Every output is a set of columns ``<prefix>.<quantity>`` (the prefix is ``name`` when given,
+else the element, body or point name, ``system`` for the whole system, ``<point>.imu`` for an
+IMU). Vectors end in x, y, z; rates end in ``_rate``. The quantities of each kind, with their
+units, are listed in :data:`QUANTITIES`; :func:`column_units` gives the unit of any column.
+
+Sign conventions
+----------------
+Joint coordinates describe body j (the joint's second body) relative to body i, in the joint
+frame of body i, whose columns are [u, a, b] (u the joint axis, a and b normal to it, b = u x a):
+
+- an angle about u (revolute, cylindrical, planar) is theta = atan2(b_i . a_j, a_i . a_j),
+  positive by the right-hand rule about u_i, zero when a_j = a_i (so zero in the assembled
+  configuration of a joint defined globally) -- the same angle an angle driver prescribes;
+- a translation (translational, cylindrical) is u_i . d with d = P_j - P_i, the joint point of
+  body j minus that of body i (positive when j moves along +u_i);
+- planar: translation_a = a_i . d, translation_b = b_i . d in the plane;
+- universal: angle_i, the rotation of the cross about u_i (body i's axis), and angle_j, the
+  rotation of body j about u_j relative to the cross, both right-handed and zero at the model's
+  initial configuration;
+- spherical: Bryant angles rx, ry, rz (x-y-z: C = Rx(rx) Ry(ry) Rz(rz), C = T_i^T T_j the
+  rotation of the joint frame of j relative to that of i); their rates are singular at
+  ry = +-90 degrees;
+- every other type (fixed, spherical-spherical, spherical-revolute, basic constraints): the
+  relative position dx, dy, dz = T_i^T d and the Bryant angles rx, ry, rz as for spherical.
+
+Angles are unwrapped over time (continuous, not limited to (-pi, pi]). Rates are the exact time
+derivatives of the coordinates (from the velocities, not by differencing).
+
+A spring-damper's ``force`` is its tension f = k (l - l0) + c ldot + f_a (positive pulls the
+two points together; Eq. 11.10), ``deflection`` = l - l0; a rotational spring-damper's
+``torque`` is the moment it applies on body j about u (on body i: minus that), ``deflection``
+= theta - theta0 wrapped to (-pi, pi]. ``power`` is always the power delivered TO the bodies
+(W): negative for a damper. ``energy`` is the elastic energy stored in a spring (J). A
+bushing reports its deflections dx, dy, dz and rotation vector rx, ry, rz (bushing axes of
+body i) and the force fx, fy, fz and moment mx, my, mz it applies on body j, in the same axes.
+Force types without outputs of their own report power and energy when the model has one
+element of that type.
+
+A driver's ``effort`` is the generalized force it exerts along its coordinate (N for a
+translation or an x, y, z coordinate, N m for an angle; for e0..e3 the generalized force
+conjugate to that Euler parameter): with Phi = coordinate - f(t), the reaction on the bodies is
+D^T lam (dynamics/eom.py) and D is the gradient of the coordinate, so the effort is lam itself.
+``power`` = effort * coordinate_rate: positive when the driver does positive work on the
+mechanism (the effort pushes the coordinate the way it is moving).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Optional
+
+import numpy as np
+
+from .errors import ModelError
+
+__all__ = ["Output", "QUANTITIES", "KINDS", "parse_outputs", "compute_outputs",
+           "joint_coordinates", "force_outputs", "driver_outputs", "momentum", "body_energy",
+           "imu", "column_units", "to_xarray"]
+
+KINDS = ("joint", "force", "driver", "momentum", "energy", "imu")
+SHORTHANDS = {"joints": "joint", "forces": "force", "drivers": "driver"}
+
+#: unit of every quantity (last part of a column name) by output kind
+QUANTITIES = {
+    "joint": {"angle": "rad", "translation": "m", "translation_a": "m", "translation_b": "m",
+              "angle_i": "rad", "angle_j": "rad", "rx": "rad", "ry": "rad", "rz": "rad",
+              "dx": "m", "dy": "m", "dz": "m"},
+    "spring_damper": {"length": "m", "length_rate": "m/s", "deflection": "m", "force": "N",
+                      "power": "W", "energy": "J"},
+    "rotational_spring_damper": {"angle": "rad", "angle_rate": "rad/s", "deflection": "rad",
+                                 "torque": "N m", "power": "W", "energy": "J"},
+    "point_force": {"fx": "N", "fy": "N", "fz": "N", "power": "W"},
+    "torque": {"mx": "N m", "my": "N m", "mz": "N m", "power": "W"},
+    "user": {"power": "W"},
+    "bushing": {"dx": "m", "dy": "m", "dz": "m", "rx": "rad", "ry": "rad", "rz": "rad",
+                "fx": "N", "fy": "N", "fz": "N", "mx": "N m", "my": "N m", "mz": "N m",
+                "power": "W", "energy": "J"},
+    #: any other force type (one element of its type in the model): power and energy
+    "*": {"power": "W", "energy": "J"},
+    "driver": {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s",
+               "effort": "N | N m", "power": "W"},
+    "momentum": {"px": "N s", "py": "N s", "pz": "N s",
+                 "hx": "N m s", "hy": "N m s", "hz": "N m s"},
+    "energy": {"kinetic": "J", "potential": "J"},
+    "imu": {"ax": "m/s^2", "ay": "m/s^2", "az": "m/s^2", "sfx": "m/s^2", "sfy": "m/s^2",
+            "sfz": "m/s^2", "wx": "rad/s", "wy": "rad/s", "wz": "rad/s"},
+}
+
+#: joint coordinates of each joint type (the rest get the generic relative pose)
+JOINT_COORDINATES = {
+    "revolute": ("angle",),
+    "translational": ("translation",),
+    "cylindrical": ("angle", "translation"),
+    "screw": ("angle", "translation"),
+    "planar": ("angle", "translation_a", "translation_b"),
+    "universal": ("angle_i", "angle_j"),
+    "spherical": ("rx", "ry", "rz"),
+}
+GENERIC_COORDINATES = ("dx", "dy", "dz", "rx", "ry", "rz")
+_ANGLES = {"angle", "angle_i", "angle_j", "rx", "ry", "rz"}
+
+
+# ============================================================================ requests
+@dataclass(frozen=True)
+class Output:
+    """One output request.
+
+    kind: "joint", "force", "driver", "momentum", "energy" or "imu".
+    of: the joint, force element or driver name; the body ("momentum", "energy": None = the
+        whole system); the named point "body.point" ("imu"). None for joint/force/driver: every
+        element of that kind.
+    name: column prefix (default: ``of``; "system" for the system; "<point>.imu" for an IMU).
+    about: momentum only -- angular momentum about this fixed point (global axes, m) instead
+        of about the centre of mass (of the body, or of the system).
+    """
+
+    kind: str
+    of: Optional[str] = None
+    name: Optional[str] = None
+    about: Optional[tuple] = None
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ModelError(f"output kind {self.kind!r} is not one of {', '.join(KINDS)} "
+                             "(or the shorthands joints, drivers, forces, bodies, all)")
+        if self.about is not None:
+            if self.kind != "momentum":
+                raise ModelError(f"output {self.label}: 'about' is for momentum outputs only")
+            about = np.asarray(self.about, dtype=float).reshape(-1)
+            if about.size != 3 or not np.all(np.isfinite(about)):
+                raise ModelError(f"output {self.label}: 'about' must be 3 finite numbers "
+                                 f"(a point in global axes, m), got {self.about!r}")
+            object.__setattr__(self, "about", tuple(float(x) for x in about))
+        if self.kind == "imu" and not self.of:
+            raise ModelError("an imu output needs the point it sits at: of='body.point'")
+
+    @property
+    def label(self) -> str:
+        return f"{self.kind}" + (f" {self.of!r}" if self.of else "")
+
+    @property
+    def prefix(self) -> str:
+        if self.name:
+            return self.name
+        if self.kind == "imu":
+            return f"{self.of}.imu"
+        return self.of or "system"
+
+    def to_dict(self) -> dict:
+        out = {"type": self.kind}
+        if self.of is not None:
+            out["of"] = self.of
+        if self.name is not None:
+            out["name"] = self.name
+        if self.about is not None:
+            out["about"] = list(self.about)
+        return out
+
+    @classmethod
+    def from_dict(cls, d) -> "Output":
+        if isinstance(d, Output):
+            return d
+        if not isinstance(d, dict):
+            raise ModelError(f"an output request is a mapping like {{type: joint, of: pivot}} "
+                             f"or one of joints, drivers, forces, bodies, all; got {d!r}")
+        extra = set(d) - {"type", "of", "name", "about"}
+        if extra:
+            raise ModelError(f"output {d!r}: unknown key(s) {sorted(extra)}; allowed: type, "
+                             "of, name, about")
+        if "type" not in d:
+            raise ModelError(f"output {d!r}: missing 'type' (one of {', '.join(KINDS)})")
+        return cls(str(d["type"]), d.get("of"), d.get("name"), d.get("about"))
+
+
+def parse_outputs(model, requests) -> list:
+    """The list of :class:`Output` named by ``requests`` (Output objects, dicts or the
+    shorthands "joints", "drivers", "forces", "bodies", "all"), checked against ``model``
+    (unknown names and duplicate column prefixes raise ModelError naming them)."""
+    if requests is None:
+        return []
+    if isinstance(requests, (str, dict, Output)):
+        requests = [requests]
+    out: list = []
+    for item in requests:
+        if isinstance(item, str):
+            out.extend(_expand(model, item))
+        else:
+            req = Output.from_dict(item)
+            if req.of is None and req.kind in ("joint", "force", "driver"):
+                out.extend(_expand(model, req.kind + "s"))
+            else:
+                out.append(req)
+    seen: dict = {}
+    for req in out:
+        _check_target(model, req)
+        key = (req.prefix, req.kind)
+        if key in seen and seen[key] != req:
+            raise ModelError(f"outputs {seen[key].label} and {req.label} would both write "
+                             f"columns {req.prefix}.*; give one of them a 'name'")
+        seen[key] = req
+    unique = []
+    for req in out:
+        if req not in unique:
+            unique.append(req)
+    return unique
+
+
+def _expand(model, word: str) -> list:
+    if word in SHORTHANDS:
+        kind = SHORTHANDS[word]
+        if kind == "joint":
+            return [Output("joint", n) for n in model.joint_names]
+        if kind == "driver":
+            return [Output("driver", n) for n in model.driver_names]
+        return [Output("force", n) for g in model.force_groups if _force_kind(g) is not None
+                for n in g.names]
+    if word == "bodies":
+        return [Output(k, b) for b in model.body_names for k in ("momentum", "energy")]
+    if word == "all":
+        return (_expand(model, "joints") + _expand(model, "drivers") + _expand(model, "forces")
+                + [Output("momentum"), Output("energy")] + _expand(model, "bodies"))
+    if word in ("momentum", "energy"):
+        return [Output(word)]
+    raise ModelError(f"unknown output {word!r}: use joints, drivers, forces, bodies, all, "
+                     "momentum, energy or a mapping like {type: joint, of: pivot}")
+
+
+def _check_target(model, req: Output) -> None:
+    def unknown(what, name, valid):
+        import difflib
+        close = difflib.get_close_matches(str(name), list(valid), n=1)
+        raise ModelError(f"output {req.label}: no {what} named {name!r}"
+                         + (f" (did you mean {close[0]!r}?)" if close else "")
+                         + f"; {what}s: {', '.join(valid) or 'none'}")
+    if req.kind == "joint" and req.of not in model.joint_names:
+        unknown("joint", req.of, model.joint_names)
+    if req.kind == "driver" and req.of not in model.driver_names:
+        unknown("driver", req.of, model.driver_names)
+    if req.kind == "force":
+        names = [n for g in model.force_groups for n in g.names]
+        if req.of not in names:
+            unknown("force element", req.of, names)
+    if req.kind in ("momentum", "energy") and req.of is not None and \
+            req.of not in model.body_names:
+        unknown("body", req.of, model.body_names)
+    if req.kind == "imu" and req.of not in model.points:
+        unknown("point", req.of, list(model.points))
+
+
+# ============================================================================ states over time
+class _Track:
+    """Body states at all output times, with the ground appended as body nb:
+    r, rdot, rddot, omega, omegadot (nt, nb+1, 3), A (nt, nb+1, 3, 3)."""
+
+    def __init__(self, results):
+        from .rotations import A_from_p
+        self.model = results.model
+        q = np.asarray(results.q, dtype=float)
+        v = np.asarray(results.v, dtype=float)
+        vdot = results.vdot
+        vdot = np.zeros_like(v) if vdot is None else np.asarray(vdot, dtype=float)
+        nt, nb = q.shape[0], q.shape[1]
+        self.t = np.asarray(results.t, dtype=float)
+        self.nt, self.nb = nt, nb
+
+        def pad(x):
+            return np.concatenate([x, np.zeros((nt, 1, x.shape[2]))], axis=1)
+        self.r = pad(q[:, :, :3])
+        p = q[:, :, 3:] / np.linalg.norm(q[:, :, 3:], axis=2, keepdims=True) if nb else \
+            q[:, :, 3:]
+        self.p = p
+        A = A_from_p(p) if nb else np.zeros((nt, 0, 3, 3))
+        self.A = np.concatenate([A, np.broadcast_to(np.eye(3), (nt, 1, 3, 3))], axis=1)
+        self.rdot, self.omega = pad(v[:, :, :3]), pad(v[:, :, 3:])
+        self.rddot, self.omegadot = pad(vdot[:, :, :3]), pad(vdot[:, :, 3:])
+
+    def vector(self, body, local):
+        """A body-fixed vector (global axes) and its rate omega x e: (nt, 3) each."""
+        e = self.A[:, body] @ np.asarray(local, dtype=float)
+        return e, np.cross(self.omega[:, body], e)
+
+    def point(self, body, local):
+        """Position, velocity and acceleration (5.8)-(5.9) of a body point: (nt, 3) each."""
+        s = self.A[:, body] @ np.asarray(local, dtype=float)
+        w, wd = self.omega[:, body], self.omegadot[:, body]
+        return (self.r[:, body] + s, self.rdot[:, body] + np.cross(w, s),
+                self.rddot[:, body] + np.cross(wd, s) + np.cross(w, np.cross(w, s)))
+
+
+def _dot(a, b):
+    return np.einsum("ni,ni->n", a, b)
+
+
+def _angle(e1, e1d, e2, e2d, f, fd):
+    """theta = atan2(e2 . f, e1 . f) and its rate (x ydot - y xdot) / (x^2 + y^2), unwrapped."""
+    x, y = _dot(e1, f), _dot(e2, f)
+    xd, yd = _dot(e1d, f) + _dot(e1, fd), _dot(e2d, f) + _dot(e2, fd)
+    theta = np.unwrap(np.arctan2(y, x)) if x.size else x
+    return theta, (x * yd - y * xd) / (x * x + y * y)
+
+
+def _bryant(C, w):
+    """Bryant angles (x-y-z) of the rotation matrices C (nt, 3, 3) and their rates from the
+    relative angular velocity w (nt, 3) in the first frame:
+    w = e_x rx' + Rx e_y ry' + Rx Ry e_z rz'."""
+    rx = np.arctan2(-C[:, 1, 2], C[:, 2, 2])
+    ry = np.arcsin(np.clip(C[:, 0, 2], -1.0, 1.0))
+    rz = np.arctan2(-C[:, 0, 1], C[:, 0, 0])
+    if rx.size:
+        rx, rz = np.unwrap(rx), np.unwrap(rz)
+    c1, s1, c2, s2 = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rz_d = (c1 * w[:, 2] - s1 * w[:, 1]) / c2
+    ry_d = c1 * w[:, 1] + s1 * w[:, 2]
+    rx_d = w[:, 0] - s2 * rz_d
+    return (rx, ry, rz), (rx_d, ry_d, rz_d)
+
+
+# ============================================================================ joints
+def joint_coordinates(results, joint: str) -> dict:
+    """Coordinates and rates of one joint over time: {"angle": (nt,), "angle_rate": ...}
+    (the coordinates of each joint type and their sign conventions: module docstring)."""
+    return _joint(_Track(results), results.model, joint)
+
+
+def _joint(tr: _Track, model, joint: str) -> dict:
+    g, k, _ = model.element(joint)
+    if g.rheonomic:
+        raise ModelError(f"{joint!r} is a driver; request it as a driver output")
+    bi, bj = int(g.body_i[k]), int(g.body_j[k])
+    geo = g.geometry
+    Ri, Rj = geo.R_i[k], geo.R_j[k]
+    u_i, a_i, b_i = (tr.vector(bi, Ri[:, c]) for c in range(3))
+    u_j, a_j, b_j = (tr.vector(bj, Rj[:, c]) for c in range(3))
+    Pi, vPi, _ = tr.point(bi, geo.s_i[k])
+    Pj, vPj, _ = tr.point(bj, geo.s_j[k])
+    d, dd = Pj - Pi, vPj - vPi
+
+    def along(e):                      # e . d and its rate
+        return _dot(e[0], d), _dot(e[1], d) + _dot(e[0], dd)
+
+    out = {}
+    kind = g.name
+    coords = JOINT_COORDINATES.get(kind, GENERIC_COORDINATES)
+    if "angle" in coords:
+        out["angle"], out["angle_rate"] = _angle(*a_i, *b_i, *a_j)
+    if kind in ("translational", "cylindrical", "screw"):
+        out["translation"], out["translation_rate"] = along(u_i)
+    if kind == "planar":
+        out["translation_a"], out["translation_a_rate"] = along(a_i)
+        out["translation_b"], out["translation_b_rate"] = along(b_i)
+    if kind == "universal":
+        # angle of the cross (u_j) about u_i, and of body j about u_j relative to the cross
+        # (u_i seen from j turns the other way); zero at the model's initial configuration
+        th1, th1d = _angle(*a_i, *b_i, *u_j)
+        th2, th2d = _angle(*a_j, *b_j, *u_i)
+        th2, th2d = -th2, -th2d
+        z1, z2 = _universal_offsets(model, bi, bj, Ri, Rj)
+        out["angle_i"], out["angle_i_rate"] = _shift(th1, z1), th1d
+        out["angle_j"], out["angle_j_rate"] = _shift(th2, -z2), th2d
+    if "rx" in coords:
+        Ti = np.stack([u_i[0], a_i[0], b_i[0]], axis=2)
+        Tj = np.stack([u_j[0], a_j[0], b_j[0]], axis=2)
+        C = np.einsum("nji,njk->nik", Ti, Tj)
+        w = np.einsum("nji,nj->ni", Ti, tr.omega[:, bj] - tr.omega[:, bi])
+        angles, rates = _bryant(C, w)
+        if "dx" in coords:
+            dl = np.einsum("nji,nj->ni", Ti, d)
+            # d/dt (T_i^T d) = T_i^T (ddot - omega_i x d)
+            dld = np.einsum("nji,nj->ni", Ti, dd - np.cross(tr.omega[:, bi], d))
+            for c, name in enumerate(("dx", "dy", "dz")):
+                out[name], out[name + "_rate"] = dl[:, c], dld[:, c]
+        for name, a, ad in zip(("rx", "ry", "rz"), angles, rates):
+            out[name], out[name + "_rate"] = a, ad
+    return out
+
+
+def _universal_offsets(model, bi, bj, Ri, Rj):
+    """The two raw universal-joint angles at the model's initial configuration."""
+    from .rotations import A_from_p
+
+    def A(b):
+        return np.eye(3) if b == model.nb else A_from_p(np.asarray(model.q0[b, 3:]))
+    Ai, Aj = A(bi), A(bj)
+    ui, ai, bbi = (Ai @ Ri[:, c] for c in range(3))
+    uj, aj, bbj = (Aj @ Rj[:, c] for c in range(3))
+    return math.atan2(bbi @ uj, ai @ uj), math.atan2(bbj @ ui, aj @ ui)
+
+
+def _shift(theta, zero):
+    """theta - zero, with the 2 pi multiple chosen so that the first value is nearest zero."""
+    if not theta.size:
+        return theta
+    x = theta - zero
+    return x - 2 * np.pi * np.round(x[0] / (2 * np.pi))
+
+
+# ============================================================================ force elements
+def force_outputs(results, element: str) -> dict:
+    """Outputs of one force element over time (quantities by type: :data:`QUANTITIES`).
+
+    Each element is evaluated by its own force law (the methods the dynamics uses), so the
+    outputs are exactly the forces that acted in the analysis."""
+    return _force(results, results.model, element)
+
+
+def _force_group(model, element):
+    for g in model.force_groups:
+        if element in g.names:
+            return g, g.names.index(element)
+    names = [n for g in model.force_groups for n in g.names]
+    raise ModelError(f"no force element named {element!r}; force elements: "
+                     f"{', '.join(names) or 'none'}")
+
+
+def _force_kind(g):
+    """The QUANTITIES key of a force group: its type, "*" (another type, one element), or
+    None (another type with several elements: they cannot be told apart)."""
+    if g.name in QUANTITIES:
+        return g.name
+    return "*" if g.n == 1 else None
+
+
+def _states(results) -> list:
+    from .state import BodyState
+    return [BodyState.from_qv(results.q[k], results.v[k], results.t[k])
+            for k in range(len(results.t))]
+
+
+def _force(results, model, element: str, states=None) -> dict:
+    g, i = _force_group(model, element)
+    nt = len(results.t)
+    kind = _force_kind(g)
+    if kind is None:
+        raise ModelError(f"force element {element!r}: no outputs for elements of type "
+                         f"{g.name!r} when the model has several of them")
+    cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
+    for k, state in enumerate(_states(results) if states is None else states):
+        t = float(results.t[k])
+        if kind == "spring_damper":
+            # Eqs. (11.5)-(11.10) for instance i
+            A_i, A_j = state.A[g.bi[i]], state.A[g.bj[i]]
+            si, sj = A_i @ g.s_i[i], A_j @ g.s_j[i]
+            lvec = state.r[g.bj[i]] + sj - state.r[g.bi[i]] - si
+            ldvec = (state.rdot[g.bj[i]] + np.cross(state.omega[g.bj[i]], sj)
+                     - state.rdot[g.bi[i]] - np.cross(state.omega[g.bi[i]], si))
+            length = float(np.linalg.norm(lvec))
+            ldot = float(lvec @ ldvec) / length
+            f = g.k[i] * (length - g.l0[i]) + g.c[i] * ldot + g.law_values(t)[i, 0]
+            cols["length"][k], cols["length_rate"][k] = length, ldot
+            cols["deflection"][k] = length - g.l0[i]
+            cols["force"][k] = f
+            cols["power"][k] = -f * ldot            # f u on i, -f u on j: -f ldot
+            cols["energy"][k] = 0.5 * g.k[i] * (length - g.l0[i]) ** 2
+        elif kind == "rotational_spring_damper":
+            from .constraints.primitives import relative_angle
+            theta, _, thetad, _ = relative_angle(state, g.bi[i:i + 1], g.bj[i:i + 1],
+                                                 g.R_i[i:i + 1], g.R_j[i:i + 1])
+            dtheta = float(np.remainder(theta[0] - g.theta0[i] + np.pi, 2 * np.pi) - np.pi)
+            tau = -(g.k[i] * dtheta + g.c[i] * thetad[0] + g.law_values(t)[i, 0])
+            cols["angle_rate"][k], cols["deflection"][k] = thetad[0], dtheta
+            cols["torque"][k] = tau
+            cols["power"][k] = tau * thetad[0]      # generalized force tau D_theta: tau thetadot
+            cols["energy"][k] = 0.5 * g.k[i] * dtheta ** 2
+        elif kind in ("point_force", "torque"):
+            b = g.body[i]
+            direction = state.A[b] @ g.direction[i] if g.in_body[i] else g.direction[i]
+            vec = g.law_values(t)[i, 0] * direction
+            if kind == "point_force":
+                s = state.A[b] @ g.point[i]
+                vP = state.rdot[b] + np.cross(state.omega[b], s)
+                cols["fx"][k], cols["fy"][k], cols["fz"][k] = vec
+                cols["power"][k] = vec @ vP
+            else:
+                cols["mx"][k], cols["my"][k], cols["mz"][k] = vec
+                cols["power"][k] = vec @ state.omega[b]
+        elif kind == "bushing":
+            # bushing axes of body i; the force and moment the bushing applies ON body j
+            delta, deltadot, theta, thetadot, fl, ml = g.deflections(state, i)
+            for c, axis in enumerate("xyz"):
+                cols["d" + axis][k], cols["r" + axis][k] = delta[c], theta[c]
+                cols["f" + axis][k], cols["m" + axis][k] = -fl[c], -ml[c]
+            cols["power"][k] = -(deltadot @ fl
+                                 + thetadot @ (g.Kr[i] * theta + g.Cr[i] * thetadot))
+            cols["energy"][k] = 0.5 * (g.Kt[i] @ delta ** 2 + g.Kr[i] @ theta ** 2)
+        elif kind == "*":
+            # the only element of its type: its generalized forces on every body, Eq. (10.6)
+            gen = np.zeros((state.r.shape[0], 6))
+            g.evaluate(state, t, gen)
+            v = np.concatenate([state.rdot, state.omega], axis=1)
+            cols["power"][k] = float(np.sum(gen[:-1] * v[:-1]))
+            cols["energy"][k] = g.potential_energy(state, t)
+        elif kind == "user":
+            f, n = g.functions[i](t, results.q[k], results.v[k])
+            v = np.asarray(results.v[k])
+            cols["power"][k] = float(np.sum(np.asarray(f) * v[:, :3])
+                                     + np.sum(np.asarray(n) * v[:, 3:]))
+    if kind == "rotational_spring_damper":
+        # the joint angle itself, unwrapped (the deflection stays wrapped, as the element uses it)
+        cols["angle"] = np.unwrap(g.theta0[i] + cols["deflection"]) if nt else cols["angle"]
+    return cols
+
+
+# ============================================================================ drivers
+def driver_outputs(results, driver: str) -> dict:
+    """coordinate, coordinate_rate, effort and power of one driver over time (module
+    docstring: effort = lam of the driver's equation, power = effort * coordinate_rate)."""
+    return _driver(_Track(results), results, driver)
+
+
+def _driver(tr: _Track, results, driver: str) -> dict:
+    model = results.model
+    g, k, rows = model.element(driver)
+    if not g.rheonomic:
+        raise ModelError(f"{driver!r} is a joint, not a driver; request it as a joint output")
+    bi, bj = int(g.body_i[k]), int(g.body_j[k])
+    geo = g.geometry
+    if g.name == "angle":
+        Ri, Rj = geo.R_i[k], geo.R_j[k]
+        a_i, b_i = tr.vector(bi, Ri[:, 1]), tr.vector(bi, Ri[:, 2])
+        a_j = tr.vector(bj, Rj[:, 1])
+        x, xd = _angle(*a_i, *b_i, *a_j)
+        if x.size:                     # the turn the prescribed angle f(t0) is in
+            f0 = float(g.law_values(float(tr.t[0]))[k, 0])
+            x = x + 2 * np.pi * np.round((f0 - x[0]) / (2 * np.pi))
+    elif g.name == "translation":
+        u_i = tr.vector(bi, geo.R_i[k][:, 0])
+        Pi, vPi, _ = tr.point(bi, geo.s_i[k])
+        Pj, vPj, _ = tr.point(bj, geo.s_j[k])
+        d, dd = Pj - Pi, vPj - vPi
+        x, xd = _dot(u_i[0], d), _dot(u_i[1], d) + _dot(u_i[0], dd)
+    else:
+        c = int(g.coordinate[k])
+        if c < 3:
+            x, xd = tr.r[:, bi, c].copy(), tr.rdot[:, bi, c].copy()
+        else:
+            from .rotations import pdot_from_omega
+            x = tr.p[:, bi, c - 3]
+            xd = pdot_from_omega(tr.p[:, bi], tr.omega[:, bi])[:, c - 3]
+    lam = getattr(results, "lam", None)
+    if lam is None:
+        effort = np.full(tr.nt, np.nan)
+    else:
+        effort = np.asarray(lam)[:, rows.start]
+    return dict(coordinate=x, coordinate_rate=xd, effort=effort, power=effort * xd)
+
+
+# ============================================================================ momentum, energy
+def _inertia_global(tr: _Track, model):
+    A = tr.A[:, :tr.nb]
+    return A @ model.inertia[None] @ np.swapaxes(A, 2, 3)
+
+
+def momentum(results, body: Optional[str] = None, about=None) -> dict:
+    """Linear momentum p = m rdot (N s) and angular momentum h (N m s), global axes, of one
+    body or (body None) the whole system: h about the centre of mass (of the body or of the
+    system) or, with ``about`` (3,), about that fixed point: h_O = sum J omega + (r - O) x m rdot.
+    Returns px, py, pz, hx, hy, hz, each (nt,)."""
+    return _momentum(_Track(results), results.model, body, about)
+
+
+def _momentum(tr: _Track, model, body, about) -> dict:
+    m = model.mass
+    nb = tr.nb
+    rdot, r, w = tr.rdot[:, :nb], tr.r[:, :nb], tr.omega[:, :nb]
+    J = _inertia_global(tr, model)
+    p_b = m[None, :, None] * rdot                              # (nt, nb, 3)
+    h_b = np.einsum("tnij,tnj->tni", J, w)                     # about each centre of mass
+    if body is not None:
+        k = model.body_index(body)
+        sel = slice(k, k + 1)
+    else:
+        sel = slice(0, nb)
+    msel = m[sel]
+    if about is not None:
+        O = np.broadcast_to(np.asarray(about, dtype=float), (tr.nt, 3))
+    elif body is not None:
+        O = r[:, sel][:, 0]
+    else:
+        O = np.einsum("n,tni->ti", msel, r[:, sel]) / msel.sum()     # system centre of mass
+    p = p_b[:, sel].sum(axis=1)
+    h = (h_b[:, sel] + np.cross(r[:, sel] - O[:, None], p_b[:, sel])).sum(axis=1)
+    return dict(px=p[:, 0], py=p[:, 1], pz=p[:, 2], hx=h[:, 0], hy=h[:, 1], hz=h[:, 2])
+
+
+def body_energy(results, body: Optional[str] = None) -> dict:
+    """Kinetic energy 1/2 m rdot^2 + 1/2 omega^T J omega and gravitational potential energy
+    -m g^T r (J, zero at r = 0) of one body, or summed over all bodies (body None)."""
+    return _energy(_Track(results), results.model, body)
+
+
+def _energy(tr: _Track, model, body) -> dict:
+    nb = tr.nb
+    m = model.mass
+    J = _inertia_global(tr, model)
+    w = tr.omega[:, :nb]
+    kin = 0.5 * m[None] * np.sum(tr.rdot[:, :nb] ** 2, axis=2) \
+        + 0.5 * np.einsum("tni,tnij,tnj->tn", w, J, w)
+    pot = -np.einsum("n,tni,i->tn", m, tr.r[:, :nb], model.gravity)
+    if body is not None:
+        k = model.body_index(body)
+        return dict(kinetic=kin[:, k], potential=pot[:, k])
+    return dict(kinetic=kin.sum(axis=1), potential=pot.sum(axis=1))
+
+
+# ============================================================================ IMU
+def imu(results, point: str) -> dict:
+    """What an inertial measurement unit fixed at ``point`` ("body.point") measures, in the
+    body's axes: acceleration a of the point (ax, ay, az; m/s^2), specific force a - g (sfx,
+    sfy, sfz; what an accelerometer reads: +9.81 upwards at rest) and angular velocity
+    (wx, wy, wz; rad/s)."""
+    return _imu(_Track(results), results.model, point)
+
+
+def _imu(tr: _Track, model, point: str) -> dict:
+    if point not in model.points:
+        raise ModelError(f"no named point {point!r}; points: {', '.join(model.points) or 'none'}")
+    body, local = model.points[point]
+    _, _, acc = tr.point(body, local)
+    A = tr.A[:, body]
+    to_body = lambda x: np.einsum("nji,nj->ni", A, x)  # noqa: E731  A^T x
+    a = to_body(acc)
+    sf = to_body(acc - np.asarray(model.gravity, dtype=float)[None])
+    w = to_body(tr.omega[:, body])
+    out = {}
+    for tag, arr in (("a", a), ("sf", sf), ("w", w)):
+        for c, axis in enumerate("xyz"):
+            out[f"{tag}{axis}"] = arr[:, c]
+    return out
+
+
+# ============================================================================ all requests
+def compute_outputs(results, requests=None) -> dict:
+    """Columns {"<prefix>.<quantity>": (nt,)} of the requested outputs (default: the
+    results' own requests, ``results.output_requests``), in request order."""
+    model = results.model
+    reqs = parse_outputs(model, getattr(results, "output_requests", None)
+                         if requests is None else requests)
+    if not reqs:
+        return {}
+    tr = _Track(results)
+    states = _states(results) if any(r.kind == "force" for r in reqs) else None
+    cols: dict = {}
+    for req in reqs:
+        if req.kind == "joint":
+            part = _joint(tr, model, req.of)
+        elif req.kind == "force":
+            part = _force(results, model, req.of, states)
+        elif req.kind == "driver":
+            part = _driver(tr, results, req.of)
+        elif req.kind == "momentum":
+            part = _momentum(tr, model, req.of, req.about)
+        elif req.kind == "energy":
+            part = _energy(tr, model, req.of)
+        else:
+            part = _imu(tr, model, req.of)
+        for q, arr in part.items():
+            cols[f"{req.prefix}.{q}"] = np.asarray(arr, dtype=float)
+    return cols
+
+
+def output_units(results, requests=None) -> dict:
+    """{column: unit} of the requested outputs (units of drivers from their kind)."""
+    model = results.model
+    reqs = parse_outputs(model, getattr(results, "output_requests", None)
+                         if requests is None else requests)
+    units: dict = {}
+    for req in reqs:
+        if req.kind == "joint":
+            g, _, _ = model.element(req.of)
+            names = JOINT_COORDINATES.get(g.name, GENERIC_COORDINATES)
+            for n in names:
+                u = QUANTITIES["joint"][n]
+                units[f"{req.prefix}.{n}"] = u
+                units[f"{req.prefix}.{n}_rate"] = u + "/s"
+        elif req.kind == "force":
+            g, _ = _force_group(model, req.of)
+            for n, u in QUANTITIES[_force_kind(g) or "*"].items():
+                units[f"{req.prefix}.{n}"] = u
+        elif req.kind == "driver":
+            g, _, _ = model.element(req.of)
+            rad = g.name == "angle"
+            lin = g.name == "translation" or (g.coordinate is not None and
+                                              int(g.coordinate[model.element(req.of)[1]]) < 3)
+            base = "rad" if rad else ("m" if lin else "1")
+            eff = "N m" if rad else ("N" if lin else "N m")
+            units.update({f"{req.prefix}.coordinate": base,
+                          f"{req.prefix}.coordinate_rate": base + "/s",
+                          f"{req.prefix}.effort": eff, f"{req.prefix}.power": "W"})
+        else:
+            for n, u in QUANTITIES[req.kind].items():
+                units[f"{req.prefix}.{n}"] = u
+    return units
+
+
+def column_units(columns: Iterable[str], units: Optional[dict] = None) -> dict:
+    """Unit of every column name that has a known one: from ``units`` (e.g. a table's
+    ``attrs["units"]``), else from the standard columns' suffixes."""
+    units = dict(units or {})
+    std = {**{c: "m" for c in ("x", "y", "z")}, **{c: "1" for c in ("e0", "e1", "e2", "e3")},
+           **{c: "m/s" for c in ("vx", "vy", "vz")},
+           **{c: "rad/s" for c in ("wx", "wy", "wz")},
+           **{c: "m/s^2" for c in ("ax", "ay", "az")},
+           **{c: "rad/s^2" for c in ("alphax", "alphay", "alphaz")},
+           **{c: "N" for c in ("fx", "fy", "fz")}, **{c: "N m" for c in ("mx", "my", "mz")},
+           "t": "s"}
+    # the output quantities whose unit does not depend on the element type
+    by_quantity: dict = {}
+    for table in QUANTITIES.values():
+        for q, u in table.items():
+            by_quantity.setdefault(q, set()).add(u)
+            if u in ("rad", "m"):
+                by_quantity.setdefault(q + "_rate", set()).add(u + "/s")
+    known = {q: next(iter(u)) for q, u in by_quantity.items() if len(u) == 1 and "|" not in
+             next(iter(u))}
+    out = {}
+    for c in columns:
+        last = c.rsplit(".", 1)[-1]
+        if c in units:
+            out[c] = units[c]
+        elif c == "t":
+            out[c] = "s"
+        elif c.startswith("energy."):
+            out[c] = "J"
+        elif c.startswith(("violation.", "newton.")):
+            continue
+        elif ".imu." in c and last in QUANTITIES["imu"]:
+            out[c] = QUANTITIES["imu"][last]
+        elif last in std:
+            out[c] = std[last]
+        elif last in known and "." in c:
+            out[c] = known[last]
+    return out
+
+
+# ============================================================================ xarray
+def to_xarray(results):
+    """An xarray Dataset of a result: q (time, body, q_component), v and vdot (time, body,
+    v_component), lam (time, equation) when present, and every table column as a variable
+    over time (named as in the table). Needs the optional extra ``spatialmbd[xarray]``."""
+    try:
+        import xarray as xr
+    except ImportError:
+        raise ImportError("to_xarray needs xarray: pip install 'spatialmbd[xarray]'") from None
+    table = results.to_dataframe()
+    t = np.asarray(results.t, dtype=float)
+    model = getattr(results, "model", None)
+    names = list(model.body_names) if model is not None else list(results.body_names)
+    data = {
+        "q": (("time", "body", "q_component"), np.asarray(results.q)),
+        "v": (("time", "body", "v_component"), np.asarray(results.v)),
+        "vdot": (("time", "body", "v_component"), np.asarray(results.vdot)),
+    }
+    lam = getattr(results, "lam", None)
+    if lam is not None:
+        data["lam"] = (("time", "equation"), np.asarray(lam))
+    for c in table.columns:
+        if c != "t":
+            data[c] = (("time",), table[c].to_numpy())
+    ds = xr.Dataset(data, coords={"time": t, "body": names,
+                                  "q_component": ["x", "y", "z", "e0", "e1", "e2", "e3"],
+                                  "v_component": ["vx", "vy", "vz", "wx", "wy", "wz"]})
+    ds["time"].attrs["units"] = "s"
+    for c, u in column_units(table.columns, table.attrs.get("units")).items():
+        if c in ds:
+            ds[c].attrs["units"] = u
+    return ds

@@ -1,0 +1,103 @@
+"""The documentation: the reference builds (a broken reference fails), the worked examples of
+the pages run, and nothing user-visible points outside the repository."""
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+#: pages whose Python examples are run here (the others are reference tables)
+RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md")
+
+
+def _mkdocs(config: Path, site: Path):
+    pytest.importorskip("mkdocs")
+    pytest.importorskip("mkdocstrings")
+    return subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q",
+                           "-f", str(config), "-d", str(site)],
+                          cwd=config.parent, capture_output=True, text=True, timeout=120)
+
+
+def test_reference_documentation_builds(tmp_path):
+    out = _mkdocs(ROOT / "mkdocs.yml", tmp_path / "site")
+    assert out.returncode == 0, out.stderr + out.stdout
+    api = (tmp_path / "site" / "api" / "index.html").read_text()
+    # the API page holds the docstrings themselves, not just headings
+    for text in ("Forward dynamics of", "One output request", "Write", "A new ModelBuilder"):
+        assert text in api, text
+    for page in ("getting-started", "kinematics", "dynamics", "outputs", "model-file",
+                 "errata"):
+        assert (tmp_path / "site" / page / "index.html").exists(), page
+
+
+def test_a_broken_reference_fails_the_build(tmp_path):
+    """The same configuration on a page naming an object that does not exist."""
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "index.md").write_text("# API\n\n::: spatialmbd.simulate.no_such_function\n")
+    config = (ROOT / "mkdocs.yml").read_text()
+    config = re.sub(r"(?ms)^nav:.*?^(?=theme:)", "nav:\n  - API: index.md\n", config)
+    config = config.replace("paths: [src]", f"paths: [{ROOT / 'src'}]")
+    (tmp_path / "mkdocs.yml").write_text(config)
+    out = _mkdocs(tmp_path / "mkdocs.yml", tmp_path / "site")
+    assert out.returncode != 0
+    assert "no_such_function" in out.stderr + out.stdout
+
+
+def _python_blocks(page: str) -> list:
+    return re.findall(r"```python\n(.*?)```", (DOCS / page).read_text(), re.S)
+
+
+def test_worked_examples_of_the_pages_run(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)                        # they write files
+    spaces = {}
+    for page in RUN_PAGES:
+        blocks = _python_blocks(page)
+        assert blocks, page
+        namespace = spaces[page] = {}
+        for k, code in enumerate(blocks):
+            try:
+                exec(compile(code, f"{page}[{k}]", "exec"), namespace)
+            except ImportError as exc:                 # optional extras (xarray)
+                if "xarray" not in str(exc):
+                    raise
+    # values the pages state: the pendulum swings to the other horizontal (energy conserved)
+    assert spaces["getting-started.md"]["out"]["pivot.angle"].min() == \
+        pytest.approx(-np.pi, abs=0.02)
+    assert spaces["getting-started.md"]["units"]["pivot.angle"] == "rad"
+    assert spaces["outputs.md"]["out"].attrs["units"]["spiral.torque"] == "N m"
+
+
+USER_VISIBLE = ["src", "docs", "examples", "README.md", "mkdocs.yml", "pyproject.toml"]
+
+
+def test_nothing_user_visible_refers_outside_the_repository():
+    pattern = re.compile(r"\.\./shared|/work/shared|shared/(seed|benchdata)")
+    bad = []
+    for entry in USER_VISIBLE:
+        path = ROOT / entry
+        files = [path] if path.is_file() else [p for p in path.rglob("*") if p.is_file()]
+        for f in files:
+            if f.suffix in (".png", ".pyc", ".ico", ".woff", ".woff2") or "__pycache__" in f.parts:
+                continue
+            try:
+                text = f.read_text()
+            except UnicodeDecodeError:
+                continue
+            for n, line in enumerate(text.splitlines(), 1):
+                if pattern.search(line):
+                    bad.append(f"{f.relative_to(ROOT)}:{n}: {line.strip()[:100]}")
+    assert not bad, "\n".join(bad)
+
+
+def test_outputs_example_script_runs(tmp_path, capsys):
+    import runpy
+    script = runpy.run_path(str(ROOT / "examples" / "outputs_slider_crank.py"))
+    stroke_error, work, change = script["main"](tmp_path)
+    assert stroke_error < 1e-9                                   # m, against the closed form
+    assert np.abs(work - change).max() < 1e-4 * np.abs(change).max()
+    assert (tmp_path / "slider_crank_outputs.png").stat().st_size > 1000
