@@ -132,8 +132,9 @@ def test_schedulers_give_identical_ordered_results_and_failures_are_recorded():
 
 
 # ------------------------------------------------------------------------------ batch engine
-@pytest.mark.parametrize("integrator", ["rk45", "rk4"])
-def test_batch_equals_separate_runs_slider_crank(integrator):
+@pytest.mark.parametrize("integrator,method", [("rk45", "standard"), ("rk4", "standard"),
+                                               ("rk45", "projection"), ("rk4", "projection")])
+def test_batch_equals_separate_runs_slider_crank(integrator, method):
     from spatialmbd.io import Analysis
     from spatialmbd.sweep.batch import simulate_batch
     base = slider_crank(driven=False)
@@ -142,7 +143,7 @@ def test_batch_equals_separate_runs_slider_crank(integrator):
         b = slider_crank(driven=False, crank_speed=speed)
         b.bodies["rod"].mass = mass
         models.append(b.compile())
-    an = Analysis(t_end=0.3, output_step=0.01, integrator=integrator,
+    an = Analysis(t_end=0.3, output_step=0.01, integrator=integrator, method=method,
                   rtol=1e-8 if integrator == "rk45" else None,
                   atol=1e-10 if integrator == "rk45" else None,
                   step=2e-3 if integrator == "rk4" else None)
@@ -213,7 +214,7 @@ def test_result_formats_dataframe_and_files(tmp_path):
 
 # ------------------------------------------------------------------------------ sensitivities
 def test_sensitivities_finite_differences_against_forward():
-    analysis = dict(type="dynamic", t_end=3.2, output_step=0.02,
+    analysis = dict(type="dynamic", t_end=3.2, output_step=0.02, method=dict(name="standard"),
                     integrator=dict(name="rk4", step=4e-3))
     params = {"bodies.pendulum.mass": None, "bodies.pendulum.inertia.0": None}
     outs = ["final(pendulum.z)", "max(pendulum.wx)", "period(pendulum.wx)",
@@ -231,6 +232,9 @@ def test_sensitivities_finite_differences_against_forward():
     assert np.all(np.abs(d_fd - d_fw) <= 1e-6 * np.abs(d_fw) + 10 * err)
     assert np.all(err < 1e-5 * np.abs(d_fw))
     np.testing.assert_allclose(fw["nominal"].values, fd["nominal"].values, rtol=1e-12)
+    with pytest.raises(ModelError, match="projection step"):
+        forward_sensitivities(PENDULUM, ["bodies.pendulum.mass"], ["final(pendulum.z)"],
+                              dict(analysis, method=dict(name="projection")))
     # the period of a compound pendulum depends on I_pivot / (m d): dT/dI_cm > 0, dT/dm < 0
     k = outs.index("period(pendulum.wx)")
     assert d_fw[k, 0] < 0 < d_fw[k, 1]

@@ -10,8 +10,9 @@ members that integrates each with the same compiled right-hand side as :func:`si
 
 * ``rk45``: Dormand-Prince 5(4) with per-member step control -- the same arithmetic as
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` (Hairer's starting step, the PI
-  controller with beta = 0.04, FSAL, Shampine's dense output, p renormalised after every
-  accepted step and at every output), so a member's result equals its separate run to round-off;
+  controller with beta = 0.04, FSAL, Shampine's dense output, p renormalised -- and with the
+  projection method q and v projected, the FSAL derivative re-evaluated -- after every accepted
+  step and at every output), so a member's result equals its separate run to round-off;
 * ``rk4``: classic RK4 with a common fixed step, landing on every output time as
   :class:`..integrators.fixed_step.RungeKutta4` does.
 
@@ -20,9 +21,10 @@ side fails (singular S, non-finite values) or whose step size underflows stops w
 code and is reported as failed; the others continue.
 
 Scope (checked, with a ModelError naming what is not supported): dynamic analyses with the
-"standard" or "baumgarte" method; models whose right-hand side is fully compiled (every joint
-type compiled, no force elements: spring-dampers and user forces run in Python) and without
-drivers (their motion laws are Python callables); no redundant constraints. Models outside it
+"standard", "baumgarte" or "projection" method (where simulate() would fall back to least
+squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
+fully compiled (every joint type compiled) and without force elements (their parameters are
+not in the packed model floats) or drivers (their motion laws are Python callables); no redundant constraints. Models outside it
 run through :func:`simulate` one by one (``engine="simulate"``).
 """
 from __future__ import annotations
@@ -49,12 +51,14 @@ __all__ = ["simulate_batch", "BatchSetup", "run_members_batched", "STATUS_TEXT"]
 EPS = float(np.finfo(float).eps)
 
 #: member status codes of the compiled loop
-OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS = 0, 1, 2, 3, 4
+OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
 STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jacobian or "
                            "non-finite accelerations)",
                UNDERFLOW: "step size underflow (error test failed repeatedly)",
                NOT_FINITE_STATE: "the state became non-finite",
-               TOO_MANY_STEPS: "more steps than max_steps"}
+               TOO_MANY_STEPS: "more steps than max_steps",
+               NOT_PROJECTED: "the projection onto the constraints failed (D D^T singular or "
+                              "Newton not converged)"}
 
 
 # ------------------------------------------------------------------------------ compiled part
@@ -95,7 +99,21 @@ def _outputs_at(t_out, Y, Yd, Lam, F, I, W, mp, nb, lam_off, m):
 
 
 @njit
-def _dopri_member(y0, F, I, W, mp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y, counters):
+def _project(t, y, F, I, W, pp, nb, dx):
+    """The projection of simulate(): Euler parameters renormalised, and with the projection
+    method (pp = [projects, tolerance, max_iterations]) q and v projected onto Phi = 0 and
+    D v = nu (Eqs. 14.12, 14.19). False if the projection failed."""
+    cs.normalize_y(y, nb)
+    if pp[0] == 0.0:
+        return True
+    for i in range(dx.size):
+        dx[i] = 0.0
+    return cs.project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
+
+
+@njit
+def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y,
+                  counters):
     """One member by Dormand-Prince 5(4); outputs into Y (nt, n). Returns (status, t)."""
     n = y0.size
     K = np.empty((7, n))
@@ -106,6 +124,8 @@ def _dopri_member(y0, F, I, W, mp, t0, t_out, rtol, atol, max_step, max_steps, n
     yo = np.empty(n)
     scale = np.empty(n)
     atol_v = np.full(n, atol)
+    Kd = np.empty((7, n))
+    dx = np.zeros(6 * nb)
     t = t0
     t_end = t_out[-1]
     span = t_end - t
@@ -186,9 +206,19 @@ def _dopri_member(y0, F, I, W, mp, t0, t_out, rtol, atol, max_step, max_steps, n
         after_reject = False
         for i in range(n):
             y_raw[i] = y_new[i]
-        cs.normalize_y(y_new, nb)                    # the projection of simulate()
+        if not _project(t_new, y_new, F, I, W, pp, nb, dx):   # the projection of simulate()
+            return NOT_PROJECTED, t_new
+        changed = False
         for i in range(n):
             delta[i] = y_new[i] - y_raw[i]
+            changed = changed or delta[i] != 0.0
+        for j in range(7):
+            for i in range(n):
+                Kd[j, i] = K[j, i]                   # the stages of the interpolant
+        if pp[0] != 0.0 and changed:                 # FSAL derivative at the projected state
+            if cs.rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
+                return RHS_FAILED, t_new
+            counters[0] += 1
         if not _finite(y_new):
             return NOT_FINITE_STATE, t_new
         while k_out < nt and t_out[k_out] <= t_new:
@@ -197,8 +227,9 @@ def _dopri_member(y0, F, I, W, mp, t0, t_out, rtol, atol, max_step, max_steps, n
                 for i in range(n):
                     Y[k_out, i] = y_new[i]
             else:
-                dopri_interpolate(y, hs, K, (to - t) / hs, delta, yo)
-                cs.normalize_y(yo, nb)
+                dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
+                if not _project(to, yo, F, I, W, pp, nb, dx):
+                    return NOT_PROJECTED, to
                 for i in range(n):
                     Y[k_out, i] = yo[i]
             k_out += 1
@@ -215,7 +246,7 @@ def _dopri_member(y0, F, I, W, mp, t0, t_out, rtol, atol, max_step, max_steps, n
 
 
 @njit
-def _rk4_member(y0, F, I, W, mp, t0, t_out, h, nb, Y, counters):
+def _rk4_member(y0, F, I, W, mp, pp, t0, t_out, h, nb, Y, counters):
     """One member by classic RK4 with fixed step h, landing on every output time."""
     n = y0.size
     y = y0.copy()
@@ -224,6 +255,7 @@ def _rk4_member(y0, F, I, W, mp, t0, t_out, h, nb, Y, counters):
     k3 = np.empty(n)
     k4 = np.empty(n)
     tmp = np.empty(n)
+    dx = np.zeros(6 * nb)
     t = t0
     for ko in range(t_out.size):
         to = t_out[ko]
@@ -250,7 +282,8 @@ def _rk4_member(y0, F, I, W, mp, t0, t_out, h, nb, Y, counters):
                     return RHS_FAILED, t
                 for j in range(n):                   # Eq. (13.14), (13.19)
                     y[j] = y[j] + (hh / 6.0) * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-                cs.normalize_y(y, nb)
+                if not _project(t_new, y, F, I, W, pp, nb, dx):
+                    return NOT_PROJECTED, t_new
                 if not _finite(y):
                     return NOT_FINITE_STATE, t_new
                 t = t_new
@@ -262,13 +295,13 @@ def _rk4_member(y0, F, I, W, mp, t0, t_out, h, nb, Y, counters):
 
 
 @njit
-def _member(b, Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_step, step, max_steps, nb,
-            lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters):
+def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step, max_steps,
+            nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters):
     if adaptive:
-        code, tf = _dopri_member(Y0[b], F[b], I, W[b], mp, 0.0, t_out, rtol, atol, max_step,
-                                 max_steps, nb, Y[b], counters[b])
+        code, tf = _dopri_member(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, rtol, atol,
+                                 max_step, max_steps, nb, Y[b], counters[b])
     else:
-        code, tf = _rk4_member(Y0[b], F[b], I, W[b], mp, 0.0, t_out, step, nb, Y[b],
+        code, tf = _rk4_member(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, step, nb, Y[b],
                                counters[b])
     status[b] = code
     t_fail[b] = tf
@@ -277,25 +310,26 @@ def _member(b, Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_step, step, max
 
 
 @njit
-def integrate_batch(Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_step, step, max_steps,
-                    nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters):
+def integrate_batch(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                    max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail,
+                    counters):
     """Every member b: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n), then
     (with_outputs) vdot into Yd[b] (nt, 6 nb) and lambda into Lam[b] (nt, m). status[b]: 0 or
     a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected)."""
     for b in range(Y0.shape[0]):
-        _member(b, Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_step, step, max_steps, nb,
-                lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
+        _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
 
 
 @njit(parallel=True)
-def integrate_batch_threads(Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_step, step,
+def integrate_batch_threads(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
                             max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status,
                             t_fail, counters):
     """:func:`integrate_batch` with the members spread over Numba's threads (each member has
     its own F, W, state and outputs; I is read only)."""
     for b in prange(Y0.shape[0]):
-        _member(b, Y0, F, I, W, mp, t_out, adaptive, rtol, atol, max_step, step, max_steps, nb,
-                lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
+        _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
 
 
 # ------------------------------------------------------------------------------ Python side
@@ -332,9 +366,10 @@ class BatchSetup:
         from ..kinematics import mobility
         self._check_model(model)
         meth = get_method(method, **(method_options or {}))
-        if meth.name not in ("standard", "baumgarte") or getattr(meth, "solver", "") == "kkt":
-            raise ModelError(f"batch integration supports the 'standard' and 'baumgarte' "
-                             f"methods, not {meth.name!r}; use engine='simulate'")
+        if meth.name not in ("standard", "baumgarte", "projection") or \
+                getattr(meth, "solver", "") == "kkt":
+            raise ModelError(f"batch integration supports the 'standard', 'baumgarte' and "
+                             f"'projection' methods, not {meth.name!r}; use engine='simulate'")
         self.eom = EquationsOfMotion(model)
         self.system = system = self.eom.system
         if not system.fused:
@@ -348,6 +383,10 @@ class BatchSetup:
                                  "constraints; use engine='simulate'")
         meth.setup(self.eom, None)
         self.mp = np.asarray(meth.params(), dtype=float)
+        projects = meth.name == "projection"
+        self.pp = np.array([1.0 if projects else 0.0,
+                            float(getattr(meth, "tolerance", 0.0)),
+                            float(getattr(meth, "max_iterations", 0))])
         self.method = meth
         self.model = model
         self.nb = model.nb
@@ -379,7 +418,8 @@ class BatchSetup:
 
         Every F field of the packed layout (:data:`..dynamics.system.FIELDS`) is filled from
         the member model: the body arrays and the joint table's geometry; a field this module
-        does not know raises (the layout changed: the batch engine must learn the field)."""
+        does not know raises unless it is empty for this model (the layout changed: the batch
+        engine must learn the field)."""
         from ..constraints.kernels import JointTable
         self._check_model(model)
         if self._signature(model) != self._topology:
@@ -394,6 +434,9 @@ class BatchSetup:
         for name, (buf, _) in _fields().items():
             if buf != "F":
                 continue
+            view = cs.field_view(cs.FIELDS, F, sysm.I, sysm.W, name)
+            if view.size == 0:                          # e.g. the force-element fields
+                continue
             value = arrays.get(name)
             if value is None:
                 value = getattr(G, name, None)          # the joint rows, by name or position
@@ -402,7 +445,6 @@ class BatchSetup:
             if value is None:
                 raise ModelError(f"batch integration does not know the packed model field "
                                  f"{name!r}; use engine='simulate'")
-            view = cs.field_view(cs.FIELDS, F, sysm.I, sysm.W, name)
             view[...] = np.asarray(value, dtype=float).reshape(view.shape)
         return F
 
@@ -439,7 +481,7 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
     """Integrate the members ``models`` (one topology) with ``analysis`` in one compiled call.
 
     models: Models that differ only in values (masses, inertias, geometry, gravity, initial
-    state). analysis: an Analysis (dynamic; method standard/baumgarte; integrator rk45 with
+    state). analysis: an Analysis (dynamic; method standard/baumgarte/projection; rk45 with
     rtol/atol/max_step or rk4 with step). Returns one :class:`BatchMember` per model (arrays
     shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
     accelerations: also evaluate vdot and lambda at the output times (one more right-hand
@@ -481,9 +523,9 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     step = 1e-3 if analysis.step is None else float(analysis.step)
     start = time.perf_counter()
     kernel = integrate_batch_threads if threads else integrate_batch
-    kernel(Y0, Fs, setup.system.I, W, setup.mp, t_out, adaptive, rtol, atol, max_step, step,
-           max_steps, nb, setup.lam_off, m, bool(with_outputs), Y, Yd, Lam, status, t_fail,
-           counters)
+    kernel(Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol, atol,
+           max_step, step, max_steps, nb, setup.lam_off, m, bool(with_outputs), Y, Yd, Lam,
+           status, t_fail, counters)
     wall = time.perf_counter() - start
     out = []
     for b, model in enumerate(models):

@@ -179,7 +179,8 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     """d(output)/d(parameter) by the forward sensitivity equations (direct differentiation).
 
     model, params, outputs, analysis: as :func:`sensitivities` (dynamic analysis; method
-    standard/baumgarte; a model that the batch engine takes). The state and sensitivities are
+    standard or baumgarte -- the model-file default, projection, is refused; a model that the
+    batch engine takes). The state and sensitivities are
     integrated by classic RK4 with ``step`` (s; default the analysis' step, else 1e-3).
     relative_delta: the parameter perturbation of f_p, delta = relative_delta |x0|.
     Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, and the
@@ -197,6 +198,10 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     m0, an = job.build(nominal)
     if an.type != "dynamic":
         raise ModelError("forward sensitivities need a dynamic analysis")
+    if an.method not in ("standard", "baumgarte"):
+        raise ModelError(f"forward sensitivities integrate the equations of the 'standard' or "
+                         f"'baumgarte' method (the projection step of {an.method!r} is not "
+                         "differentiated); set the analysis method to 'standard'")
     h = float(step if step is not None else (an.step or 1e-3))
     setup = BatchSetup(m0, an.method, an.method_options)
     F0 = setup.pack_F(m0)
