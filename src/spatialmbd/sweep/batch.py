@@ -24,8 +24,9 @@ Scope (checked, with a ModelError naming what is not supported): dynamic analyse
 "standard", "baumgarte" or "projection" method (where simulate() would fall back to least
 squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
 fully compiled (every joint type compiled) and without force elements (their parameters are
-not in the packed model floats) or drivers (their motion laws are Python callables); no redundant constraints. Models outside it
-run through :func:`simulate` one by one (``engine="simulate"``).
+not in the packed model floats) or drivers (their motion laws are Python callables); no
+redundant constraints. Models outside it run through :func:`simulate` one by one
+(``engine="simulate"``).
 """
 from __future__ import annotations
 
