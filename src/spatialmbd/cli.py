@@ -8,6 +8,7 @@
     spatialmbd examples [NAME]            list the example models, or write one as a model file
     spatialmbd demo                       the chapter 15 study (figure and table)
     spatialmbd validate [--full]          the validation suite
+    spatialmbd sweep MODEL --param P=V    a parameter sweep (serial, processes or Dask)
 
 Exit status: 0 success; 1 the analysis (or a validation case) failed, partial results are
 still written; 2 bad input (unreadable or invalid model file, unknown names, bad options);
@@ -874,6 +875,9 @@ def build_parser() -> argparse.ArgumentParser:
                 """)
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=cmd_warmup)
+
+    from .sweep.cli import add_parser as add_sweep_parser      # spatialmbd sweep (issue 15)
+    add_sweep_parser(command, _add_analysis_options)
     return parser
 
 

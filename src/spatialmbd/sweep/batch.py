@@ -1,0 +1,623 @@
+"""Batches of one topology: many members integrated together in one compiled call.
+
+Members that differ only in parameter values (masses, inertias, joint geometry, gravity) and
+initial states share the model's structure: the integer pack ``I`` of
+:class:`..dynamics.system.System` (topology, sparsity patterns, symbolic factorisation) is the
+same, only the float pack ``F`` and the initial state differ. :func:`simulate_batch` stacks
+them -- F (B, nF), work arrays W (B, nW), states (B, n) -- and runs one compiled loop over the
+members that integrates each with the same compiled right-hand side as :func:`simulate`
+(:func:`..dynamics.system.rhs_standard` / ``stages_standard``):
+
+* ``rk45``: Dormand-Prince 5(4) with per-member step control -- the same arithmetic as
+  :class:`..integrators.runge_kutta_adaptive.DormandPrince45` (Hairer's starting step, the PI
+  controller with beta = 0.04, FSAL, Shampine's dense output, p renormalised -- and with the
+  projection method q and v projected, the FSAL derivative re-evaluated -- after every accepted
+  step and at every output), so a member's result equals its separate run to round-off;
+* ``rk4``: classic RK4 with a common fixed step, landing on every output time as
+  :class:`..integrators.fixed_step.RungeKutta4` does.
+
+vdot and lambda at the output times are evaluated in the same call. A member whose right-hand
+side fails (singular S, non-finite values) or whose step size underflows stops with a status
+code and is reported as failed; the others continue.
+
+Scope (checked, with a ModelError naming what is not supported): dynamic analyses with the
+"standard", "baumgarte" or "projection" method (where simulate() would fall back to least
+squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
+fully compiled (every joint type compiled) and without force elements (their parameters are
+not in the packed model floats) or drivers (their motion laws are Python callables); no
+redundant constraints. Models outside it run through :func:`simulate` one by one
+(``engine="simulate"``).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from ..dynamics import system as cs
+from ..errors import ModelError
+from ..integrators.runge_kutta_adaptive import DOPRI_AB, DOPRI_C, dopri_error, dopri_interpolate
+from ..jit import njit
+
+try:
+    from numba import prange
+except ImportError:                    # pragma: no cover
+    prange = range
+
+__all__ = ["simulate_batch", "BatchSetup", "run_members_batched", "STATUS_TEXT"]
+
+EPS = float(np.finfo(float).eps)
+
+#: member status codes of the compiled loop
+OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
+STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jacobian or "
+                           "non-finite accelerations)",
+               UNDERFLOW: "step size underflow (error test failed repeatedly)",
+               NOT_FINITE_STATE: "the state became non-finite",
+               TOO_MANY_STEPS: "more steps than max_steps",
+               NOT_PROJECTED: "the projection onto the constraints failed (D D^T singular or "
+                              "Newton not converged)"}
+
+
+# ------------------------------------------------------------------------------ compiled part
+@njit
+def _rms(x, scale):
+    acc = 0.0
+    for i in range(x.size):
+        e = x[i] / scale[i]
+        acc += e * e
+    return math.sqrt(acc / x.size)
+
+
+@njit
+def _finite(y):
+    s = 0.0
+    for i in range(y.size):
+        s += y[i] * y[i]
+    return math.isfinite(s)
+
+
+@njit
+def _outputs_at(t_out, Y, Yd, Lam, F, I, W, mp, nb, lam_off, m):
+    """vdot and lambda at every output state (the evaluations of Results.from_integration)."""
+    n = Y.shape[1]
+    ydot = np.empty(n)
+    for k in range(t_out.size):
+        code = cs.rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp)
+        if code < 0:
+            for j in range(6 * nb):
+                Yd[k, j] = np.nan
+            for j in range(m):
+                Lam[k, j] = np.nan
+            continue
+        for j in range(6 * nb):
+            Yd[k, j] = ydot[7 * nb + j]
+        for j in range(m):
+            Lam[k, j] = W[lam_off + j]
+
+
+@njit
+def _project(t, y, F, I, W, pp, nb, dx):
+    """The projection of simulate(): Euler parameters renormalised, and with the projection
+    method (pp = [projects, tolerance, max_iterations]) q and v projected onto Phi = 0 and
+    D v = nu (Eqs. 14.12, 14.19). False if the projection failed."""
+    cs.normalize_y(y, nb)
+    if pp[0] == 0.0:
+        return True
+    for i in range(dx.size):
+        dx[i] = 0.0
+    return cs.project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
+
+
+@njit
+def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y,
+                  counters):
+    """One member by Dormand-Prince 5(4); outputs into Y (nt, n). Returns (status, t)."""
+    n = y0.size
+    K = np.empty((7, n))
+    y = y0.copy()
+    y_new = np.empty(n)
+    y_raw = np.empty(n)
+    delta = np.zeros(n)
+    yo = np.empty(n)
+    scale = np.empty(n)
+    atol_v = np.full(n, atol)
+    Kd = np.empty((7, n))
+    dx = np.zeros(6 * nb)
+    t = t0
+    t_end = t_out[-1]
+    span = t_end - t
+    k_out = 0
+    nt = t_out.size
+    if t_out[0] == t:
+        for i in range(n):
+            Y[0, i] = y[i]
+        k_out = 1
+    if k_out == nt:
+        return OK, t
+    if cs.rhs_standard(t, y, K[0], F, I, W, mp) < 0:
+        return RHS_FAILED, t
+    counters[0] += 1
+    # ---- starting step (Hairer, Norsett & Wanner II.4), as controller.initial_step
+    for i in range(n):
+        scale[i] = atol + abs(y[i]) * rtol
+    d0 = _rms(y, scale)
+    d1 = _rms(K[0], scale)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, max_step, abs(span))
+    for i in range(n):
+        y_new[i] = y[i] + h0 * K[0, i]
+    f1 = np.empty(n)
+    if cs.rhs_standard(t + h0, y_new, f1, F, I, W, mp) < 0:
+        return RHS_FAILED, t
+    counters[0] += 1
+    for i in range(n):
+        yo[i] = f1[i] - K[0, i]
+    d2 = _rms(yo, scale) / h0
+    if not math.isfinite(d2):
+        h = h0
+    else:
+        if d1 <= 1e-15 and d2 <= 1e-15:
+            h1 = max(1e-6, h0 * 1e-3)
+        else:
+            h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
+        h = min(100.0 * h0, h1, max_step, abs(span))
+    # ---- PI controller of DormandPrince45 (k = 5, safety 0.9, factors 0.2..10, beta 0.04)
+    safety, min_factor, max_factor, beta = 0.9, 0.2, 10.0, 0.04
+    k_inv = 1.0 / 5.0
+    alpha = k_inv - 0.75 * beta
+    err_prev = 1e-4
+    after_reject = False
+    steps = 0
+    while t < t_end:
+        h_min = 16.0 * EPS * max(abs(t), abs(span))
+        while True:
+            hs = t_end - t if t + 1.01 * h >= t_end else h
+            if hs < h_min:
+                return UNDERFLOW, t
+            t_new = t_end if hs == t_end - t else t + hs
+            done = cs.stages_standard(t, y, hs, DOPRI_AB, DOPRI_C, K, 1, 7, y_new, t_new,
+                                      F, I, W, mp)
+            counters[0] += 6
+            if done < 7:
+                err = math.inf
+            else:
+                err = dopri_error(y, y_new, K, hs, atol_v, rtol)
+            if err <= 1.0:
+                break
+            counters[2] += 1
+            if not math.isfinite(err):
+                fac = min_factor
+            else:
+                fac = max(min_factor, min(0.9, safety * err ** (-k_inv)))
+            h = hs * fac
+            after_reject = True
+        # accept
+        if err == 0.0:
+            fac = max_factor
+        else:
+            fac = safety * err ** (-alpha) * err_prev ** beta
+        err_prev = max(err, 1e-4)
+        fac = min(max_factor, max(min_factor, fac))
+        if after_reject:
+            fac = min(fac, 1.0)
+        after_reject = False
+        for i in range(n):
+            y_raw[i] = y_new[i]
+        if not _project(t_new, y_new, F, I, W, pp, nb, dx):   # the projection of simulate()
+            return NOT_PROJECTED, t_new
+        changed = False
+        for i in range(n):
+            delta[i] = y_new[i] - y_raw[i]
+            changed = changed or delta[i] != 0.0
+        for j in range(7):
+            for i in range(n):
+                Kd[j, i] = K[j, i]                   # the stages of the interpolant
+        if pp[0] != 0.0 and changed:                 # FSAL derivative at the projected state
+            if cs.rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
+                return RHS_FAILED, t_new
+            counters[0] += 1
+        if not _finite(y_new):
+            return NOT_FINITE_STATE, t_new
+        while k_out < nt and t_out[k_out] <= t_new:
+            to = t_out[k_out]
+            if to == t_new:
+                for i in range(n):
+                    Y[k_out, i] = y_new[i]
+            else:
+                dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
+                if not _project(to, yo, F, I, W, pp, nb, dx):
+                    return NOT_PROJECTED, to
+                for i in range(n):
+                    Y[k_out, i] = yo[i]
+            k_out += 1
+        for i in range(n):
+            K[0, i] = K[6, i]
+            y[i] = y_new[i]
+        t = t_new
+        steps += 1
+        counters[1] += 1
+        if steps >= max_steps:
+            return TOO_MANY_STEPS, t
+        h = min(hs * fac, max_step)
+    return OK, t
+
+
+@njit
+def _rk4_member(y0, F, I, W, mp, pp, t0, t_out, h, nb, Y, counters):
+    """One member by classic RK4 with fixed step h, landing on every output time."""
+    n = y0.size
+    y = y0.copy()
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    dx = np.zeros(6 * nb)
+    t = t0
+    for ko in range(t_out.size):
+        to = t_out[ko]
+        if to > t:
+            m = max(1, math.ceil((to - t) / h - 1e-9))
+            t_start = t
+            for i in range(1, m + 1):
+                t_new = to if i == m else t_start + i * h
+                hh = t_new - t
+                half = 0.5 * hh
+                if cs.rhs_standard(t, y, k1, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):
+                    tmp[j] = y[j] + half * k1[j]
+                if cs.rhs_standard(t + half, tmp, k2, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):
+                    tmp[j] = y[j] + half * k2[j]
+                if cs.rhs_standard(t + half, tmp, k3, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):
+                    tmp[j] = y[j] + hh * k3[j]
+                if cs.rhs_standard(t + hh, tmp, k4, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):                   # Eq. (13.14), (13.19)
+                    y[j] = y[j] + (hh / 6.0) * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+                if not _project(t_new, y, F, I, W, pp, nb, dx):
+                    return NOT_PROJECTED, t_new
+                if not _finite(y):
+                    return NOT_FINITE_STATE, t_new
+                t = t_new
+                counters[0] += 4
+                counters[1] += 1
+        for j in range(n):
+            Y[ko, j] = y[j]
+    return OK, t
+
+
+@njit
+def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step, max_steps,
+            nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters):
+    if adaptive:
+        code, tf = _dopri_member(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, rtol, atol,
+                                 max_step, max_steps, nb, Y[b], counters[b])
+    else:
+        code, tf = _rk4_member(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, step, nb, Y[b],
+                               counters[b])
+    status[b] = code
+    t_fail[b] = tf
+    if code == OK and with_outputs:
+        _outputs_at(t_out, Y[b], Yd[b], Lam[b], F[b], I, W[b], mp, nb, lam_off, m)
+
+
+@njit
+def integrate_batch(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                    max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail,
+                    counters):
+    """Every member b: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n), then
+    (with_outputs) vdot into Yd[b] (nt, 6 nb) and lambda into Lam[b] (nt, m). status[b]: 0 or
+    a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected)."""
+    for b in range(Y0.shape[0]):
+        _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
+
+
+@njit(parallel=True)
+def integrate_batch_threads(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                            max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status,
+                            t_fail, counters):
+    """:func:`integrate_batch` with the members spread over Numba's threads (each member has
+    its own F, W, state and outputs; I is read only)."""
+    for b in prange(Y0.shape[0]):
+        _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+                max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
+
+
+# ------------------------------------------------------------------------------ Python side
+#: position of a joint-table entry in the table tuple G (body_i, body_j, s_i, s_j, R_i, R_j,
+#: length or param, law, coord) when G has no field names
+_JOINT_ROW_INDEX = {"s_i": 2, "s_j": 3, "R_i": 4, "R_j": 5, "length": 6, "param": 6}
+
+
+def _fields() -> dict:
+    return {name: (buf, ndim) for name, buf, ndim in cs.FIELDS}
+
+
+@dataclass
+class BatchMember:
+    """What the batch returns per member: the arrays of a Results (same shapes) and status."""
+
+    model: object
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    vdot: np.ndarray
+    lam: np.ndarray
+    work: np.ndarray
+    status: str
+    message: str
+    counters: dict
+
+
+class BatchSetup:
+    """The prototype System of a topology and the checks that a model belongs to it."""
+
+    def __init__(self, model, method="standard", method_options=None):
+        from ..dynamics import EquationsOfMotion, get_method
+        from ..kinematics import mobility
+        self._check_model(model)
+        meth = get_method(method, **(method_options or {}))
+        if meth.name not in ("standard", "baumgarte", "projection") or \
+                getattr(meth, "solver", "") == "kkt":
+            raise ModelError(f"batch integration supports the 'standard', 'baumgarte' and "
+                             f"'projection' methods, not {meth.name!r}; use engine='simulate'")
+        self.eom = EquationsOfMotion(model)
+        self.system = system = self.eom.system
+        if not system.fused:
+            raise ModelError("batch integration needs a fully compiled right-hand side: model "
+                             f"{model.name!r} has force elements or joint types without a "
+                             "compiled kernel; use engine='simulate'")
+        if model.n_eq:
+            mob = mobility(model, np.asarray(model.q0, float), 0.0)
+            if mob.redundant:
+                raise ModelError(f"batch integration: model {model.name!r} has redundant "
+                                 "constraints; use engine='simulate'")
+        meth.setup(self.eom, None)
+        self.mp = np.asarray(meth.params(), dtype=float)
+        projects = meth.name == "projection"
+        self.pp = np.array([1.0 if projects else 0.0,
+                            float(getattr(meth, "tolerance", 0.0)),
+                            float(getattr(meth, "max_iterations", 0))])
+        self.method = meth
+        self.model = model
+        self.nb = model.nb
+        self.m = model.n_eq
+        self.lam_off = system._layout["lam"][0]
+        self._topology = self._signature(model)
+
+    @staticmethod
+    def _check_model(model):
+        if model.force_groups:
+            raise ModelError(f"batch integration: model {model.name!r} has force elements "
+                             f"({', '.join(g.name for g in model.force_groups)}), evaluated in "
+                             "Python; use engine='simulate'")
+        if any(g.rheonomic for g in model.constraint_groups):
+            raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
+                             "motion laws); use engine='simulate'")
+
+    @staticmethod
+    def _signature(model):
+        from ..constraints.kernels import JointTable
+        table = JointTable(model.constraint_groups, model.group_offsets)
+        G = table.G
+        return (model.nb, model.n_eq, tuple(table.kind.tolist()), tuple(table.rows.tolist()),
+                tuple(np.asarray(G[0]).tolist()), tuple(np.asarray(G[1]).tolist()),
+                tuple(np.asarray(G[8]).tolist()))
+
+    def pack_F(self, model) -> np.ndarray:
+        """The float pack F of a member model (its topology checked against the prototype).
+
+        Every F field of the packed layout (:data:`..dynamics.system.FIELDS`) is filled from
+        the member model: the body arrays and the joint table's geometry; a field this module
+        does not know raises unless it is empty for this model (the layout changed: the batch
+        engine must learn the field)."""
+        from ..constraints.kernels import JointTable
+        self._check_model(model)
+        if self._signature(model) != self._topology:
+            raise ModelError(f"batch integration: member model {model.name!r} differs in "
+                             "topology (bodies, joints or their order) from the first member; "
+                             "members of one batch may differ only in values")
+        sysm = self.system
+        F = sysm.F.copy()
+        G = JointTable(model.constraint_groups, model.group_offsets).G
+        arrays = dict(mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
+                      weight=model.mass[:, None] * model.gravity[None, :])
+        for name, (buf, _) in _fields().items():
+            if buf != "F":
+                continue
+            view = cs.field_view(cs.FIELDS, F, sysm.I, sysm.W, name)
+            if view.size == 0:                          # e.g. the force-element fields
+                continue
+            value = arrays.get(name)
+            if value is None:
+                value = getattr(G, name, None)          # the joint rows, by name or position
+            if value is None and name in _JOINT_ROW_INDEX:
+                value = G[_JOINT_ROW_INDEX[name]]
+            if value is None:
+                raise ModelError(f"batch integration does not know the packed model field "
+                                 f"{name!r}; use engine='simulate'")
+            view[...] = np.asarray(value, dtype=float).reshape(view.shape)
+        return F
+
+    def initial_state(self, model, F, analysis) -> np.ndarray:
+        """y0 = [q, v, 0] of a member, corrected (chapter 14) as simulate() does."""
+        from ..dynamics.correction import correct_initial_conditions, hold_mask
+        from ..state import normalize_q
+        nb = model.nb
+        q = normalize_q(np.array(model.q0, dtype=float).reshape(nb, 7))
+        v = np.array(model.v0, dtype=float).reshape(nb, 6)
+        if analysis.correct_initial and model.n_eq:
+            sysm = self.system.clone()
+            sysm.F = F
+            q, v, _ = correct_initial_conditions(model, q, v, 0.0,
+                                                 hold_mask(model, analysis.hold), system=sysm)
+        return np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
+
+
+def _check_analysis(analysis):
+    if analysis.type != "dynamic":
+        raise ModelError(f"batch integration runs dynamic analyses, not {analysis.type!r}")
+    if analysis.integrator not in ("rk45", "rk4"):
+        raise ModelError(f"batch integration supports the integrators 'rk45' (per-member step "
+                         f"control) and 'rk4' (common fixed step), not {analysis.integrator!r}")
+    extra = set(analysis.integrator_options or {}) - {"max_step"}
+    if extra:
+        raise ModelError(f"batch integration: integrator options {sorted(extra)} are not "
+                         "supported (only step, rtol, atol, max_step)")
+
+
+def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = None,
+                   max_steps: int = 10_000_000, accelerations: bool = True,
+                   threads: bool = False) -> list:
+    """Integrate the members ``models`` (one topology) with ``analysis`` in one compiled call.
+
+    models: Models that differ only in values (masses, inertias, geometry, gravity, initial
+    state). analysis: an Analysis (dynamic; method standard/baumgarte/projection; rk45 with
+    rtol/atol/max_step or rk4 with step). Returns one :class:`BatchMember` per model (arrays
+    shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
+    accelerations: also evaluate vdot and lambda at the output times (one more right-hand
+    side per output; False leaves them NaN). threads: spread the members over Numba's threads.
+    """
+    from ..simulate import output_times
+    from ..io.modelfile import Analysis
+    if isinstance(analysis, dict):
+        analysis = Analysis.from_dict(analysis)
+    _check_analysis(analysis)
+    models = list(models)
+    if not models:
+        return []
+    if setup is None:
+        setup = BatchSetup(models[0], analysis.method, analysis.method_options)
+    t_out = output_times(analysis.t_end, analysis.output_step, analysis.t_eval, 0.0)
+    Fs = np.stack([setup.pack_F(m) for m in models])
+    Y0 = np.stack([setup.initial_state(m, Fs[k], analysis) for k, m in enumerate(models)])
+    return _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, accelerations,
+                      threads)
+
+
+def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=True,
+               threads=False):
+    B, n = Y0.shape
+    nb, m = setup.nb, setup.m
+    W = np.repeat(setup.system.W[None, :], B, axis=0)
+    nt = t_out.size
+    Y = np.zeros((B, nt, n))
+    Yd = np.zeros((B, nt, 6 * nb))
+    Lam = np.zeros((B, nt, m))
+    status = np.zeros(B, dtype=np.int64)
+    t_fail = np.zeros(B)
+    counters = np.zeros((B, 3), dtype=np.int64)
+    adaptive = analysis.integrator == "rk45"
+    rtol = 1e-6 if analysis.rtol is None else float(analysis.rtol)
+    atol = 1e-9 if analysis.atol is None else float(analysis.atol)
+    max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
+    step = 1e-3 if analysis.step is None else float(analysis.step)
+    start = time.perf_counter()
+    kernel = integrate_batch_threads if threads else integrate_batch
+    kernel(Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol, atol,
+           max_step, step, max_steps, nb, setup.lam_off, m, bool(with_outputs), Y, Yd, Lam,
+           status, t_fail, counters)
+    wall = time.perf_counter() - start
+    out = []
+    for b, model in enumerate(models):
+        ok = status[b] == OK
+        msg = "" if ok else f"t = {t_fail[b]:.6g} s: {STATUS_TEXT[int(status[b])]}"
+        out.append(BatchMember(
+            model=model, t=t_out, q=Y[b, :, :7 * nb].reshape(nt, nb, 7),
+            v=Y[b, :, 7 * nb:13 * nb].reshape(nt, nb, 6),
+            vdot=Yd[b].reshape(nt, nb, 6) if with_outputs else np.full((nt, nb, 6), np.nan),
+            lam=Lam[b] if with_outputs else np.full((nt, m), np.nan), work=Y[b, :, -1],
+            status="success" if ok else "failed", message=msg,
+            counters=dict(nfev=int(counters[b, 0]), steps=int(counters[b, 1]),
+                          rejected=int(counters[b, 2]), wall_time=wall / B)))
+    return out
+
+
+def as_results(member: BatchMember):
+    """A :class:`..results.Results` of a batch member (for energies, reactions, tables)."""
+    from ..results import Results
+    return Results(model=member.model, t=member.t, q=member.q, v=member.v, vdot=member.vdot,
+                   lam=member.lam, work=member.work, status=member.status,
+                   message=member.message, counters=member.counters,
+                   wall_time=member.counters.get("wall_time", 0.0))
+
+
+def run_members_batched(job, members: list) -> list:
+    """The batch engine of a sweep chunk: build every member, integrate those that build in
+    one compiled call, reduce the outputs. Same (status, message, outputs, t) rows as
+    :meth:`.core.SweepJob.run_member`."""
+    from .core import FAILED, _describe
+    rows = [None] * len(members)
+    built = []
+    for k, member in enumerate(members):
+        try:
+            model, analysis = job.build(member)
+            built.append((k, model, analysis))
+        except Exception as exc:
+            rows[k] = (FAILED, _describe(exc), job.empty(), None)
+    # members are grouped by analysis (a swept analysis setting gives several groups)
+    groups: dict = {}
+    for k, model, analysis in built:
+        key = repr(analysis.to_dict())
+        groups.setdefault(key, []).append((k, model, analysis))
+    for items in groups.values():
+        analysis = items[0][2]
+        try:
+            _check_analysis(analysis)
+            setup = BatchSetup(items[0][1], analysis.method, analysis.method_options)
+        except Exception as exc:
+            for k, _, _ in items:
+                rows[k] = (FAILED, _describe(exc), job.empty(), None)
+            continue
+        from ..simulate import output_times
+        t_out = output_times(analysis.t_end, analysis.output_step, analysis.t_eval, 0.0)
+        good, Fs, Y0 = [], [], []
+        for k, model, _ in items:
+            try:
+                F = setup.pack_F(model)
+                Y0.append(setup.initial_state(model, F, analysis))
+                Fs.append(F)
+                good.append((k, model))
+            except Exception as exc:
+                rows[k] = (FAILED, _describe(exc), job.empty(), None)
+        if not good:
+            continue
+        opts = job.batch_options
+        res = _integrate(setup, [m for _, m in good], analysis, t_out, np.stack(Fs),
+                         np.stack(Y0), int(opts.get("max_steps", 10_000_000)),
+                         with_outputs=_needs_accelerations(job.outputs),
+                         threads=bool(opts.get("threads", False)))
+        for (k, _), member in zip(good, res):
+            try:
+                rows[k] = job.reduce(as_results(member))
+            except Exception as exc:
+                rows[k] = (FAILED, _describe(exc), job.empty(), None)
+    return rows
+
+
+_STATE_COLUMNS = ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def _needs_accelerations(outputs) -> bool:
+    """Whether any output may read vdot or lambda (accelerations, reactions, callables)."""
+    for o in outputs:
+        if o.function is not None:
+            return True
+        parts = o.column.split(".")
+        if o.column == "t" or parts[0] in ("energy", "violation"):
+            continue
+        if parts[-1] in _STATE_COLUMNS and not parts[-1].startswith("f"):
+            if len(parts) == 2 or parts[-1] in ("x", "y", "z", "vx", "vy", "vz"):
+                continue
+        return True
+    return False

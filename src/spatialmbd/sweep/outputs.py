@@ -1,0 +1,249 @@
+"""What a sweep keeps of each member's results: scalar reductions of result columns, or whole
+time series.
+
+An output is written ``reduction(column)`` or just ``column`` (the whole time series):
+
+    max(pendulum.z)       min(...)   final(...)   mean(...)   absmax(...)
+    period(pendulum.wx)   the mean time between upward zero crossings (s), each crossing
+                          located by the cubic through the four samples around it
+    pendulum.z            the time series (a "time" dimension in the result)
+
+or a callable ``f(results) -> float`` (its ``__name__`` names it), or a dict
+``{name: spec}`` to choose the names.
+
+Columns are those of :meth:`spatialmbd.results.Results.to_dataframe`, computed only when asked:
+``<body>.x|y|z|e0..e3|vx|vy|vz|wx|wy|wz|ax|ay|az|alphax|alphay|alphaz`` (global axes, SI),
+``<body>.<point>.x|y|z|vx|vy|vz`` (named points), ``<joint>.<body>.fx..mz`` (reactions, N and
+N m), ``violation.position|velocity``, ``energy.kinetic|gravitational|elastic|total|error|
+work_nonconservative`` (J). Kinematic results offer the columns of their own table.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..errors import ModelError
+
+__all__ = ["Output", "parse_outputs", "REDUCTIONS", "period", "Columns"]
+
+_BODY_Q = ("x", "y", "z", "e0", "e1", "e2", "e3")
+_BODY_V = ("vx", "vy", "vz", "wx", "wy", "wz")
+_BODY_A = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
+_POINT = {"x": ("r", 0), "y": ("r", 1), "z": ("r", 2), "vx": ("rdot", 0), "vy": ("rdot", 1),
+          "vz": ("rdot", 2)}
+_SPEC = re.compile(r"^\s*([A-Za-z_]+)\s*\(\s*([^()]+?)\s*\)\s*$")
+
+
+def period(t: np.ndarray, x: np.ndarray) -> float:
+    """Mean time (s) between upward zero crossings of x(t); NaN with fewer than two crossings.
+
+    Each crossing is bracketed by two samples and located as the root of the cubic through the
+    four samples around it, so the error is O(dt^4) for smooth x.
+    """
+    times = crossing_times(t, x)
+    if len(times) < 2:
+        return math.nan
+    return (times[-1] - times[0]) / (len(times) - 1)
+
+
+def crossing_times(t: np.ndarray, x: np.ndarray) -> list:
+    """Times (s) of the upward zero crossings of x(t) (x[k] < 0 <= x[k+1]), each the root in
+    [t_k, t_k+1] of the cubic through the four samples around it (Newton's method on the
+    cubic, safeguarded by bisection of the bracket)."""
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    idx = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
+    return [_cubic_root(t, x, int(k)) for k in idx]
+
+
+def _window(n: int, k: int):
+    """Four sample indices around the bracket [k, k+1] (fewer when there are fewer samples)."""
+    lo = max(0, min(k - 1, n - 4))
+    return lo, min(n, lo + 4)
+
+
+def cubic_coefficients(t, x, k):
+    """(a, c): the polynomial through the samples around [t_k, t_k+1] as
+    sum_i c[i] (s - a)^i, a = t_k (lowest degree first)."""
+    lo, hi = _window(t.size, k)
+    a = t[k]
+    tt = t[lo:hi] - a
+    c = np.linalg.solve(np.vander(tt, hi - lo, increasing=True), x[lo:hi])
+    return a, c
+
+
+def _poly(c, s):
+    value, slope = 0.0, 0.0
+    for ci in c[::-1]:
+        slope = slope * s + value
+        value = value * s + ci
+    return value, slope
+
+
+def _cubic_root(t, x, k) -> float:
+    a, c = cubic_coefficients(t, x, k)
+    lo, hi = 0.0, t[k + 1] - a
+    flo = x[k]
+    s = lo + (hi - lo) * (-flo) / (x[k + 1] - flo)     # the linear-interpolation root
+    for _ in range(50):
+        f, df = _poly(c, s)
+        if (f < 0.0) == (flo < 0.0):
+            lo = s
+        else:
+            hi = s
+        step = f / df if df != 0.0 else math.inf
+        s_new = s - step
+        if not lo < s_new < hi:                          # Newton left the bracket: bisect
+            s_new = 0.5 * (lo + hi)
+        if abs(s_new - s) <= 1e-15 * max(1.0, abs(a)) + 4 * np.finfo(float).eps * abs(s):
+            return a + s_new
+        s = s_new
+    return a + s
+
+
+REDUCTIONS: dict = {
+    "max": lambda t, x: float(np.max(x)),
+    "min": lambda t, x: float(np.min(x)),
+    "absmax": lambda t, x: float(np.max(np.abs(x))),
+    "final": lambda t, x: float(x[-1]),
+    "initial": lambda t, x: float(x[0]),
+    "mean": lambda t, x: float(np.mean(x)),
+    "period": period,
+}
+
+
+@dataclass
+class Output:
+    """One output: ``name`` in the result; ``column`` and ``reduction`` (None: the series), or
+    ``function(results) -> float``."""
+
+    name: str
+    column: Optional[str] = None
+    reduction: Optional[str] = None
+    function: Optional[Callable] = None
+
+    @property
+    def series(self) -> bool:
+        return self.function is None and self.reduction is None
+
+    def evaluate(self, columns: "Columns"):
+        if self.function is not None:
+            return float(self.function(columns.results))
+        x = columns.get(self.column)
+        if self.reduction is None:
+            return np.asarray(x, dtype=float)
+        if x.size == 0:
+            return math.nan
+        return REDUCTIONS[self.reduction](columns.results.t, x)
+
+
+def _parse_one(name, spec) -> Output:
+    if callable(spec):
+        return Output(name or getattr(spec, "__name__", "output"), function=spec)
+    if not isinstance(spec, str) or not spec.strip():
+        raise ModelError(f"output {name or spec!r}: expected 'reduction(column)', a column name "
+                         f"or a callable, got {spec!r}")
+    m = _SPEC.match(spec)
+    if m:
+        red, col = m.group(1), m.group(2)
+        if red not in REDUCTIONS:
+            raise ModelError(f"output {spec!r}: unknown reduction {red!r}; valid: "
+                             f"{', '.join(REDUCTIONS)} (or just the column for its time series)")
+        return Output(name or spec.replace(" ", ""), col, red)
+    if "(" in spec or ")" in spec:
+        raise ModelError(f"output {spec!r}: write reduction(column), e.g. max(pendulum.z)")
+    return Output(name or spec.strip(), spec.strip(), None)
+
+
+def parse_outputs(outputs) -> list:
+    """A list of :class:`Output` from a string, a list of specs or a {name: spec} dict."""
+    if outputs is None:
+        raise ModelError("a sweep needs at least one output, e.g. outputs=['max(pendulum.z)']")
+    if isinstance(outputs, (str, Output)) or callable(outputs):
+        outputs = [outputs]
+    if isinstance(outputs, dict):
+        out = [_parse_one(str(k), v) for k, v in outputs.items()]
+    else:
+        out = [o if isinstance(o, Output) else _parse_one(None, o) for o in outputs]
+    if not out:
+        raise ModelError("a sweep needs at least one output, e.g. outputs=['max(pendulum.z)']")
+    names = [o.name for o in out]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ModelError(f"outputs: duplicate names {dup}; give a dict {{name: spec}}")
+    return out
+
+
+class Columns:
+    """Result columns by name, each computed on first use (reactions, energies and the
+    constraint violation are computed once for all their columns)."""
+
+    def __init__(self, results):
+        self.results = results
+        self._cache: dict = {}
+        self._frame = None
+
+    def get(self, name: str) -> np.ndarray:
+        if name not in self._cache:
+            self._cache[name] = self._compute(name)
+        return self._cache[name]
+
+    def _compute(self, name: str) -> np.ndarray:
+        r = self.results
+        model = r.model
+        if name == "t":
+            return np.asarray(r.t)
+        parts = name.split(".")
+        if len(parts) == 2 and parts[0] in model.body_names:
+            k = model.body_names.index(parts[0])
+            c = parts[1]
+            if c in _BODY_Q:
+                return r.q[:, k, _BODY_Q.index(c)]
+            if c in _BODY_V:
+                return r.v[:, k, _BODY_V.index(c)]
+            if c in _BODY_A:
+                return r.vdot[:, k, _BODY_A.index(c)]
+        if len(parts) == 3 and f"{parts[0]}.{parts[1]}" in model.points and parts[2] in _POINT:
+            key, j = _POINT[parts[2]]
+            return r.point(f"{parts[0]}.{parts[1]}")[key][:, j]
+        if hasattr(r, "energy") and len(parts) == 2 and parts[0] == "energy":
+            en = self._group("energy", r.energy)
+            if parts[1] in en:
+                return en[parts[1]]
+        if hasattr(r, "constraint_violation") and len(parts) == 2 and parts[0] == "violation":
+            vi = self._group("violation", r.constraint_violation)
+            if parts[1] in vi:
+                return vi[parts[1]]
+        if hasattr(r, "reactions") and len(parts) == 3:
+            reac = self._group("reactions", r.reactions)
+            if parts[0] in reac and parts[2] in ("fx", "fy", "fz", "mx", "my", "mz"):
+                jr = reac[parts[0]]
+                j = "xyz".index(parts[2][1])
+                kind = "force" if parts[2][0] == "f" else "moment"
+                if parts[1] == jr.body_i:
+                    return getattr(jr, f"{kind}_i")[:, j]
+                if parts[1] == jr.body_j:
+                    return getattr(jr, f"{kind}_j")[:, j]
+        return self._from_frame(name)
+
+    def _group(self, key, fn):
+        k = "__" + key
+        if k not in self._cache:
+            self._cache[k] = fn()
+        return self._cache[k]
+
+    def _from_frame(self, name):
+        r = self.results
+        if self._frame is None and hasattr(r, "to_dataframe"):
+            self._frame = r.to_dataframe()
+        if self._frame is not None and name in self._frame.columns:
+            return self._frame[name].to_numpy()
+        raise ModelError(f"output column {name!r} does not exist; columns are "
+                         "<body>.<x|y|z|e0..e3|vx..wz|ax..alphaz>, <body>.<point>.<x|..|vz>, "
+                         "<joint>.<body>.<fx..mz>, energy.<kinetic|total|error|...>, "
+                         "violation.<position|velocity>; bodies: "
+                         + ", ".join(r.model.body_names))

@@ -1,0 +1,326 @@
+"""Derivatives of sweep outputs with respect to parameters.
+
+:func:`sensitivities` -- central finite differences run as one sweep. For each parameter x
+(nominal x0) and each candidate step h (relative steps times |x0|, or times 1 if x0 = 0):
+
+    D(h)   = (f(x0 + h) - f(x0 - h)) / (2 h)                 error c h^2 + ...
+    D(h/2) from the half step; Richardson: R(h) = (4 D(h/2) - D(h)) / 3,
+    error estimate of D(h/2): |D(h) - D(h/2)| / 3.
+
+The step reported is the candidate whose error estimate is smallest (a step too large shows
+truncation error, one too small the integrator's noise: both make D(h) and D(h/2) disagree);
+the derivative is D(h/2) and ``error`` its estimate (Richardson's R(h) is also returned).
+Adaptive integrators make outputs slightly non-smooth in the parameters (the step sequence
+changes): use tight tolerances or a fixed step, and read the error estimate.
+
+:func:`forward_sensitivities` -- direct differentiation: the sensitivity equations
+    S' = f_y S + f_p,  S(0) = dy0/dp
+integrated with the state by the same classic RK4 steps as the batch engine (RK4 applied to the
+augmented system is the derivative of the RK4 map, so the result is the exact derivative of the
+discrete solution up to the accuracy of the products below). The kernels give D but not the
+derivatives of M, g and gamma with respect to q, so f_y S and f_p are directional central
+differences of the compiled right-hand side (as CVODES does without a user Jacobian): f_y s_j
+from f(y +- eps s_j), f_p from the packed model floats F at x0 +- delta. After each step the
+Euler parameters are renormalised and their sensitivities projected with (I - p p^T) / |p|.
+Outputs: reductions of body state columns (x..e3, vx..wz): final, initial, mean, max, min
+(derivative at the extremum), period (derivatives of the crossing times, -s / xdot).
+"""
+from __future__ import annotations
+
+import json
+import math
+from typing import Optional, Sequence
+
+import numpy as np
+
+from ..errors import ModelError
+from .core import SUCCESS, _make_job, sweep
+from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs
+from .params import ParameterSpace, get_path, points
+
+__all__ = ["sensitivities", "forward_sensitivities"]
+
+DEFAULT_STEPS = (1e-2, 1e-3, 1e-4)
+
+
+def _scale(x0: float) -> float:
+    return abs(x0) if x0 != 0.0 else 1.0
+
+
+def _nominal(model, params) -> dict:
+    """{name: nominal value}; None values read from the model dictionary."""
+    if isinstance(params, (list, tuple)):
+        params = {p: None for p in params}
+    out = {}
+    data = None
+    for name, value in params.items():
+        if value is None:
+            if data is None:
+                job = _make_job(model, points({name: [0.0]}), parse_outputs(["t"]), None,
+                                "simulate", {})
+                if job.data is None:
+                    raise ModelError(f"parameter {name!r}: give its nominal value (a factory "
+                                     "has no model file to read it from)")
+                data = dict(job.data, analysis=job.analysis)
+            value = get_path(data, name)
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise ModelError(f"parameter {name!r}: the model holds {value!r}, not a number; "
+                                 "address one component (e.g. an index .0)")
+        out[name] = float(value)
+    if not out:
+        raise ModelError("sensitivities need at least one parameter")
+    return out
+
+
+def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
+                  relative_steps: Sequence[float] = DEFAULT_STEPS, engine="simulate",
+                  progress=None, workers=None):
+    """d(output)/d(parameter) by central differences with Richardson-checked step selection.
+
+    params: {path: nominal value or None (read from the model)} or a list of paths.
+    relative_steps: candidate steps h = r |x0| (r if x0 = 0; each is also halved).
+    Returns an xarray Dataset with dims (output, parameter): ``derivative`` (D(h/2) at the
+    selected step), ``error`` (its Richardson estimate), ``richardson`` (R(h)), ``step`` (h),
+    and ``nominal`` (output values at the nominal point); ``status`` per parameter is "success"
+    when at least one candidate step had all four members succeed (``message`` names the
+    steps whose members failed, e.g. an inertia pushed past the triangle inequality).
+    """
+    import xarray as xr
+    nominal = _nominal(model, params)
+    names = list(nominal)
+    outs = parse_outputs(outputs)
+    if any(o.series for o in outs):
+        raise ModelError("sensitivities are taken of scalar outputs: write reduction(column), "
+                         "e.g. final(pendulum.z)")
+    steps = [float(r) for r in relative_steps]
+    if not steps or any(not r > 0 for r in steps):
+        raise ModelError(f"relative_steps must be positive numbers, got {relative_steps!r}")
+    base = np.array([nominal[n] for n in names])
+    rows = [base.copy()]
+    index = {}
+    for j, n in enumerate(names):
+        scale = _scale(base[j])
+        for k, r in enumerate(steps):
+            for s, frac in enumerate((1.0, -1.0, 0.5, -0.5)):
+                x = base.copy()
+                x[j] += frac * r * scale
+                index[(j, k, s)] = len(rows)
+                rows.append(x)
+    space = ParameterSpace(names, np.array(rows), "points")
+    ds = sweep(model, space, outs, analysis, scheduler, engine=engine, progress=progress,
+               workers=workers)
+    vals = np.stack([ds[o.name].values for o in outs])              # (n_out, n_members)
+    ok = ds["status"].values == SUCCESS
+    n_out, n_par = len(outs), len(names)
+    deriv = np.full((n_out, n_par), np.nan)
+    err = np.full((n_out, n_par), np.nan)
+    rich = np.full((n_out, n_par), np.nan)
+    step = np.full((n_out, n_par), np.nan)
+    status = np.full(n_par, "failed", dtype=object)
+    message = np.full(n_par, "", dtype=object)
+    for j in range(n_par):
+        scale = _scale(base[j])
+        best = np.full(n_out, np.inf)
+        skipped = []
+        for k, r in enumerate(steps):
+            h = r * scale
+            ids = [index[(j, k, s)] for s in range(4)]
+            if not all(ok[i] for i in ids):
+                bad = [i for i in ids if not ok[i]][0]
+                skipped.append(f"step {h:.3g}: {ds['message'].values[bad]}")
+                continue
+            status[j] = "success"
+            d1 = (vals[:, ids[0]] - vals[:, ids[1]]) / (2 * h)
+            d2 = (vals[:, ids[2]] - vals[:, ids[3]]) / h
+            e = np.abs(d1 - d2) / 3.0
+            better = e < best
+            best = np.where(better, e, best)
+            deriv[:, j] = np.where(better, d2, deriv[:, j])
+            err[:, j] = np.where(better, e, err[:, j])
+            rich[:, j] = np.where(better, (4 * d2 - d1) / 3.0, rich[:, j])
+            step[:, j] = np.where(better, h, step[:, j])
+        if skipped:
+            message[j] = "members failed at " + "; ".join(skipped)
+    names_out = [o.name for o in outs]
+    out = xr.Dataset(
+        dict(derivative=(("output", "parameter"), deriv), error=(("output", "parameter"), err),
+             richardson=(("output", "parameter"), rich), step=(("output", "parameter"), step),
+             nominal=(("output",), vals[:, 0]),
+             status=(("parameter",), status.astype(str)),
+             message=(("parameter",), message.astype(str))),
+        coords=dict(output=names_out, parameter=names,
+                    value=(("parameter",), base)),
+        attrs=dict(method="central differences, Richardson-checked step",
+                   relative_steps=json.dumps(steps), n_members=int(space.n_members),
+                   n_failed=int(np.sum(~ok)), wall_time=float(ds.attrs["wall_time"])))
+    return out
+
+
+# ------------------------------------------------------------------------- forward sensitivity
+_STATE = {"x": 0, "y": 1, "z": 2, "e0": 3, "e1": 4, "e2": 5, "e3": 6}
+_VEL = {"vx": 0, "vy": 1, "vz": 2, "wx": 3, "wy": 4, "wz": 5}
+
+
+def _state_index(model, column) -> int:
+    parts = column.split(".")
+    if len(parts) == 2 and parts[0] in model.body_names:
+        k = model.body_names.index(parts[0])
+        if parts[1] in _STATE:
+            return 7 * k + _STATE[parts[1]]
+        if parts[1] in _VEL:
+            return 7 * model.nb + 6 * k + _VEL[parts[1]]
+    raise ModelError(f"forward sensitivities support body state columns (<body>.x..e3, "
+                     f"<body>.vx..wz), not {column!r}; use sensitivities() (finite "
+                     "differences) for other outputs")
+
+
+def forward_sensitivities(model, params, outputs, analysis=None, *, step: Optional[float] = None,
+                          relative_delta: float = 1e-6):
+    """d(output)/d(parameter) by the forward sensitivity equations (direct differentiation).
+
+    model, params, outputs, analysis: as :func:`sensitivities` (dynamic analysis; method
+    standard or baumgarte -- the model-file default, projection, is refused; a model that the
+    batch engine takes). The state and sensitivities are
+    integrated by classic RK4 with ``step`` (s; default the analysis' step, else 1e-3).
+    relative_delta: the parameter perturbation of f_p, delta = relative_delta |x0|.
+    Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, and the
+    sensitivity time series ``S`` (time, state, parameter).
+    """
+    import xarray as xr
+    from .batch import BatchSetup
+    from ..dynamics import system as cs
+    from ..simulate import output_times
+    nominal = _nominal(model, params)
+    names = list(nominal)
+    outs = parse_outputs(outputs)
+    job = _make_job(model, points({n: [v] for n, v in nominal.items()}), outs, analysis,
+                    "batch", {})
+    m0, an = job.build(nominal)
+    if an.type != "dynamic":
+        raise ModelError("forward sensitivities need a dynamic analysis")
+    if an.method not in ("standard", "baumgarte"):
+        raise ModelError(f"forward sensitivities integrate the equations of the 'standard' or "
+                         f"'baumgarte' method (the projection step of {an.method!r} is not "
+                         "differentiated); set the analysis method to 'standard'")
+    h = float(step if step is not None else (an.step or 1e-3))
+    setup = BatchSetup(m0, an.method, an.method_options)
+    F0 = setup.pack_F(m0)
+    y0 = setup.initial_state(m0, F0, an)
+    n, npar = y0.size, len(names)
+    Fp, Fm, S0 = [], [], np.zeros((n, npar))
+    deltas = []
+    for j, name in enumerate(names):
+        d = relative_delta * _scale(nominal[name])
+        deltas.append(d)
+        plus, minus = dict(nominal), dict(nominal)
+        plus[name] += d
+        minus[name] -= d
+        mp_, ap_ = job.build(plus)
+        mm_, am_ = job.build(minus)
+        Fa, Fb = setup.pack_F(mp_), setup.pack_F(mm_)
+        Fp.append(Fa)
+        Fm.append(Fb)
+        S0[:, j] = (setup.initial_state(mp_, Fa, ap_)
+                    - setup.initial_state(mm_, Fb, am_)) / (2 * d)
+    I, mpar = setup.system.I, setup.mp
+    W = setup.system.W.copy()
+    nb = m0.nb
+
+    def f(t, y, F):
+        out = np.empty(n)
+        if cs.rhs_standard(t, np.ascontiguousarray(y), out, F, I, W, mpar) < 0:
+            raise ModelError(f"t = {t:.6g} s: the right-hand side failed during the forward "
+                             "sensitivity integration")
+        return out
+
+    def g(t, y, S):
+        fy = f(t, y, F0)
+        dS = np.empty_like(S)
+        ny = max(1.0, float(np.linalg.norm(y)))
+        for j in range(npar):
+            s = S[:, j]
+            ns = float(np.linalg.norm(s))
+            if ns > 0:
+                eps = 1e-6 * ny / ns
+                jv = (f(t, y + eps * s, F0) - f(t, y - eps * s, F0)) / (2 * eps)
+            else:
+                jv = np.zeros(n)
+            dS[:, j] = jv + (f(t, y, Fp[j]) - f(t, y, Fm[j])) / (2 * deltas[j])
+        return fy, dS
+
+    def project(y, S):
+        for b in range(nb):
+            o = 7 * b + 3
+            p = y[o:o + 4].copy()
+            norm = float(np.linalg.norm(p))
+            ph = p / norm
+            Sp = S[o:o + 4]
+            S[o:o + 4] = (Sp - np.outer(ph, ph @ Sp)) / norm
+            y[o:o + 4] = ph
+        return y, S
+
+    t_out = output_times(an.t_end, an.output_step, an.t_eval, 0.0)
+    Y = np.zeros((t_out.size, n))
+    SS = np.zeros((t_out.size, n, npar))
+    t, y, S = 0.0, y0.copy(), S0.copy()
+    for ko, to in enumerate(t_out.tolist()):
+        if to > t:
+            msteps = max(1, math.ceil((to - t) / h - 1e-9))
+            t_start = t
+            for i in range(1, msteps + 1):
+                t_new = to if i == msteps else t_start + i * h
+                hh = t_new - t
+                k1, l1 = g(t, y, S)
+                k2, l2 = g(t + hh / 2, y + hh / 2 * k1, S + hh / 2 * l1)
+                k3, l3 = g(t + hh / 2, y + hh / 2 * k2, S + hh / 2 * l2)
+                k4, l4 = g(t + hh, y + hh * k3, S + hh * l3)
+                y = y + hh / 6 * (k1 + 2 * (k2 + k3) + k4)      # Eq. (13.14), (13.19)
+                S = S + hh / 6 * (l1 + 2 * (l2 + l3) + l4)
+                y, S = project(y, S)
+                t = t_new
+        Y[ko], SS[ko] = y, S
+    deriv = np.full((len(outs), npar), np.nan)
+    nominal_out = np.full(len(outs), np.nan)
+    for i, o in enumerate(outs):
+        if o.series or o.function is not None:
+            raise ModelError(f"output {o.name!r}: forward sensitivities take reductions of "
+                             "body state columns, e.g. final(pendulum.z)")
+        c = _state_index(m0, o.column)
+        x = Y[:, c]
+        nominal_out[i], deriv[i] = _reduce_derivative(o.reduction, t_out, x, SS[:, c, :])
+    return xr.Dataset(
+        dict(derivative=(("output", "parameter"), deriv), nominal=(("output",), nominal_out),
+             S=(("time", "state", "parameter"), SS)),
+        coords=dict(output=[o.name for o in outs], parameter=names, time=t_out,
+                    value=(("parameter",), np.array([nominal[nm] for nm in names]))),
+        attrs=dict(method="forward sensitivity equations, RK4", step=h))
+
+
+def _reduce_derivative(reduction, t, x, s):
+    """(value, d value / dp) of a reduction of x(t) with sensitivities s (nt, npar)."""
+    if reduction == "final":
+        return x[-1], s[-1]
+    if reduction == "initial":
+        return x[0], s[0]
+    if reduction == "mean":
+        return float(np.mean(x)), s.mean(axis=0)
+    if reduction in ("max", "min", "absmax"):
+        k = int(np.argmax(x) if reduction == "max" else np.argmin(x) if reduction == "min"
+                else np.argmax(np.abs(x)))
+        sign = 1.0 if reduction != "absmax" else float(np.sign(x[k]))
+        return float(sign * x[k]), sign * s[k]
+    if reduction == "period":
+        from .outputs import period
+        idx = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
+        if idx.size < 2:
+            return math.nan, np.full(s.shape[1], np.nan)
+        dts = []
+        for k in (int(idx[0]), int(idx[-1])):
+            tc = _cubic_root(t, x, k)                         # as outputs.period does
+            a, c = cubic_coefficients(t, x, k)
+            xdot = _poly(c, tc - a)[1]
+            sc = np.array([_poly(cubic_coefficients(t, s[:, j], k)[1], tc - a)[0]
+                           for j in range(s.shape[1])])
+            dts.append(-sc / xdot)                            # x(t_c(p), p) = 0
+        return period(t, x), (dts[1] - dts[0]) / (idx.size - 1)
+    raise ModelError(f"forward sensitivities: reduction {reduction!r} not supported")

@@ -1,0 +1,283 @@
+"""Parameter sweeps (spatialmbd.sweep): spaces and paths, outputs, schedulers (serial, process
+pool, a real Dask LocalCluster), failing members, the batch engine, sensitivities, the CLI."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spatialmbd import ModelBuilder
+from spatialmbd.errors import ModelError
+from spatialmbd.models import slider_crank
+from spatialmbd.sweep import (forward_sensitivities, grid, latin_hypercube, parse_range, period,
+                              points, save_result, sensitivities, set_path, get_path, sweep,
+                              to_dataframe)
+
+xr = pytest.importorskip("xarray")
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+PENDULUM = EXAMPLES / "pendulum_ch15.yaml"
+
+# compound pendulum of chapter 15: 1 m solid cylinder, pivot at one end (ERRATA reading)
+MASS, I_CM, D, G = 7.02, 0.5855265, 0.5, 9.81
+
+
+def pendulum_at(amplitude_deg):
+    """The chapter-15 pendulum released at rest amplitude_deg from the downward vertical
+    (revolute axis x at the origin, centre of mass D below the pivot when hanging)."""
+    th = np.radians(amplitude_deg)
+    a = th - np.pi / 2                        # rotation about x taking body y to the rod line
+    A = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    b = ModelBuilder("pendulum", gravity=(0, 0, -G))
+    b.add_body("rod", mass=MASS, inertia=(I_CM, 0.001053, I_CM),
+               r=D * np.array([0.0, np.sin(th), -np.cos(th)]), A=A)
+    b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
+    return b.compile()
+
+
+# ------------------------------------------------------------------------------ spaces, paths
+def test_grid_points_and_latin_hypercube():
+    g = grid({"a": [1, 2], "b": "0:1:3"})
+    assert g.values.tolist() == [[1, 0], [1, 0.5], [1, 1], [2, 0], [2, 0.5], [2, 1]]
+    assert [a.tolist() for a in g.axes] == [[1, 2], [0, 0.5, 1]]
+    p = points({"a": [1, 2, 3], "b": [4, 5, 6]})
+    assert p.values.tolist() == [[1, 4], [2, 5], [3, 6]]
+    assert points([{"a": 1, "b": 2}, {"b": 3, "a": 4}]).values.tolist() == [[1, 2], [4, 3]]
+    with pytest.raises(ModelError, match="same number"):
+        points({"a": [1, 2], "b": [1]})
+    lhs = latin_hypercube({"m": (1.0, 3.0), "k": (10.0, 20.0)}, 50, seed=3)
+    for j, (lo, hi) in enumerate(((1.0, 3.0), (10.0, 20.0))):
+        strata = np.floor((lhs.values[:, j] - lo) / (hi - lo) * 50).astype(int)
+        assert sorted(strata.tolist()) == list(range(50))      # one sample per stratum
+    assert np.array_equal(lhs.values, latin_hypercube({"m": (1.0, 3.0), "k": (10.0, 20.0)},
+                                                      50, seed=3).values)
+    assert np.allclose(parse_range("1:100:3:log"), [1, 10, 100])
+    with pytest.raises(ModelError, match="start:stop:count"):
+        parse_range("1:2", "x")
+
+
+def test_paths_by_name_index_and_errors():
+    data = {"bodies": [{"name": "a", "mass": 1.0, "inertia": [1, 2, 3]},
+                       {"name": "b", "mass": 2.0}], "gravity": [0, 0, -9.81],
+            "analysis": {"integrator": {"name": "rk45"}}}
+    set_path(data, "bodies.b.mass", 5.0)
+    set_path(data, "bodies.a.inertia.1", 7.0)
+    set_path(data, "bodies.b.angular_velocity.2", 3.0)       # missing vector starts at zero
+    set_path(data, "analysis.integrator.rtol", 1e-8)
+    assert data["bodies"][1]["mass"] == 5.0 and data["bodies"][0]["inertia"] == [1, 7.0, 3]
+    assert data["bodies"][1]["angular_velocity"] == [0.0, 0.0, 3.0]
+    assert get_path(data, "analysis.integrator.rtol") == 1e-8
+    with pytest.raises(ModelError, match="no item named 'c'; names here: a, b"):
+        set_path(data, "bodies.c.mass", 1.0)
+    with pytest.raises(ModelError, match="index 5 is out of range"):
+        set_path(data, "gravity.5", 1.0)
+    with pytest.raises(ModelError, match=r"give one component with an index, e.g. gravity.0"):
+        set_path(data, "gravity", 1.0)
+    with pytest.raises(ModelError, match="no item named 'nope'"):
+        sweep(PENDULUM, {"bodies.nope.mass": [1, 2]}, ["max(pendulum.z)"])
+
+
+def test_period_of_sampled_sine_and_output_errors():
+    t = np.linspace(0.0, 10.0, 401)
+    assert period(t, np.sin(2 * np.pi * t / 2.7 + 0.3)) == pytest.approx(2.7, rel=1e-7)
+    assert np.isnan(period(t, np.ones_like(t)))
+    with pytest.raises(ModelError, match="unknown reduction 'median'"):
+        sweep(PENDULUM, {"bodies.pendulum.mass": [1]}, ["median(pendulum.z)"])
+
+
+# ------------------------------------------------------------------------------ physics
+def test_pendulum_period_against_elliptic_integral():
+    """T = 4 sqrt(L_eq / g) K(k), k = sin(theta0 / 2), L_eq = I_pivot / (m d): the exact period
+    of the compound pendulum, against the zero crossings of omega_x of the batch engine."""
+    from scipy.special import ellipk
+    amplitudes = [10.0, 60.0, 120.0, 170.0]
+    analysis = dict(type="dynamic", t_end=10.5, output_step=0.01,
+                    integrator=dict(name="rk45", rtol=1e-10, atol=1e-12))
+    ds = sweep(pendulum_at, {"amplitude_deg": amplitudes}, ["period(rod.wx)"], analysis,
+               engine="batch")
+    assert (ds["status"] == "success").all()
+    L_eq = (I_CM + MASS * D**2) / (MASS * D)
+    k = np.sin(np.radians(amplitudes) / 2)
+    exact = 4 * np.sqrt(L_eq / G) * ellipk(k**2)              # scipy's ellipk takes m = k^2
+    assert np.allclose(ds["period(rod.wx)"].values, exact, rtol=1e-8, atol=0)
+    # the small-amplitude limit and the growth with amplitude are there
+    assert exact[0] == pytest.approx(2 * np.pi * np.sqrt(L_eq / G), rel=2e-3)
+    assert np.all(np.diff(ds["period(rod.wx)"].values) > 0)
+
+
+# ------------------------------------------------------------------------------ schedulers
+def test_schedulers_give_identical_ordered_results_and_failures_are_recorded():
+    pytest.importorskip("distributed")
+    params = points({"bodies.pendulum.mass": [1.0, 2.0, -1.0, 4.0, 5.0, 0.0],
+                     "analysis.t_end": [0.6, 0.5, 0.5, 0.4, 0.7, 0.5]})
+    outs = ["min(pendulum.wx)", "final(pendulum.z)", "pivot.pendulum.fz"]
+    kw = dict(chunk_size=2, progress=False)
+    serial = sweep(PENDULUM, params, outs, scheduler="serial", **kw)
+    procs = sweep(PENDULUM, params, outs, scheduler="processes", workers=2, **kw)
+    from distributed import Client, LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        dask = sweep(PENDULUM, params, outs, scheduler=client, **kw)
+    status = serial["status"].values.tolist()
+    assert status == ["success", "success", "failed", "success", "success", "failed"]
+    assert "bodies[0].mass: must be positive" in str(serial["message"].values[2])
+    assert np.all(np.isnan(serial["min(pendulum.wx)"].values[[2, 5]]))
+    assert np.all(np.isfinite(serial["min(pendulum.wx)"].values[[0, 1, 3, 4]]))
+    for other in (procs, dask):
+        assert other["status"].values.tolist() == status
+        assert other["message"].values.tolist() == serial["message"].values.tolist()
+        for o in outs:
+            assert np.array_equal(other[o].values, serial[o].values, equal_nan=True)
+    assert len(set(serial["min(pendulum.wx)"].values[[0, 1, 3, 4]].tolist())) == 4
+    assert dask.attrs["scheduler"] == "dask" and procs.attrs["scheduler"] == "processes"
+
+
+# ------------------------------------------------------------------------------ batch engine
+@pytest.mark.parametrize("integrator,method", [("rk45", "standard"), ("rk4", "standard"),
+                                               ("rk45", "projection"), ("rk4", "projection")])
+def test_batch_equals_separate_runs_slider_crank(integrator, method):
+    from spatialmbd.io import Analysis
+    from spatialmbd.sweep.batch import simulate_batch
+    base = slider_crank(driven=False)
+    models = []
+    for mass, speed in ((0.5, 6.0), (0.8, 4.0), (1.2, 7.0)):
+        b = slider_crank(driven=False, crank_speed=speed)
+        b.bodies["rod"].mass = mass
+        models.append(b.compile())
+    an = Analysis(t_end=0.3, output_step=0.01, integrator=integrator, method=method,
+                  rtol=1e-8 if integrator == "rk45" else None,
+                  atol=1e-10 if integrator == "rk45" else None,
+                  step=2e-3 if integrator == "rk4" else None)
+    out = simulate_batch(models, an)
+    for model, member in zip(models, out):
+        ref = an.run(model)
+        assert member.status == "success"
+        np.testing.assert_allclose(member.q, ref.q, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(member.v, ref.v, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(member.lam, ref.lam, rtol=1e-9, atol=1e-9)
+        if integrator == "rk45":
+            assert member.counters["steps"] == ref.counters["steps"]
+    assert not np.allclose(out[0].q, out[1].q)
+    other = ModelBuilder("x")
+    other.add_body("a", 1.0, (1, 1, 1))
+    with pytest.raises(ModelError, match="differs in topology"):
+        simulate_batch([models[0], other.compile()], an)
+    with pytest.raises(ModelError, match="drivers"):
+        simulate_batch([base.compile() if False else slider_crank(driven=True).compile()], an)
+
+
+def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
+    params = {"bodies.pendulum.mass": [2.0, -3.0, 7.0]}
+    analysis = dict(type="dynamic", t_end=1.0, output_step=0.05,
+                    integrator=dict(name="rk45", rtol=1e-9, atol=1e-11))
+    outs = ["min(pendulum.z)", "final(pendulum.wx)", "pivot.pendulum.fz"]
+    a = sweep(PENDULUM, params, outs, analysis, engine="simulate")
+    b = sweep(PENDULUM, params, outs, analysis, engine="batch")
+    assert a["status"].values.tolist() == b["status"].values.tolist() == \
+        ["success", "failed", "success"]
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
+    # joint geometry (the packed frames of the revolute) and initial velocities reach the batch
+    geo = {"joints.pivot.axis.1": [0.0, 0.2], "bodies.pendulum.angular_velocity.0": [0.0, 1.5]}
+    a = sweep(PENDULUM, geo, outs, analysis, engine="simulate")
+    b = sweep(PENDULUM, geo, outs, analysis, engine="batch")
+    assert (b["status"] == "success").all()
+    assert len(set(np.round(b["min(pendulum.z)"].values.ravel(), 9))) == 4
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
+    flyball = EXAMPLES / "flyball_governor.yaml"
+    c = sweep(flyball, {"forces.spring_A.stiffness": [1e5]}, ["final(slider.z)"],
+              dict(type="dynamic", t_end=0.01), engine="batch")
+    assert c["status"].values[0] == "failed" and "force elements" in str(c["message"].values[0])
+
+
+# ------------------------------------------------------------------------------ results
+def test_result_formats_dataframe_and_files(tmp_path):
+    ds = sweep(PENDULUM, {"bodies.pendulum.mass": [1.0, 2.0], "analysis.t_end": [0.2, 0.3]},
+               {"zmin": "min(pendulum.z)", "z": "pendulum.z"}, progress=False)
+    assert ds["zmin"].dims == ("bodies.pendulum.mass", "analysis.t_end")
+    assert ds["z"].dims == ("bodies.pendulum.mass", "analysis.t_end", "time")
+    # the shorter runs are padded with NaN after their end time
+    assert np.isnan(ds["z"].sel({"analysis.t_end": 0.2}).values[:, -1]).all()
+    df = to_dataframe(ds)
+    assert set(["bodies.pendulum.mass", "analysis.t_end", "zmin", "status", "time", "z"]) \
+        <= set(df.columns)
+    flat = sweep(PENDULUM, {"bodies.pendulum.mass": [1.0, 2.0]}, ["min(pendulum.z)"],
+                 format="dataframe", analysis=dict(type="dynamic", t_end=0.2))
+    assert len(flat) == 2 and flat["status"].tolist() == ["success", "success"]
+    for name in ("s.nc", "s.csv"):
+        save_result(ds, tmp_path / name)
+    back = xr.open_dataset(tmp_path / "s.nc")
+    assert np.array_equal(back["zmin"].values, ds["zmin"].values)
+    with pytest.raises(ModelError, match=".nc, .csv or .parquet"):
+        save_result(ds, tmp_path / "s.txt")
+
+
+# ------------------------------------------------------------------------------ sensitivities
+def test_sensitivities_finite_differences_against_forward():
+    analysis = dict(type="dynamic", t_end=3.2, output_step=0.02, method=dict(name="standard"),
+                    integrator=dict(name="rk4", step=4e-3))
+    params = {"bodies.pendulum.mass": None, "bodies.pendulum.inertia.0": None}
+    outs = ["final(pendulum.z)", "max(pendulum.wx)", "period(pendulum.wx)",
+            "mean(pendulum.y)"]
+    fd = sensitivities(PENDULUM, params, outs, analysis, engine="batch")
+    fw = forward_sensitivities(PENDULUM, params, outs, analysis)
+    assert (fd["status"] == "success").all()
+    # a thin rod: I_xx must stay within I_zz -+ I_yy; the 1 % steps leave that range and fail,
+    # the smaller steps are used
+    assert "triangle inequality" in str(fd["message"].values[1]) and fd.attrs["n_failed"] == 4
+    assert np.all(fd["step"].values[:, 1] < 1e-2 * 0.5855265)
+    assert fd["value"].values.tolist() == [7.02, 0.5855265]
+    d_fd, d_fw, err = fd["derivative"].values, fw["derivative"].values, fd["error"].values
+    assert np.all(np.abs(d_fw) > 1e-3)
+    assert np.all(np.abs(d_fd - d_fw) <= 1e-6 * np.abs(d_fw) + 10 * err)
+    assert np.all(err < 1e-5 * np.abs(d_fw))
+    np.testing.assert_allclose(fw["nominal"].values, fd["nominal"].values, rtol=1e-12)
+    with pytest.raises(ModelError, match="projection step"):
+        forward_sensitivities(PENDULUM, ["bodies.pendulum.mass"], ["final(pendulum.z)"],
+                              dict(analysis, method=dict(name="projection")))
+    # the period of a compound pendulum depends on I_pivot / (m d): dT/dI_cm > 0, dT/dm < 0
+    k = outs.index("period(pendulum.wx)")
+    assert d_fw[k, 0] < 0 < d_fw[k, 1]
+
+
+# ------------------------------------------------------------------------------ command line
+def test_cli_sweep_writes_results_and_plot(tmp_path, capsys):
+    from spatialmbd.cli import main
+    out, fig = tmp_path / "s.csv", tmp_path / "s.png"
+    code = main(["sweep", str(PENDULUM), "--param", "bodies.pendulum.mass=1:3:3",
+                 "--param", "bodies.pendulum.inertia.0=0.585,-1", "--output",
+                 "min(pendulum.z)", "--t-end", "0.2", "--scheduler", "serial", "-o", str(out),
+                 "--plot", str(fig)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "6 members (3 succeeded, 3 failed)" in captured.out
+    assert "inertia" in captured.err
+    import pandas as pd
+    table = pd.read_csv(out)
+    assert len(table) == 6 and fig.stat().st_size > 0
+    assert main(["sweep", str(PENDULUM), "--param", "bodies.pendulum.mass", "--output",
+                 "min(pendulum.z)"]) == 2
+    assert "write PATH=VALUES" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------ examples
+def _example(name):
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / "sweeps" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_example_pendulum_period_runs(capsys):
+    assert _example("pendulum_period").main(["--members", "3"]) == 0
+    assert "max relative error" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_examples_slider_crank_and_flyball_run(tmp_path, capsys):
+    assert _example("slider_crank_torque").main(["--quick"]) == 0
+    assert _example("flyball_stiffness").main(["--members", "2", "--t-end", "0.05", "-o",
+                                               str(tmp_path / "k.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "d(output)/d(mass)" in out and "sleeve" in out
