@@ -329,7 +329,7 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
     instant, with the joints named if not). Each instant starts Newton from a second-order
     prediction q + v dt + vdot dt^2 / 2 of the previous solution.
     """
-    from .guards import check_times
+    from .checks import check_times
     t = check_times(t)
     nb = model.nb
     q = np.array(model.q0 if q_guess is None else q_guess, dtype=float).reshape(nb, 7)
