@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 from spatialmbd.errors import SimulationError, SingularMatrixError
 from spatialmbd.integrators import INTEGRATORS, Counters, ODEProblem, get_integrator
 from spatialmbd.integrators.controller import resample_matrix
-from spatialmbd.integrators.runge_kutta_adaptive import DOPRI_B, DOPRI_P, dopri_dense
+from spatialmbd.integrators.runge_kutta_adaptive import DOPRI_DENSE, DOPRI_WEIGHTS, dopri_dense
 
 OWN = ["euler", "heun", "rk4", "abm4", "bdf4", "rk45"]
 SCIPY = ["scipy-rk45", "scipy-dop853", "scipy-radau", "scipy-bdf", "scipy-lsoda"]
@@ -148,12 +148,12 @@ def test_rk45_dense_output_between_steps():
 
 def test_dopri_continuous_extension_hits_step_ends():
     """Shampine's extension: row sums are b, theta = 0 and 1 give y_n and y_(n+1)."""
-    np.testing.assert_allclose(DOPRI_P.sum(axis=1), np.append(DOPRI_B, 0.0), atol=1e-15)
+    np.testing.assert_allclose(DOPRI_DENSE.sum(axis=1), np.append(DOPRI_WEIGHTS, 0.0), atol=1e-15)
     rng = np.random.default_rng(1)
     K = rng.normal(size=(7, 3))
     y, h = rng.normal(size=3), 0.37
     np.testing.assert_array_equal(dopri_dense(y, h, K, 0.0), y)
-    np.testing.assert_allclose(dopri_dense(y, h, K, 1.0), y + h * DOPRI_B @ K[:6],
+    np.testing.assert_allclose(dopri_dense(y, h, K, 1.0), y + h * DOPRI_WEIGHTS @ K[:6],
                                rtol=0, atol=1e-15)
 
 
