@@ -57,6 +57,8 @@ class Results:
     redundant_joints: list = field(default_factory=list)
     messages: list = field(default_factory=list)
     settings: dict = field(default_factory=dict)
+    #: located events of simulate(..., events=...): dicts with t (s), name, index, terminal
+    events: list = field(default_factory=list)
 
     # ----------------------------------------------------------------------------------------
     @classmethod
@@ -91,7 +93,8 @@ class Results:
 
     @property
     def success(self) -> bool:
-        return self.status == "success"
+        """True when the run reached t_end or a terminal event stopped it (status "event")."""
+        return self.status in ("success", "event")
 
     def body(self, name: str) -> dict:
         """Time series of one body: r, p, rdot, omega, rddot, omegadot (each (nt, 3|4))."""

@@ -63,7 +63,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
              atol: Optional[float] = None, method_options: Optional[dict] = None,
              integrator_options: Optional[dict] = None, q0=None, v0=None,
              correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
-             progress=False, t0: float = 0.0) -> Results:
+             progress=False, t0: float = 0.0, events=None, event_tol: float = 1e-12) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
     method: "standard", "baumgarte", "penalty", "augmented_lagrangian", "projection" or a
@@ -74,8 +74,14 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     q0, v0: initial state (nb, 7) and (nb, 6); default the model's. correct_initial: apply the
         chapter 14 corrections first (hold: coordinates kept fixed, {"body": ["x", ...]}).
     progress: True for a progress bar on runs longer than about a second, or a callable(t).
+    events: zero crossings to locate (docs/events.md): each a callable g(t, state) -> float
+        (state: a :class:`.state.BodyState` of the bodies, ground last) or an object with
+        ``function`` and optional ``terminal`` (stop the run there), ``direction`` (> 0 rising
+        only, < 0 falling only), ``name``; located to ``event_tol`` (s) on the dense output.
 
-    Returns Results (status "success" or "failed" with everything computed up to the failure).
+    Returns Results (status "success", "event" when a terminal event stopped the run -- its
+    state is the last output -- or "failed" with everything computed up to the failure);
+    ``results.events`` lists the located events (t, name, index, terminal).
     """
     nb = model.nb
     t_out = output_times(t_end, output_step, t_eval, t0)
@@ -133,15 +139,17 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
         problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
-                             stages=meth.stages(eom.system) if compiled else None)
-        res = integ.integrate(problem, t0, y0, t_out, progress=callback)
+                             stages=meth.stages(eom.system) if compiled else None,
+                             n_quadrature=1)           # W does not enter the rhs
+        res = integ.integrate(problem, t0, y0, t_out, progress=callback,
+                              events=_state_events(events, nb), event_tol=event_tol)
     finally:
         if hasattr(callback, "close"):
             callback.close()
     wall = time.perf_counter() - start
     if res.status != "success":
         messages.append(res.message)
-    return Results.from_integration(
+    out = Results.from_integration(
         model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
         message=res.message, counters=res.counters.as_dict(), wall_time=wall,
         correction=correction, redundant_joints=redundant_joints, messages=messages,
@@ -149,6 +157,30 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
                       method=meth.name, method_options=meth.parameters(),
                       integrator=integ.name, integrator_options=_integrator_options(integ),
                       correct_initial=correct_initial))
+    out.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
+                  for e in res.events]
+    return out
+
+
+def _state_events(events, nb):
+    """The simulate-level events (functions of (t, BodyState)) as integrator events (functions
+    of (t, y)); None when there are none."""
+    if not events:
+        return None
+    from .integrators import Event
+    from .state import BodyState
+    n_q, n_v = 7 * nb, 6 * nb
+    out = []
+    for i, spec in enumerate(events):
+        ev = Event.coerce(spec, i)
+        user = ev.function
+
+        def g(t, y, user=user):
+            state = BodyState.from_qv(normalize_q(y[:n_q]).reshape(nb, 7),
+                                      y[n_q:n_q + n_v].reshape(nb, 6), t)
+            return float(user(t, state))
+        out.append(Event(g, terminal=ev.terminal, direction=ev.direction, name=ev.name))
+    return out
 
 
 #: above this many entries of D the dense rank analysis (SVD) is not attempted

@@ -38,6 +38,21 @@ class AugmentedLagrangian(_PenaltyBase):
         self.floor = check_positive("augmented_lagrangian floor", floor)
         self.total_iterations = 0
 
+    def setup(self, eom, redundant_rows=None) -> None:
+        """Leave the redundant rows (found by the mobility analysis) out of M + alpha D^T D, as
+        the standard method leaves them out of its multiplier solve: along a redundant
+        direction D has a tiny but non-zero singular value (round-off, or a mechanism near a
+        special position), so M + alpha D^T D barely contracts there and the iteration (12.17)
+        stalls (the Bricard mechanism). Their multipliers are 0."""
+        super().setup(eom, redundant_rows)
+        self._drop = None if redundant_rows is None or not len(redundant_rows) else \
+            [int(r) for r in redundant_rows]
+        eom.system.drop_penalty_rows(self._drop)
+
+    def kernels(self, system, W=None):
+        system.drop_penalty_rows(getattr(self, "_drop", None))
+        return super().kernels(system, W)
+
     def _not_converged(self, t):
         err = ConvergenceError(f"t = {t:.6g} s: augmented Lagrangian iterations did not converge "
                                f"in {self.max_iterations}; raise alpha or max_iterations, or "

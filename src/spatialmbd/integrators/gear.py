@@ -203,6 +203,8 @@ class GearStepper(Stepper):
         self.hY = h
         self.slopes = np.empty((5, n))     # SDIRK stage derivatives
         self.refresh_next = True
+        self.backoff = 0          # steps with a Jacobian evaluated up front (see ``step``)
+        self.proactive = 0
         return h
 
     # ------------------------------------------------------------------ SDIRK4 start-up step
@@ -233,12 +235,12 @@ class GearStepper(Stepper):
         hs = t_new - t
         n = self.n
         while True:
-            if self.refresh_next:
-                newton.refresh(t, y, self.fy if self.n_hist < 5 else None)
-                self.refresh_next = False
             scale = self.atol + o.rtol * np.abs(y)
             startup = self.n_hist < 5
             if startup:
+                if self.refresh_next:
+                    newton.refresh(t, y, self.fy)
+                    self.refresh_next = False
                 if self.n_hist > 1 and hs != self.hY:
                     self.n_hist = 1                     # restart the uniform start-up
                     self.Y[0] = y
@@ -253,6 +255,11 @@ class GearStepper(Stepper):
                     self.hY = hs
                 y_p = np.dot(EXTRAPOLATE5, Y)                      # predictor
                 psi = np.dot(BDF4_ALPHA, Y[:4])                   # Eq. (13.26)
+                if self.refresh_next:
+                    # J at the predicted end of the step, where Newton works: J can change
+                    # fast along the solution (e.g. stiff directions rotating with a body)
+                    newton.refresh(t_new, y_p)
+                    self.refresh_next = False
                 y_new, cause = newton.solve(t_new, psi, BDF4_BETA * hs, y_p, scale)
                 out = y_new
                 if y_new is not None:
@@ -266,6 +273,12 @@ class GearStepper(Stepper):
                 return Step(t_new, None, failed=cause, k=5)
             self.counters.rejected += 1                 # retry with a fresh Jacobian
             self.refresh_next = True
+            # a Jacobian one step old failed: evaluate it up front for the next few steps
+            # (1, 2, 4, 8 then 8 each time it fails again) instead of failing every step
+            self.backoff = min(2 * self.backoff + 1, 8)
+            self.proactive = self.backoff
+        if not newton.current:
+            self.backoff = 0                            # the reused Jacobian did the job
         newton.current = False
         self.iters = iters
         self.h_last = hs
@@ -288,6 +301,9 @@ class GearStepper(Stepper):
         self.n_hist = min(self.n_hist + 1, 5)
         if self.iters > 3:
             self.refresh_next = True                    # slow convergence: new J next step
+        elif self.proactive > 0:
+            self.proactive -= 1
+            self.refresh_next = True
 
 
 class _HermiteStep:
