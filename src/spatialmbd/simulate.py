@@ -102,6 +102,8 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
                                                       system=eom.system)
 
     mob = _redundancy(model, eom, q, t0)
+    if mob is not None and mob.redundant:
+        mob = _structural_redundancy(model, eom, q, v, t0, mob)
     redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
     redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
     messages = []
@@ -147,6 +149,10 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
         if hasattr(callback, "close"):
             callback.close()
     wall = time.perf_counter() - start
+    if res.status == "failed" and model.n_eq and res.last is not None:
+        diagnosis = _singular_diagnosis(model, res.last, mob, meth.name)
+        if diagnosis:
+            res.message = f"{res.message}. Diagnosis: {diagnosis}"
     if res.status != "success":
         messages.append(res.message)
     out = Results.from_integration(
@@ -160,6 +166,48 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     out.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                   for e in res.events]
     return out
+
+
+def _singular_diagnosis(model, last, mob0, method_name, rel: float = 1e-6):
+    """Why a run failed, if the mechanism is at a singular position: the rank of D at the last
+    accepted state against the start, the joints whose equations became dependent, and the
+    setting to change. None when D has full (start) rank there."""
+    import scipy.linalg as la
+    from .kinematics import _dense
+    t, y = last
+    nb = model.nb
+    q = normalize_q(np.asarray(y[:7 * nb], dtype=float)).reshape(nb, 7)
+    try:
+        D = _dense(model.assembler.evaluate(q, None, t).D)
+    except SpatialMBDError:
+        return None
+    m = D.shape[0]
+    s = np.linalg.svd(D, compute_uv=False)
+    if s.size == 0 or s[0] == 0.0:
+        return None
+    rank_start = mob0.rank if mob0 is not None else m
+    near = int(np.sum(s > rel * s[0]))
+    if near >= rank_start:
+        return None
+    start_rows = {r[0] for r in mob0.redundant} if mob0 is not None else set()
+    _, _, piv = la.qr(D.T, pivoting=True, mode="economic")
+    rows = [int(r) for r in piv[near:] if int(r) not in start_rows]
+    joints = sorted({model.equation_labels[r][0] for r in rows})
+    small = ", ".join(f"{v:.2g}" for v in s[near:rank_start])
+    text = (f"at t = {t:.6g} s the constraint Jacobian D has numerical rank {near} of {m} "
+            f"equations (rank {rank_start} at the start; singular value(s) {small} below "
+            f"{rel:g} x the largest, {s[0]:.3g}): the equations of joint(s) "
+            f"{', '.join(joints) or '?'} became dependent, so the mechanism is at a singular "
+            "(dead-centre / bifurcation) position")
+    if method_name in ("standard", "baumgarte", "projection"):
+        text += (f", where the multipliers of the {method_name} method are not unique and its "
+                 "accelerations blow up; use method 'penalty' or 'augmented_lagrangian' (their "
+                 "M + alpha D^T D stays positive definite through singular positions), or end "
+                 f"the run before t = {t:.6g} s")
+    else:
+        text += ("; raise alpha (and, for augmented_lagrangian, max_iterations), or end the "
+                 f"run before t = {t:.6g} s")
+    return text
 
 
 def _state_events(events, nb):
@@ -210,6 +258,27 @@ def _redundancy(model, eom, q, t0):
     return Mobility(grubler=6 * nb - m, rank=m - rows.size, dof=6 * nb - (m - rows.size),
                     n_equations=m, redundant=[(int(r),) + tuple(labels[r]) for r in rows],
                     singular_values=None)
+
+
+def _structural_redundancy(model, eom, q, v, t0, mob):
+    """The redundancy analysis a short way along the motion when the start has dependent rows.
+
+    A mechanism started at a singular position (e.g. a four-bar at dead centre) has rows that
+    are dependent only there; leaving them out for the whole run would drop constraints that
+    are independent a moment later. The rows are taken from the configuration reached after
+    moving about 1e-4 m along the initial velocity (the rank test ignores the O(1e-8) constraint
+    violation of that step); with zero velocity the start's analysis stands."""
+    qdot = qdot_from_v(q, v).reshape(model.nb, 7)
+    speed = float(np.abs(qdot).max()) if qdot.size else 0.0
+    if not speed > 0.0 or 6 * model.nb > SPARSE_THRESHOLD:
+        return mob
+    dt = 1e-4 / speed
+    q1 = normalize_q(q + dt * qdot)
+    try:
+        mob1 = mobility(model, q1, t0 + dt)
+    except SpatialMBDError:
+        return mob
+    return mob1 if len(mob1.redundant) < len(mob.redundant) else mob
 
 
 def right_hand_side(model, method="standard", method_options: Optional[dict] = None):

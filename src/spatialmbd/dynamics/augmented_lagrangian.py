@@ -19,9 +19,15 @@ leading matrix serves every iteration of an instant (compiled: :func:`.system.so
 """
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import ConvergenceError
+from . import system as cs
 from .base import check_positive, register
 from .penalty import _PenaltyBase
+
+#: escalation when (12.17) does not converge at an instant: (alpha factor, iterations factor)
+ESCALATION = ((10.0, 4), (100.0, 16))
 
 
 @register
@@ -37,6 +43,7 @@ class AugmentedLagrangian(_PenaltyBase):
                                                  max_iterations))
         self.floor = check_positive("augmented_lagrangian floor", floor)
         self.total_iterations = 0
+        self.adaptations = 0
 
     def setup(self, eom, redundant_rows=None) -> None:
         """Leave the redundant rows (found by the mobility analysis) out of M + alpha D^T D, as
@@ -53,10 +60,41 @@ class AugmentedLagrangian(_PenaltyBase):
         system.drop_penalty_rows(getattr(self, "_drop", None))
         return super().kernels(system, W)
 
-    def _not_converged(self, t):
-        err = ConvergenceError(f"t = {t:.6g} s: augmented Lagrangian iterations did not converge "
-                               f"in {self.max_iterations}; raise alpha or max_iterations, or "
-                               "loosen the tolerance")
+    def status(self, code, system, t, y, ydot, W=None):
+        """On non-convergence, adapt before failing: redo the instant with alpha x 10 and 4 x
+        the iterations, then alpha x 100 and 16 x (the defaults stay for the next instant;
+        ``adaptations`` counts the rescued instants). A larger alpha contracts (12.17) faster
+        along directions where D is nearly singular (a mechanism near a singular position).
+        The work rate ydot[-1] keeps the value of the first attempt."""
+        if code != cs.NOT_CONVERGED:
+            return super().status(code, system, t, y, ydot, W)
+        KI, KW = system.penalty_pack()
+        W = system.W if W is None else W
+        out = np.empty(y.size) if ydot is None else ydot
+        last = out[-1] if ydot is not None else 0.0
+        base = self.params()
+        for fa, fi in ESCALATION:
+            mp = base.copy()
+            mp[1] *= fa
+            mp[6] = int(mp[6] * fi)
+            code = cs.after_state_penalty(y, out, system.F, system.I, W, KI, KW, mp)
+            if code >= 0:
+                self.adaptations += 1
+                if ydot is not None:
+                    out[-1] = last
+                return code
+        raise self._not_converged(t, escalated=True)
+
+    def _not_converged(self, t, escalated=False):
+        fa, fi = ESCALATION[-1]
+        extra = (f" (nor with alpha raised to {self.alpha * fa:.3g} and {self.max_iterations * fi}"
+                 " iterations)") if escalated else ""
+        err = ConvergenceError(
+            f"t = {t:.6g} s: augmented Lagrangian iterations did not converge in "
+            f"{self.max_iterations}{extra}; raise method option alpha (now {self.alpha:.3g}) or "
+            f"max_iterations (now {self.max_iterations}), loosen tolerance (now "
+            f"{self.tolerance:.3g}), or, if the mechanism is at a singular position, use method "
+            "'penalty'")
         err.t = t
         return err
 

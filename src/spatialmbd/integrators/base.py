@@ -108,6 +108,7 @@ class IntegrationResult:
     counters: Counters = field(default_factory=Counters)
     t_fail: Optional[float] = None
     events: list = field(default_factory=list)
+    last: Optional[tuple] = None       # (t, y) of the last accepted step
 
     @property
     def success(self) -> bool:
@@ -168,7 +169,7 @@ class Integrator(abc.ABC):
             message = f"t = {ev.t:.9g} s: terminal event {ev.name!r} (events[{ev.index}])"
         return IntegrationResult(t=np.array(state.times, dtype=float), y=y, status=status,
                                  message=message, counters=counters, t_fail=t_fail,
-                                 events=list(state.events))
+                                 events=list(state.events), last=state.last)
 
     def _integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
                    counters: Counters, outputs: list, progress, events=None,

@@ -165,6 +165,7 @@ class RunState:
     outputs: list = field(default_factory=list)
     events: List[EventRecord] = field(default_factory=list)
     terminated: Optional[EventRecord] = None
+    last: Optional[tuple] = None          # (t, y) of the last accepted step (diagnostics)
 
 
 def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
@@ -247,6 +248,7 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             raise_if_nonfinite(t_new, y_new)
             stepper.accept(st, y_new)
             counters.steps += st.n_steps
+            state.last = (t_new, y_new)
             dense = _corrected_dense(st.dense, t, t_new, y_raw, y_new)
             # ---------------------------------------------------------- events
             t_stop = t_new
