@@ -153,6 +153,9 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
         diagnosis = _singular_diagnosis(model, res.last, mob, meth.name)
         if diagnosis:
             res.message = f"{res.message}. Diagnosis: {diagnosis}"
+    for t_a, alpha, iters in getattr(meth, "adaptations", ()):
+        messages.append(f"t = {t_a:.6g} s: {meth.name} did not converge with its settings; "
+                        f"continued with alpha = {alpha:.3g}, max_iterations = {iters}")
     if res.status != "success":
         messages.append(res.message)
     out = Results.from_integration(
@@ -168,7 +171,7 @@ def simulate(model, t_end: float = 1.0, *, method="standard", integrator="rk45",
     return out
 
 
-def _singular_diagnosis(model, last, mob0, method_name, rel: float = 1e-6):
+def _singular_diagnosis(model, last, mob0, method_name, rel: float = 1e-3):
     """Why a run failed, if the mechanism is at a singular position: the rank of D at the last
     accepted state against the start, the joints whose equations became dependent, and the
     setting to change. None when D has full (start) rank there."""
@@ -186,7 +189,13 @@ def _singular_diagnosis(model, last, mob0, method_name, rel: float = 1e-6):
     if s.size == 0 or s[0] == 0.0:
         return None
     rank_start = mob0.rank if mob0 is not None else m
-    near = int(np.sum(s > rel * s[0]))
+    s0 = None if mob0 is None else mob0.singular_values
+    if s0 is not None and rank_start > 0 and len(s0) >= rank_start:
+        # far below the smallest singular value of the start: (nearly) dependent now
+        threshold = rel * float(s0[rank_start - 1])
+    else:
+        threshold = rel * 1e-1 * float(s[0])
+    near = int(np.sum(s > threshold))
     if near >= rank_start:
         return None
     start_rows = {r[0] for r in mob0.redundant} if mob0 is not None else set()
@@ -196,12 +205,12 @@ def _singular_diagnosis(model, last, mob0, method_name, rel: float = 1e-6):
     small = ", ".join(f"{v:.2g}" for v in s[near:rank_start])
     text = (f"at t = {t:.6g} s the constraint Jacobian D has numerical rank {near} of {m} "
             f"equations (rank {rank_start} at the start; singular value(s) {small} below "
-            f"{rel:g} x the largest, {s[0]:.3g}): the equations of joint(s) "
+            f"{threshold:.3g}, {rel:g} x the smallest of the start): the equations of joint(s) "
             f"{', '.join(joints) or '?'} became dependent, so the mechanism is at a singular "
             "(dead-centre / bifurcation) position")
     if method_name in ("standard", "baumgarte", "projection"):
         text += (f", where the multipliers of the {method_name} method are not unique and its "
-                 "accelerations blow up; use method 'penalty' or 'augmented_lagrangian' (their "
+                 "accelerations blow up; use method 'penalty' (its "
                  "M + alpha D^T D stays positive definite through singular positions), or end "
                  f"the run before t = {t:.6g} s")
     else:

@@ -26,8 +26,13 @@ from . import system as cs
 from .base import check_positive, register
 from .penalty import _PenaltyBase
 
-#: escalation when (12.17) does not converge at an instant: (alpha factor, iterations factor)
-ESCALATION = ((10.0, 4), (100.0, 16))
+#: adaptation when (12.17) does not converge at an instant: (alpha factor, iterations factor),
+#: tried in turn from the current values. A larger alpha contracts the iteration faster along
+#: directions where D is nearly singular (near a singular position, redundant rows); a smaller
+#: one lowers the round-off floor alpha |D^T c| eps when M + alpha D^T D is badly conditioned
+#: (bodies with large mass ratios), where a larger alpha never converges.
+ESCALATION = ((10.0, 4), (0.01, 4), (1e-4, 16))
+ALPHA_RANGE = (1e2, 1e11)
 
 
 @register
@@ -43,7 +48,7 @@ class AugmentedLagrangian(_PenaltyBase):
                                                  max_iterations))
         self.floor = check_positive("augmented_lagrangian floor", floor)
         self.total_iterations = 0
-        self.adaptations = 0
+        self.adaptations = []
 
     def setup(self, eom, redundant_rows=None) -> None:
         """Leave the redundant rows (found by the mobility analysis) out of M + alpha D^T D, as
@@ -61,11 +66,10 @@ class AugmentedLagrangian(_PenaltyBase):
         return super().kernels(system, W)
 
     def status(self, code, system, t, y, ydot, W=None):
-        """On non-convergence, adapt before failing: redo the instant with alpha x 10 and 4 x
-        the iterations, then alpha x 100 and 16 x (the defaults stay for the next instant;
-        ``adaptations`` counts the rescued instants). A larger alpha contracts (12.17) faster
-        along directions where D is nearly singular (a mechanism near a singular position).
-        The work rate ydot[-1] keeps the value of the first attempt."""
+        """On non-convergence, adapt before failing: redo the instant with the settings of
+        :data:`ESCALATION` in turn; the first that converges is kept for the rest of the run
+        (``alpha`` and ``max_iterations`` change; ``adaptations`` lists (t, alpha,
+        max_iterations)). The work rate ydot[-1] keeps the value of the first attempt."""
         if code != cs.NOT_CONVERGED:
             return super().status(code, system, t, y, ydot, W)
         KI, KW = system.penalty_pack()
@@ -73,26 +77,30 @@ class AugmentedLagrangian(_PenaltyBase):
         out = np.empty(y.size) if ydot is None else ydot
         last = out[-1] if ydot is not None else 0.0
         base = self.params()
+        tried = []
         for fa, fi in ESCALATION:
             mp = base.copy()
-            mp[1] *= fa
-            mp[6] = int(mp[6] * fi)
+            mp[1] = min(max(base[1] * fa, ALPHA_RANGE[0]), ALPHA_RANGE[1])
+            mp[6] = int(base[6] * fi)
+            tried.append(f"alpha {mp[1]:.3g} with {int(mp[6])} iterations")
             code = cs.after_state_penalty(y, out, system.F, system.I, W, KI, KW, mp)
             if code >= 0:
-                self.adaptations += 1
+                self.alpha, self.max_iterations = float(mp[1]), int(mp[6])
+                live = self.__dict__.get("_mp")
+                if live is not None:                   # the compiled kernels' parameters
+                    live[1], live[6] = mp[1], mp[6]
+                self.adaptations.append((float(t), self.alpha, self.max_iterations))
                 if ydot is not None:
                     out[-1] = last
                 return code
-        raise self._not_converged(t, escalated=True)
+        raise self._not_converged(t, tried)
 
-    def _not_converged(self, t, escalated=False):
-        fa, fi = ESCALATION[-1]
-        extra = (f" (nor with alpha raised to {self.alpha * fa:.3g} and {self.max_iterations * fi}"
-                 " iterations)") if escalated else ""
+    def _not_converged(self, t, tried=()):
+        extra = f" (nor with {', '.join(tried)})" if tried else ""
         err = ConvergenceError(
             f"t = {t:.6g} s: augmented Lagrangian iterations did not converge in "
-            f"{self.max_iterations}{extra}; raise method option alpha (now {self.alpha:.3g}) or "
-            f"max_iterations (now {self.max_iterations}), loosen tolerance (now "
+            f"{self.max_iterations}{extra}; change method option alpha (now {self.alpha:.3g}) "
+            f"or max_iterations (now {self.max_iterations}), loosen tolerance (now "
             f"{self.tolerance:.3g}), or, if the mechanism is at a singular position, use method "
             "'penalty'")
         err.t = t

@@ -13,6 +13,8 @@ Start-up: the first three steps are classic RK4, Eqs. (13.14)-(13.19), at the sa
 In adaptive mode the start-up is validated by the first predictor-corrector step: if that step
 fails the error test, the RK4 start-up steps are discarded (counted as rejected) and the start-up
 is redone from the initial point with the reduced step; outputs are only emitted once validated.
+(The stepper, :class:`AdamsStepper`, takes the start-up as one step of four internal steps, so
+the driver accepts or rejects it as a whole.)
 
 Variable step (design choice): the method keeps the uniform-spacing formulas above and, when the
 step changes from h to h', re-spaces the derivative history f_n, ..., f_(n-3) by evaluating the
@@ -146,7 +148,6 @@ class AdamsStepper(Stepper):
             ts.append(t_end4)
             ys.append(y_c)
             dense = PiecewiseHermite(ts, ys, fs, last=lambda: self.f_new)
-            self._startup = (ts,)
             if err is not None and not err <= 1.0:
                 self.n_hist = 1                      # redo the start-up at a smaller step
             return Step(t_end4, y_c, err, 5, dense, n_steps=4, h=hs,

@@ -4,12 +4,21 @@
 
 An implicit, stiffly stable multistep method. Each step solves G(y) = y - (12/25) h f(t, y) - psi
 = 0 by simplified Newton iterations with the iteration matrix M = I - (12/25) h J, J = df/dy from
-``problem.jac`` or forward finite differences of ``rhs`` (n + 1 evaluations, counted in nfev).
-J and the LU factorisation of M are reused across steps: J is re-evaluated only when Newton fails
-(then the step is retried with the fresh J) or converged slowly (> 3 iterations; J is refreshed
-before the next step); M is re-factorised only when J or the step size changes. Newton stops when
-the estimated remaining error rate/(1 - rate) ||dy|| < newton_tol (weighted RMS norm, scale
+``problem.jac`` or forward finite differences of ``rhs`` (one evaluation per column, except the
+``problem.n_quadrature`` trailing quadrature components whose columns are zero, + 1; counted in
+nfev), evaluated at the predicted end of the step (t_(n+1), y^p), where Newton works (J can turn
+fast along the solution: on the flyball governor the stiff spring directions rotate with the
+shaft). J and the LU factorisation of M are reused across iterations and steps: J is
+re-evaluated when Newton fails with a reused J (the step is retried with the fresh J, same h) or
+converged slowly (> 3 iterations); after a failure of a reused J it is evaluated up front for the
+next 1, 2, 4, then 8 steps (reset when a reused J succeeds again). M is re-factorised only when
+J or the step size changes. Newton stops when the estimated remaining error
+rate/(1 - rate) ||dy|| < newton_tol (weighted RMS norm over the non-quadrature components, scale
 atol + rtol |y|), the rate being carried over between solves (Hairer & Wanner, Sec. IV.8).
+
+Structure: :class:`GearStepper` is the stepping formula (:class:`.driver.Stepper`), the step
+size comes from an :class:`.controllers.IController` with a deadband (or a constant step), and
+:func:`.driver.run` does the rest.
 
 Start-up: BDF4 needs y_n .. y_(n-3); the first four steps use the L-stable, stiffly accurate
 4th-order SDIRK method of Hairer & Wanner (Solving ODEs II, Table IV.6.5, gamma = 1/4) at the same
@@ -45,6 +54,7 @@ from .driver import Step, Stepper
 BDF4_ALPHA = np.array([48.0, -36.0, 16.0, -3.0]) / 25.0    # Eq. (13.26), on y_n .. y_(n-3)
 BDF4_BETA = 12.0 / 25.0                                    # Eq. (13.26), on h f_(n+1)
 BDF4_ERR = 12.0 / 137.0                                    # local error / (y_c - y_p)
+MAX_GROWTH = 2.0                                           # step growth cap per step
 EXTRAPOLATE5 = np.array([5.0, -10.0, 10.0, -5.0, 1.0])     # quartic predictor
 
 # SDIRK4, Hairer & Wanner II, Table IV.6.5 (L-stable, stiffly accurate, gamma = 1/4).
@@ -378,5 +388,5 @@ class GearBDF4(Integrator):
     def make_controller(self):
         if not self.adaptive:
             return FixedStepController(self.step)
-        # the history is re-spaced at every change: grow only by >= 1.25 (at most x2)
-        return IController(safety=self.safety, max_factor=2.0, deadband=1.25)
+        # the history is re-spaced at every change: grow only by >= 1.25 (at most x MAX_GROWTH)
+        return IController(safety=self.safety, max_factor=MAX_GROWTH, deadband=1.25)
