@@ -357,10 +357,10 @@ def _compiled_rhs(model, eom, meth, track_work):
             eom._raise_non_finite(state, t)
         ydot = np.empty_like(y)
         code = after(y, ydot, *args)
+        if code:                                  # (a method may redo the solve here)
+            finish(t, y, ydot, code)
         if forces and track_work:
             ydot[-1] += sum(g.nonconservative_power(state, t) for g in forces)
-        if code:
-            finish(t, y, ydot, code)
         return ydot
     return rhs
 

@@ -69,13 +69,12 @@ class AugmentedLagrangian(_PenaltyBase):
         """On non-convergence, adapt before failing: redo the instant with the settings of
         :data:`ESCALATION` in turn; the first that converges is kept for the rest of the run
         (``alpha`` and ``max_iterations`` change; ``adaptations`` lists (t, alpha,
-        max_iterations)). The work rate ydot[-1] keeps the value of the first attempt."""
+        max_iterations)). The successful attempt rewrites all of ydot."""
         if code != cs.NOT_CONVERGED:
             return super().status(code, system, t, y, ydot, W)
         KI, KW = system.penalty_pack()
         W = system.W if W is None else W
         out = np.empty(y.size) if ydot is None else ydot
-        last = out[-1] if ydot is not None else 0.0
         base = self.params()
         tried = []
         for fa, fi in ESCALATION:
@@ -90,8 +89,6 @@ class AugmentedLagrangian(_PenaltyBase):
                 if live is not None:                   # the compiled kernels' parameters
                     live[1], live[6] = mp[1], mp[6]
                 self.adaptations.append((float(t), self.alpha, self.max_iterations))
-                if ydot is not None:
-                    out[-1] = last
                 return code
         raise self._not_converged(t, tried)
 
