@@ -129,3 +129,17 @@ def test_simulate_stops_a_falling_body_at_first_touch():
     assert abs(res.t[-1] - t_hit) < 1e-9
     assert abs(res.q[-1, 0, 2] - radius) < 1e-9
     assert res.q[-1, 0, 0] == pytest.approx(0.3 * t_hit, abs=1e-9)
+
+
+def test_docs_worked_example_runs():
+    """The worked example of docs/integrators.md runs and prints what it says."""
+    import contextlib
+    import io
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "docs" / "integrators.md").read_text()
+    code = text.split("```python\n", 1)[1].split("```", 1)[0]
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "docs/integrators.md", "exec"), {})
+    lines = out.getvalue().splitlines()
+    assert lines[0].startswith("event [{'t': 0.678") and lines[1] == "True"

@@ -32,6 +32,8 @@ from .penalty import _PenaltyBase
 #: one lowers the round-off floor alpha |D^T c| eps when M + alpha D^T D is badly conditioned
 #: (bodies with large mass ratios), where a larger alpha never converges.
 ESCALATION = ((10.0, 4), (0.01, 4), (1e-4, 16))
+#: rows with a pivot below this fraction of the largest count as nearly dependent at an instant
+NEAR_DEPENDENT = 1e-3
 ALPHA_RANGE = (1e2, 1e11)
 
 
@@ -49,6 +51,9 @@ class AugmentedLagrangian(_PenaltyBase):
         self.floor = check_positive("augmented_lagrangian floor", floor)
         self.total_iterations = 0
         self.adaptations = []
+        self.singular_instants = 0
+        self._alpha0, self._iterations0 = self.alpha, self.max_iterations
+        self._drop = None
 
     def setup(self, eom, redundant_rows=None) -> None:
         """Leave the redundant rows (found by the mobility analysis) out of M + alpha D^T D, as
@@ -66,21 +71,40 @@ class AugmentedLagrangian(_PenaltyBase):
         return super().kernels(system, W)
 
     def status(self, code, system, t, y, ydot, W=None):
-        """On non-convergence, adapt before failing: redo the instant with the settings of
-        :data:`ESCALATION` in turn; the first that converges is kept for the rest of the run
-        (``alpha`` and ``max_iterations`` change; ``adaptations`` lists (t, alpha,
-        max_iterations)). The successful attempt rewrites all of ydot."""
+        """On non-convergence, adapt before failing.
+
+        1. Near a singular position D has rows that are nearly dependent *here* (a singular
+           value below :data:`NEAR_DEPENDENT` x the largest): (12.17) barely contracts along
+           them. The instant is redone with those rows left out as well (for this instant
+           only; the reactions are then carried by the others).
+        2. Otherwise the settings of :data:`ESCALATION` (relative to the method's own) are
+           tried in turn; the first that converges is kept for the rest of the run
+           (``alpha`` and ``max_iterations`` change; ``adaptations`` lists (t, alpha,
+           max_iterations)).
+        The successful attempt rewrites all of ydot."""
         if code != cs.NOT_CONVERGED:
             return super().status(code, system, t, y, ydot, W)
         KI, KW = system.penalty_pack()
         W = system.W if W is None else W
         out = np.empty(y.size) if ydot is None else ydot
-        base = self.params()
         tried = []
+        near = self._nearly_dependent_rows(system, t, y)
+        if near:
+            system.drop_penalty_rows(sorted(set(near) | set(self._drop or ())))
+            try:
+                code = cs.after_state_penalty(y, out, system.F, system.I, W, KI, KW,
+                                              self.params())
+            finally:
+                system.drop_penalty_rows(self._drop)
+            if code >= 0:
+                self.singular_instants += 1
+                return code
+            tried.append(f"{len(near)} nearly dependent row(s) left out")
+        base = self.params()
         for fa, fi in ESCALATION:
             mp = base.copy()
-            mp[1] = min(max(base[1] * fa, ALPHA_RANGE[0]), ALPHA_RANGE[1])
-            mp[6] = int(base[6] * fi)
+            mp[1] = min(max(self._alpha0 * fa, ALPHA_RANGE[0]), ALPHA_RANGE[1])
+            mp[6] = max(int(self._iterations0 * fi), int(base[6]))
             tried.append(f"alpha {mp[1]:.3g} with {int(mp[6])} iterations")
             code = cs.after_state_penalty(y, out, system.F, system.I, W, KI, KW, mp)
             if code >= 0:
@@ -91,6 +115,26 @@ class AugmentedLagrangian(_PenaltyBase):
                 self.adaptations.append((float(t), self.alpha, self.max_iterations))
                 return code
         raise self._not_converged(t, tried)
+
+    def _nearly_dependent_rows(self, system, t, y):
+        """Rows of D(q) (q from y) that pivoted QR of D^T finds (nearly) dependent on the
+        others here, besides the redundant ones: [] when none."""
+        import scipy.linalg as la
+        from ..kinematics import _dense
+        from ..state import normalize_q
+        model = system.model
+        nb = model.nb
+        q = normalize_q(np.asarray(y[:7 * nb], dtype=float)).reshape(nb, 7)
+        D = _dense(model.assembler.evaluate(q, None, t).D)
+        keep = np.setdiff1d(np.arange(D.shape[0]), np.asarray(self._drop or [], dtype=int))
+        if keep.size == 0:
+            return []
+        _, R, piv = la.qr(D[keep].T, pivoting=True, mode="economic")
+        d = np.abs(np.diag(R))
+        if d.size == 0 or d[0] == 0.0:
+            return []
+        rank = int(np.sum(d > NEAR_DEPENDENT * d[0]))
+        return [int(keep[p]) for p in piv[rank:]]
 
     def _not_converged(self, t, tried=()):
         extra = f" (nor with {', '.join(tried)})" if tried else ""
