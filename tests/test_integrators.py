@@ -407,3 +407,29 @@ def test_output_at_t0_is_initial_state():
         res = get_integrator(name, **opts_for(name)).integrate(ODEProblem(limit_cycle), 0.0,
                                                                Y0_LC, [0.0, 0.1])
         np.testing.assert_array_equal(res.y[0], Y0_LC)
+
+
+# --------------------------------------------------------------------------- controllers
+def test_controllers_step_size_formulas():
+    from spatialmbd.integrators import FixedStepController, IController, PIController
+    c = IController(safety=0.9, min_factor=0.2, max_factor=10.0)
+    assert c.accept(0.1, 0.5, 5, False) == pytest.approx(0.1 * 0.9 * 0.5 ** (-1 / 5))
+    assert c.accept(0.1, 1e-12, 5, False) == pytest.approx(1.0)          # max_factor
+    assert c.accept(0.1, 0.5, 5, True) == pytest.approx(0.1)             # no growth after reject
+    assert c.reject(0.1, 32.0, 5) == pytest.approx(0.1 * 0.9 / 2.0)
+    assert c.reject(0.1, 1e9, 5) == pytest.approx(0.02)                  # min_factor
+    assert c.reject(0.1, float("nan"), 5) == pytest.approx(0.02)
+    assert c.failed(0.1) == pytest.approx(0.05)
+    d = IController(max_factor=2.0, deadband=1.25)
+    assert d.accept(0.1, 0.9, 5, False) == 0.1                           # 0.92 < 1.25: keep h
+    assert d.accept(0.1, 0.001, 5, False) == pytest.approx(0.2)          # grows, capped at x2
+    assert d.accept(0.1, 0.001, 5, False, hold=True) == 0.1              # start-up: keep
+    pi = PIController(beta=0.04)
+    first = pi.accept(0.1, 0.5, 5, False)
+    assert first == pytest.approx(0.1 * 0.9 * 0.5 ** -(0.2 - 0.03) * 1e-4 ** 0.04)
+    assert pi.accept(0.1, 0.5, 5, False) == pytest.approx(
+        0.1 * 0.9 * 0.5 ** -(0.2 - 0.03) * 0.5 ** 0.04)                  # remembers ||e_prev||
+    f = FixedStepController(0.01)
+    assert not f.adaptive and f.accept(0.003, 0.5, 5, False) == 0.01
+    with pytest.raises(ValueError, match="deadband"):
+        IController(deadband=0.5)
