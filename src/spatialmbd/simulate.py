@@ -294,7 +294,8 @@ def right_hand_side(model, method="standard", method_options: Optional[dict] = N
     """The y' = f(t, y) that :func:`simulate` integrates, and its initial state y0.
 
     y = [q (7 nb), v (6 nb), W] (see the module docstring). For benchmarks and for driving the
-    equations of motion with an integrator of one's own. No initial-condition correction and
+    equations of motion with an integrator of one's own (W is a quadrature: the rhs does not
+    depend on it; declare it with ``ODEProblem(rhs, n_quadrature=1)`` for the implicit ones). No initial-condition correction and
     no redundancy analysis: every constraint row enters the multiplier solve.
     """
     meth = get_method(method, **(method_options or {}))

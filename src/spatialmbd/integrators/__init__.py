@@ -24,7 +24,8 @@ from .scipy_ivp import (ScipyBDF, ScipyDOP853, ScipyIntegrator, ScipyLSODA, Scip
 __all__ = [
     "INTEGRATORS", "Counters", "IntegrationResult", "Integrator", "ODEProblem", "check_finite",
     "get_integrator", "register", "StepController", "IController", "PIController",
-    "FixedStepController", "Event", "EventRecord", "Step", "Stepper", "FixedStepIntegrator", "ForwardEuler",
+    "FixedStepController", "Event", "EventRecord", "Step", "Stepper", "FixedStepIntegrator",
+    "ForwardEuler",
     "Heun", "RungeKutta4", "AdamsBashforthMoulton4", "GearBDF4", "DormandPrince45",
     "ScipyIntegrator", "ScipyRK45", "ScipyDOP853", "ScipyRadau", "ScipyBDF", "ScipyLSODA",
 ]

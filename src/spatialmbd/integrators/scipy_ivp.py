@@ -12,8 +12,13 @@ finite-difference Jacobians, which SciPy's own ``nfev`` omits); steps counts acc
 njev and nlu are SciPy's counts; ``rejected`` is not reported by SciPy and stays 0.
 
 Projection: SciPy owns its internal state, so ``problem.project`` can only be applied to the
-outputs (and located events), not to the accepted steps; the drift off the manifold is therefore not corrected during
-the integration (use a spatialmbd integrator when projection matters).
+outputs (and located events), not to the accepted steps; the drift off the manifold is
+therefore not corrected during the integration (use a spatialmbd integrator when projection
+matters).
+
+Structure: :class:`ScipyStepper` is a self-controlled :class:`.driver.Stepper` (each ``step``
+is one solver step; SciPy chooses h), so outputs, events, counters and partial results come
+from the common driver.
 
 Failures: a non-finite derivative raises SimulationError at once (SciPy's implicit methods would
 raise ValueError from their LU). A SciPy step failure (e.g. "Required step size is less than
@@ -24,7 +29,6 @@ from __future__ import annotations
 
 from typing import Optional
 
-import numpy as np
 import scipy.integrate
 
 from ..errors import SimulationError
