@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 from spatialmbd.errors import SimulationError, SingularMatrixError
 from spatialmbd.integrators import INTEGRATORS, Counters, ODEProblem, get_integrator
 from spatialmbd.integrators.controller import resample_matrix
-from spatialmbd.integrators.runge_kutta_adaptive import DOPRI_B, DOPRI_P, dopri_dense
+from spatialmbd.integrators.runge_kutta_adaptive import DOPRI_DENSE, DOPRI_WEIGHTS, dopri_dense
 
 OWN = ["euler", "heun", "rk4", "abm4", "bdf4", "rk45"]
 SCIPY = ["scipy-rk45", "scipy-dop853", "scipy-radau", "scipy-bdf", "scipy-lsoda"]
@@ -148,12 +148,12 @@ def test_rk45_dense_output_between_steps():
 
 def test_dopri_continuous_extension_hits_step_ends():
     """Shampine's extension: row sums are b, theta = 0 and 1 give y_n and y_(n+1)."""
-    np.testing.assert_allclose(DOPRI_P.sum(axis=1), np.append(DOPRI_B, 0.0), atol=1e-15)
+    np.testing.assert_allclose(DOPRI_DENSE.sum(axis=1), np.append(DOPRI_WEIGHTS, 0.0), atol=1e-15)
     rng = np.random.default_rng(1)
     K = rng.normal(size=(7, 3))
     y, h = rng.normal(size=3), 0.37
     np.testing.assert_array_equal(dopri_dense(y, h, K, 0.0), y)
-    np.testing.assert_allclose(dopri_dense(y, h, K, 1.0), y + h * DOPRI_B @ K[:6],
+    np.testing.assert_allclose(dopri_dense(y, h, K, 1.0), y + h * DOPRI_WEIGHTS @ K[:6],
                                rtol=0, atol=1e-15)
 
 
@@ -235,6 +235,24 @@ def test_bdf4_stiff_adaptive_with_analytic_jacobian():
     assert np.abs(res.y - exact).max() < 1e-4
     assert res.counters.steps < 400                 # rk45 needs ~6000 steps here
     assert res.counters.njev <= 3
+
+
+def test_bdf4_beats_rk45_on_a_stiff_problem_in_evaluations():
+    """Finite-difference Jacobian (no jac given): still far fewer evaluations than rk45, whose
+    step is bounded by stability (h |lambda| < ~3.3), at the same accuracy."""
+    t_eval = np.linspace(0.0, 2.0, 21)
+    exact = np.array([stiff_exact(t) for t in t_eval])
+    out = {}
+    for name in ("bdf4", "rk45"):
+        fun = Counted(stiff_rhs)
+        res = get_integrator(name, rtol=1e-6, atol=1e-8).integrate(
+            ODEProblem(fun), 0.0, stiff_exact(0.0), t_eval)
+        assert res.success, res.message
+        assert res.counters.nfev == fun.calls
+        assert np.abs(res.y - exact).max() < 1e-4, name
+        out[name] = res.counters
+    assert out["bdf4"].nfev * 10 < out["rk45"].nfev, out
+    assert out["bdf4"].rejected < 0.2 * out["bdf4"].steps, out["bdf4"]
 
 
 def test_bdf4_newton_failure_raises_with_time():
@@ -389,3 +407,29 @@ def test_output_at_t0_is_initial_state():
         res = get_integrator(name, **opts_for(name)).integrate(ODEProblem(limit_cycle), 0.0,
                                                                Y0_LC, [0.0, 0.1])
         np.testing.assert_array_equal(res.y[0], Y0_LC)
+
+
+# --------------------------------------------------------------------------- controllers
+def test_controllers_step_size_formulas():
+    from spatialmbd.integrators import FixedStepController, IController, PIController
+    c = IController(safety=0.9, min_factor=0.2, max_factor=10.0)
+    assert c.accept(0.1, 0.5, 5, False) == pytest.approx(0.1 * 0.9 * 0.5 ** (-1 / 5))
+    assert c.accept(0.1, 1e-12, 5, False) == pytest.approx(1.0)          # max_factor
+    assert c.accept(0.1, 0.5, 5, True) == pytest.approx(0.1)             # no growth after reject
+    assert c.reject(0.1, 32.0, 5) == pytest.approx(0.1 * 0.9 / 2.0)
+    assert c.reject(0.1, 1e9, 5) == pytest.approx(0.02)                  # min_factor
+    assert c.reject(0.1, float("nan"), 5) == pytest.approx(0.02)
+    assert c.failed(0.1) == pytest.approx(0.05)
+    d = IController(max_factor=2.0, deadband=1.25)
+    assert d.accept(0.1, 0.9, 5, False) == 0.1                           # 0.92 < 1.25: keep h
+    assert d.accept(0.1, 0.001, 5, False) == pytest.approx(0.2)          # grows, capped at x2
+    assert d.accept(0.1, 0.001, 5, False, hold=True) == 0.1              # start-up: keep
+    pi = PIController(beta=0.04)
+    first = pi.accept(0.1, 0.5, 5, False)
+    assert first == pytest.approx(0.1 * 0.9 * 0.5 ** -(0.2 - 0.03) * 1e-4 ** 0.04)
+    assert pi.accept(0.1, 0.5, 5, False) == pytest.approx(
+        0.1 * 0.9 * 0.5 ** -(0.2 - 0.03) * 0.5 ** 0.04)                  # remembers ||e_prev||
+    f = FixedStepController(0.01)
+    assert not f.adaptive and f.accept(0.003, 0.5, 5, False) == 0.01
+    with pytest.raises(ValueError, match="deadband"):
+        IController(deadband=0.5)

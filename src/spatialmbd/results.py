@@ -60,6 +60,8 @@ class Results:
     #: what :meth:`outputs` and the tables record besides the standard columns
     #: (:class:`spatialmbd.outputs.Output` requests; see docs/outputs.md)
     output_requests: list = field(default_factory=list)
+    #: located events of simulate(..., events=...): dicts with t (s), name, index, terminal
+    events: list = field(default_factory=list)
 
     # ----------------------------------------------------------------------------------------
     @classmethod
@@ -95,7 +97,8 @@ class Results:
 
     @property
     def success(self) -> bool:
-        return self.status == "success"
+        """True when the run reached t_end or a terminal event stopped it (status "event")."""
+        return self.status in ("success", "event")
 
     def body(self, name: str) -> dict:
         """Time series of one body: r, p, rdot, omega, rddot, omegadot (each (nt, 3|4))."""

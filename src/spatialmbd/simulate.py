@@ -80,7 +80,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
              integrator_options: Optional[dict] = None, q0=None, v0=None,
              correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
              progress=False, t0: float = 0.0, outputs=None, budget=None,
-             max_steps: Optional[int] = None, max_wall_time: Optional[float] = None) -> Results:
+             max_steps: Optional[int] = None, max_wall_time: Optional[float] = None,
+             events=None, event_tol: float = 1e-12) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
     method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
@@ -103,7 +104,14 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         "budget" and its results so far. Limits checked before the run: the number of output
         samples and of fixed steps (see :mod:`.budget`).
 
-    Returns Results: status "success"; "failed" (with the cause, and a diagnosis at a singular
+    events: zero crossings to locate (docs/integrators.md): each a callable g(t, state) -> float
+        (state: a :class:`.state.BodyState` of the bodies, ground last) or an object with
+        ``function`` and optional ``terminal`` (stop the run there), ``direction`` (> 0 rising
+        only, < 0 falling only), ``name``; located to ``event_tol`` (s) on the dense output;
+        listed in ``results.events`` (t, name, index, terminal).
+
+    Returns Results: status "success"; "event" (a terminal event stopped the run; its state is
+    the last output); "failed" (with the cause, and a diagnosis at a singular
     position), "budget" or "interrupted" (Ctrl-C), each with everything computed until then.
     Bad arguments raise ModelError naming the argument, the value and the valid choices.
     """
@@ -138,6 +146,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         guards.warn([guards.correction_warning(model, correction, q_given)])
 
     mob = _redundancy(model, eom, q, t0)
+    if mob is not None and mob.redundant:
+        mob = _structural_redundancy(model, eom, q, v, t0, mob)
     redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
     redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
     messages = []
@@ -182,8 +192,9 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
         problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
-                             stages=stages)
-        res = integ.integrate(problem, t0, y0, t_out, progress=callback)
+                             stages=stages, n_quadrature=1)   # W does not enter the rhs
+        res = integ.integrate(problem, t0, y0, t_out, progress=callback,
+                              events=_state_events(events, nb), event_tol=event_tol)
     finally:
         if hasattr(callback, "close"):
             callback.close()
@@ -201,7 +212,10 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                                               t_fail=res.t_fail)
         if diagnosis:
             res.message = f"{res.message}; {diagnosis}"
-    if res.status != "success":
+    for t_a, alpha, iters in getattr(meth, "adaptations", ()):
+        messages.append(f"t = {t_a:.6g} s: {meth.name} did not converge with its settings; "
+                        f"continued with alpha = {alpha:.3g}, max_iterations = {iters}")
+    if res.status not in ("success", "event"):
         messages.append(res.message)
     results = Results.from_integration(
         model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
@@ -212,7 +226,30 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                       integrator=integ.name, integrator_options=_integrator_options(integ),
                       correct_initial=correct_initial))
     results.output_requests = requests
+    results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
+                      for e in res.events]
     return results
+
+
+def _state_events(events, nb):
+    """The simulate-level events (functions of (t, BodyState)) as integrator events (functions
+    of (t, y)); None when there are none."""
+    if not events:
+        return None
+    from .integrators import Event
+    from .state import BodyState
+    n_q, n_v = 7 * nb, 6 * nb
+    out = []
+    for i, spec in enumerate(events):
+        ev = Event.coerce(spec, i)
+        user = ev.function
+
+        def g(t, y, user=user):
+            state = BodyState.from_qv(normalize_q(y[:n_q]).reshape(nb, 7),
+                                      y[n_q:n_q + n_v].reshape(nb, 6), t)
+            return float(user(t, state))
+        out.append(Event(g, terminal=ev.terminal, direction=ev.direction, name=ev.name))
+    return out
 
 
 #: above this many entries of D the dense rank analysis (SVD) is not attempted
@@ -244,11 +281,33 @@ def _redundancy(model, eom, q, t0):
                     singular_values=None)
 
 
+def _structural_redundancy(model, eom, q, v, t0, mob):
+    """The redundancy analysis a short way along the motion when the start has dependent rows.
+
+    A mechanism started at a singular position (e.g. a four-bar at dead centre) has rows that
+    are dependent only there; leaving them out for the whole run would drop constraints that
+    are independent a moment later. The rows are taken from the configuration reached after
+    moving about 1e-4 m along the initial velocity (the rank test ignores the O(1e-8) constraint
+    violation of that step); with zero velocity the start's analysis stands."""
+    qdot = qdot_from_v(q, v).reshape(model.nb, 7)
+    speed = float(np.abs(qdot).max()) if qdot.size else 0.0
+    if not speed > 0.0 or 6 * model.nb > SPARSE_THRESHOLD:
+        return mob
+    dt = 1e-4 / speed
+    q1 = normalize_q(q + dt * qdot)
+    try:
+        mob1 = mobility(model, q1, t0 + dt)
+    except SpatialMBDError:
+        return mob
+    return mob1 if len(mob1.redundant) < len(mob.redundant) else mob
+
+
 def right_hand_side(model, method="standard", method_options: Optional[dict] = None):
     """The y' = f(t, y) that :func:`simulate` integrates, and its initial state y0.
 
     y = [q (7 nb), v (6 nb), W] (see the module docstring). For benchmarks and for driving the
-    equations of motion with an integrator of one's own. No initial-condition correction and
+    equations of motion with an integrator of one's own (W is a quadrature: the rhs does not
+    depend on it; declare it with ``ODEProblem(rhs, n_quadrature=1)`` for the implicit ones). No initial-condition correction and
     no redundancy analysis: every constraint row enters the multiplier solve.
     """
     meth = get_method(method, **(method_options or {}))
@@ -313,10 +372,10 @@ def _compiled_rhs(model, eom, meth, track_work):
             eom._raise_non_finite(state, t)
         ydot = np.empty_like(y)
         code = after(y, ydot, *args)
+        if code:                                  # (a method may redo the solve here)
+            finish(t, y, ydot, code)
         if forces and track_work:
             ydot[-1] += sum(g.nonconservative_power(state, t) for g in forces)
-        if code:
-            finish(t, y, ydot, code)
         return ydot
     return rhs
 

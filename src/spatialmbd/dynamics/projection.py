@@ -37,19 +37,24 @@ class Projection(Standard):
         if not system.python_groups:
             it = cs.project(t, y, system.F, system.I, system.W, self.tolerance,
                             self.max_iterations, np.zeros(6 * system.nb))
-        if it == -1:                   # D D^T singular here: least squares
+        if it == -1 or it == -2:
+            # D D^T singular here, or Newton on it stalled (D nearly rank deficient: a singular
+            # position, where the iteration converges only linearly): least squares (SVD),
+            # which ignores the dependent directions
             nb = system.nb
-            q, v = self._project_lstsq(system.model, t, y[:7 * nb], y[7 * nb:13 * nb])
+            try:
+                q, v = self._project_lstsq(system.model, t, y[:7 * nb], y[7 * nb:13 * nb])
+            except ConvergenceError:
+                q = y[:7 * nb].reshape(nb, 7)
+                phi = system.model.assembler.evaluate(q, None, t).phi
+                err = ConvergenceError(
+                    f"t = {t:.6g} s: projection onto the constraints did not converge in "
+                    f"{self.max_iterations} iterations (max |Phi| = {np.abs(phi).max():.3g}), "
+                    "nor by least squares; raise method option max_iterations or tolerance "
+                    f"(now {self.max_iterations}, {self.tolerance:.3g})")
+                err.t = t
+                raise err from None
             y[:7 * nb], y[7 * nb:13 * nb] = q.ravel(), v
-        elif it == -2:
-            nb = system.nb
-            q = y[:7 * nb].reshape(nb, 7)
-            phi = system.model.assembler.evaluate(q, None, t).phi
-            err = ConvergenceError(
-                f"t = {t:.6g} s: projection onto the constraints did not converge in "
-                f"{self.max_iterations} iterations (max |Phi| = {np.abs(phi).max():.3g})")
-            err.t = t
-            raise err
         return y
 
     def _project_lstsq(self, model, t, q, v):

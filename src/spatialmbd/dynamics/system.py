@@ -423,6 +423,8 @@ def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
                     Kx[pos] += J[b, a - 3, c - 3]
     for r in range(D.shape[0]):
         bii, bjj, bij, flip = rowblk[r, 0], rowblk[r, 1], rowblk[r, 2], rowblk[r, 3]
+        if flip < 0:                          # a redundant row left out (drop_penalty_rows)
+            continue
         for a in range(6):
             da_i = alpha * D[r, a]
             da_j = alpha * D[r, 6 + a]
@@ -462,6 +464,9 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
         return SINGULAR
     # constraint dynamics term of (12.14): c = -gamma + 2 mu omega Phidot + omega^2 Phi
     for a in range(m):
+        if k.rowblk[a, 3] < 0:                # a redundant row left out
+            k.ck[a] = 0.0
+            continue
         phidot = row_times(R, a, v) - nu[a]
         k.ck[a] = -gamma[a] + 2.0 * mu * omega * phidot + omega * omega * phi[a]
     fill(k.dtc, 0.0)
@@ -471,7 +476,8 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
             vdot[j] = g[j] - alpha * k.dtc[j]
         spc.solve(sym, k.KLx, vdot, k.yk)
         for a in range(m):
-            lam[a] = -alpha * (row_times(R, a, vdot) + k.ck[a])
+            lam[a] = (-alpha * (row_times(R, a, vdot) + k.ck[a]) if k.rowblk[a, 3] >= 0
+                      else 0.0)
         return OK
     minv_all(M, g, vdot)                                              # (12.16)
     fill(lam, 0.0)
@@ -483,7 +489,8 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
             vdot[j] = t6[j] - alpha * k.dtc[j]
         spc.solve(sym, k.KLx, vdot, k.yk)                            # (12.17)
         for a in range(m):
-            lam[a] += -alpha * (row_times(R, a, vdot) + k.ck[a])
+            if k.rowblk[a, 3] >= 0:
+                lam[a] += -alpha * (row_times(R, a, vdot) + k.ck[a])
         change = 0.0
         big = 1.0
         for j in range(n):
@@ -792,6 +799,18 @@ class System:
             KI, KW = self._kshared[0]
             self._kpack = (KI, KW.copy())
         return self._kpack
+
+    def drop_penalty_rows(self, rows) -> None:
+        """Leave the constraint rows ``rows`` (redundant ones) out of M + alpha D^T D and of
+        the penalty term (their multipliers are 0), as the standard method leaves them out of
+        its multiplier solve. None or empty: use every row."""
+        KI, KW = self.penalty_pack()
+        off, nr, nc = int(KI[4]), int(KI[5]), int(KI[6])        # KFIELDS[1] = rowblk
+        rowblk = KI[off:off + nr * nc].reshape(nr, nc)
+        bi, bj = self.row_bi, self.row_bj
+        rowblk[:, 3] = (bi > bj).astype(np.int64)
+        if rows is not None and len(rows):
+            rowblk[np.asarray(rows, dtype=np.int64), 3] = -1
 
     def _build_penalty(self):
         nb, m = self.nb, self.m

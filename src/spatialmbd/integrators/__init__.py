@@ -4,10 +4,16 @@ Registered names: ``euler``, ``heun``, ``rk4`` (fixed step), ``abm4`` (Adams-Bas
 PECE), ``bdf4`` (Gear), ``rk45`` (Dormand-Prince 5(4)) and the SciPy methods ``scipy-rk45``,
 ``scipy-dop853``, ``scipy-radau``, ``scipy-bdf``, ``scipy-lsoda``. Get one with
 ``get_integrator(name, **options)``.
+
+Structure: every integrator is a stepper (its stepping formula, :class:`.driver.Stepper`) and an
+injected step-size controller (:mod:`.controllers`) run by the one loop :func:`.driver.run`,
+which owns output sampling, projection, counters, progress, events and partial results.
 """
 from .base import (INTEGRATORS, Counters, IntegrationResult, Integrator, ODEProblem,
                    check_finite, get_integrator, register)
 from .controller import StepController
+from .controllers import FixedStepController, IController, PIController
+from .driver import Event, EventRecord, Step, Stepper
 from .fixed_step import FixedStepIntegrator, ForwardEuler, Heun, RungeKutta4
 from .adams import AdamsBashforthMoulton4
 from .gear import GearBDF4
@@ -17,7 +23,9 @@ from .scipy_ivp import (ScipyBDF, ScipyDOP853, ScipyIntegrator, ScipyLSODA, Scip
 
 __all__ = [
     "INTEGRATORS", "Counters", "IntegrationResult", "Integrator", "ODEProblem", "check_finite",
-    "get_integrator", "register", "StepController", "FixedStepIntegrator", "ForwardEuler",
+    "get_integrator", "register", "StepController", "IController", "PIController",
+    "FixedStepController", "Event", "EventRecord", "Step", "Stepper", "FixedStepIntegrator",
+    "ForwardEuler",
     "Heun", "RungeKutta4", "AdamsBashforthMoulton4", "GearBDF4", "DormandPrince45",
     "ScipyIntegrator", "ScipyRK45", "ScipyDOP853", "ScipyRadau", "ScipyBDF", "ScipyLSODA",
 ]

@@ -13,6 +13,8 @@ Start-up: the first three steps are classic RK4, Eqs. (13.14)-(13.19), at the sa
 In adaptive mode the start-up is validated by the first predictor-corrector step: if that step
 fails the error test, the RK4 start-up steps are discarded (counted as rejected) and the start-up
 is redone from the initial point with the reduced step; outputs are only emitted once validated.
+(The stepper, :class:`AdamsStepper`, takes the start-up as one step of four internal steps, so
+the driver accepts or rejects it as a whole.)
 
 Variable step (design choice): the method keeps the uniform-spacing formulas above and, when the
 step changes from h to h', re-spaces the derivative history f_n, ..., f_(n-3) by evaluating the
@@ -31,12 +33,11 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import SpatialMBDError
 from .base import Integrator, register
-from .controller import (StepController, atol_vector, default_max_step, end_step, hermite,
-                         initial_step, min_step_size, non_negative, positive,
-                         raise_if_nonfinite, resample_matrix, underflow_error,
-                         validate_tolerances)
+from .controller import (atol_vector, default_max_step, hermite, initial_step, non_negative,
+                         positive, raise_if_nonfinite, resample_matrix, validate_tolerances)
+from .controllers import FixedStepController, IController
+from .driver import Step, Stepper
 
 AB4 = np.array([55.0, -59.0, 37.0, -9.0]) / 24.0     # Eq. (13.20), on f_n .. f_(n-3)
 AM4 = np.array([19.0, -5.0, 1.0]) / 24.0             # Eq. (13.23), on f_n .. f_(n-2)
@@ -50,6 +51,122 @@ def _rk4(f, t, y, h, k1):
     k3 = f(t + hh, y + hh * k2)                       # Eq. (13.17)
     k4 = f(t + h, y + h * k3)                         # Eq. (13.18)
     return y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+
+
+class PiecewiseHermite:
+    """Cubic Hermite interpolation through nodes (t_i, y_i, f_i); the last derivative may be
+    supplied later (``last``: a callable returning it, read on first use)."""
+
+    def __init__(self, ts, ys, fs, last=None):
+        self.ts, self.ys, self.fs, self.last = ts, ys, fs, last
+
+    def __call__(self, s):
+        ts = self.ts
+        i = 0
+        while i < len(ts) - 2 and s > ts[i + 1]:
+            i += 1
+        f1 = self.fs[i + 1] if i + 1 < len(self.fs) else self.last()
+        h = ts[i + 1] - ts[i]
+        return hermite((s - ts[i]) / h, h, self.ys[i], self.fs[i], self.ys[i + 1], f1)
+
+
+class AdamsStepper(Stepper):
+    """ABM4 PECE stepping formula with an RK4 start-up taken as one step of four (the first
+    call covers t .. t + 4h: three RK4 steps, Eqs. (13.14)-(13.19), and the first PECE step,
+    whose error test validates the whole start-up; a rejection redoes all four)."""
+
+    name = "abm4"
+
+    def __init__(self, rtol, atol, first_step, max_step, adaptive):
+        self.rtol, self.atol_opt = rtol, atol
+        self.first_step, self.max_step = first_step, max_step
+        self.adaptive = adaptive
+
+    def start(self, problem, t0, y0, t_end, counters):
+        f = problem.rhs
+        self.f, self.counters, self.project = f, counters, problem.project
+        self.t_end = t_end
+        n = y0.size
+        self.atol = atol_vector(self.atol_opt, n)
+        self.fy = f(t0, y0)
+        counters.nfev += 1
+        raise_if_nonfinite(t0, self.fy, "derivative")
+        self.F = np.empty((4, n))       # f_n, f_(n-1), f_(n-2), f_(n-3) spaced by hF
+        self.n_hist = 1
+        self.hF = 0.0
+        self.f_new = None
+        span = t_end - t0
+        if not self.adaptive:
+            return None
+        h = self.first_step if self.first_step is not None else initial_step(
+            f, t0, y0, self.fy, 4, self.rtol, self.atol, self.max_step, span, self.counters)
+        return min(h, self.max_step, span / 4.0)
+
+    def _pece(self, t, y, hs):
+        """Predictor, Eq. (13.20), and corrector, Eq. (13.23); F spaced by hs."""
+        F = self.F
+        t_new = t + hs
+        y_p = y + hs * np.dot(AB4, F)                              # Eq. (13.20)
+        f_p = self.f(t_new, y_p)
+        self.counters.nfev += 1
+        y_c = y + hs * (AM4_NEW * f_p + np.dot(AM4, F[:3]))        # Eq. (13.23)
+        err = None
+        if self.adaptive:
+            scale = self.atol + self.rtol * np.maximum(np.abs(y), np.abs(y_c))
+            e = (y_c - y_p) * (MILNE / scale)
+            err = math.sqrt(float(np.dot(e, e)) / y.size)
+        return y_c, err
+
+    def step(self, t, y, t_new):
+        f, counters, F = self.f, self.counters, self.F
+        hs = t_new - t
+        if self.n_hist < 4:
+            # ---- start-up: three RK4 steps at constant step, then the first PECE step
+            if t + 4.0 * hs > self.t_end:
+                hs = (self.t_end - t) / 4.0
+            ts, ys, fs = [t], [y], [self.fy]
+            F[0] = self.fy
+            yk, fk, tk = y, self.fy, t
+            for i in range(1, 4):
+                tk = t + i * hs
+                yk = _rk4(f, ts[-1], yk, hs, fk)
+                counters.nfev += 3
+                if self.project is not None:
+                    yk = self.project(tk, yk)
+                raise_if_nonfinite(tk, yk)
+                fk = f(tk, yk)
+                counters.nfev += 1
+                F[1:] = F[:-1]
+                F[0] = fk
+                ts.append(tk)
+                ys.append(yk)
+                fs.append(fk)
+            self.n_hist = 4
+            self.hF = hs
+            t_end4 = self.t_end if t + 4.0 * hs >= self.t_end else t + 4.0 * hs
+            y_c, err = self._pece(tk, yk, t_end4 - tk)
+            ts.append(t_end4)
+            ys.append(y_c)
+            dense = PiecewiseHermite(ts, ys, fs, last=lambda: self.f_new)
+            if err is not None and not err <= 1.0:
+                self.n_hist = 1                      # redo the start-up at a smaller step
+            return Step(t_end4, y_c, err, 5, dense, n_steps=4, h=hs,
+                        progress_times=ts[1:])
+        # ---- predictor-corrector step
+        if hs != self.hF:
+            self.F = F = resample_matrix(4, hs / self.hF) @ F
+            self.hF = hs
+        y_c, err = self._pece(t, y, hs)
+        dense = PiecewiseHermite([t, t_new], [y, y_c], [self.fy], last=lambda: self.f_new)
+        return Step(t_new, y_c, err, 5, dense)
+
+    def accept(self, step, y_final):
+        f_new = self.f(step.t_new, y_final)                       # final E of PECE
+        self.counters.nfev += 1
+        F = self.F
+        F[1:] = F[:-1]
+        F[0] = f_new
+        self.fy = self.f_new = f_new
 
 
 @register
@@ -78,145 +195,17 @@ class AdamsBashforthMoulton4(Integrator):
         self.max_step = default_max_step(max_step)
         self.min_step = non_negative(min_step, "min_step")
         self.safety = float(safety)
-        StepController(5, safety=self.safety)
+        self.make_controller()
 
     def __repr__(self) -> str:
         mode = "adaptive" if self.adaptive else "fixed"
         return f"AdamsBashforthMoulton4({mode}, step={self.step!r}, rtol={self.rtol!r})"
 
-    def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
-        f = problem.rhs
-        project = problem.project
-        n = y0.size
-        adaptive = self.adaptive
-        rtol = self.rtol
-        atol = atol_vector(self.atol, n)
-        ctrl = StepController(5, safety=self.safety, max_factor=2.0)
-        touts = t_eval.tolist()
-        n_out = len(touts)
-        t_end = touts[-1]
-        span = t_end - t0
-        k_out = 0
-        if touts[0] == t0:
-            outputs.append(y0)
-            k_out = 1
-        if k_out == n_out:
-            return
+    def make_stepper(self):
+        return AdamsStepper(self.rtol, self.atol, self.step, self.max_step, self.adaptive)
 
-        def commit(t, y, fy, t_new, y_new, f_new):
-            """Accept a step: count it, emit the outputs in (t, t_new], report progress."""
-            nonlocal k_out
-            counters.steps += 1
-            hs = t_new - t
-            while k_out < n_out and touts[k_out] <= t_new:
-                to = touts[k_out]
-                if to == t_new:
-                    outputs.append(y_new)
-                else:
-                    yo = hermite((to - t) / hs, hs, y, fy, y_new, f_new)
-                    outputs.append(yo if project is None else project(to, yo))
-                k_out += 1
-            if progress is not None:
-                progress(t_new)
-
-        t, y = t0, y0
-        try:
-            fy = f(t0, y0)
-            counters.nfev += 1
-            raise_if_nonfinite(t0, fy, "derivative")
-            if adaptive:
-                if self.step is not None:
-                    h = self.step
-                else:
-                    h = initial_step(f, t0, y0, fy, 4, rtol, atol, self.max_step, span,
-                                     counters)
-                h = min(h, self.max_step, span / 4.0)
-            else:
-                h = self.step
-            F = np.empty((4, n))           # f_n, f_(n-1), f_(n-2), f_(n-3) spaced by hF
-            F[0] = fy
-            n_hist = 1
-            hF = h
-            pending = []                   # unvalidated start-up steps (adaptive mode)
-            origin = (t, y, fy)
-            after_reject = False
-            while t < t_end:
-                hs = end_step(t, h, t_end)
-                t_new = t_end if hs == t_end - t else t + hs
-                if n_hist < 4:
-                    # ---- start-up: classic RK4 at constant step, Eqs. (13.14)-(13.19)
-                    if n_hist > 1 and hs != hF:
-                        n_hist = 1                 # (only at the very end) restart history
-                    if n_hist == 1:
-                        origin = (t, y, fy)
-                    y_new = _rk4(f, t, y, hs, fy)
-                    counters.nfev += 3
-                    if project is not None:
-                        y_new = project(t_new, y_new)
-                    raise_if_nonfinite(t_new, y_new)
-                    f_new = f(t_new, y_new)
-                    counters.nfev += 1
-                    F[1:] = F[:-1]
-                    F[0] = f_new
-                    n_hist += 1
-                    hF = hs
-                    if adaptive and t_new < t_end:
-                        pending.append((t, y, fy, t_new, y_new, f_new))
-                    else:
-                        for rec in pending:
-                            commit(*rec)
-                        pending.clear()
-                        commit(t, y, fy, t_new, y_new, f_new)
-                    t, y, fy = t_new, y_new, f_new
-                    continue
-                # ---- predictor-corrector step
-                if hs != hF:
-                    F = resample_matrix(4, hs / hF) @ F
-                    hF = hs
-                y_p = y + hs * np.dot(AB4, F)                          # Eq. (13.20)
-                f_p = f(t_new, y_p)
-                y_c = y + hs * (AM4_NEW * f_p + np.dot(AM4, F[:3]))    # Eq. (13.23)
-                counters.nfev += 1
-                if adaptive:
-                    scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_c))
-                    e = (y_c - y_p) * (MILNE / scale)
-                    err = math.sqrt(float(np.dot(e, e)) / n)
-                    if not err <= 1.0:
-                        h = hs * ctrl.reject(err)
-                        after_reject = True
-                        if pending:
-                            # start-up not validated: redo it from its origin at the new step
-                            counters.rejected += len(pending) + 1
-                            pending.clear()
-                            t, y, fy = origin
-                            F[0] = fy
-                            n_hist = 1
-                        else:
-                            counters.rejected += 1
-                        if h < min_step_size(t, span, self.min_step):
-                            raise underflow_error(
-                                self.name, t, h, "predictor-corrector error test failed"
-                                + ("; the derivative is not finite"
-                                   if not math.isfinite(err) else ""))
-                        continue
-                if project is not None:
-                    y_c = project(t_new, y_c)
-                raise_if_nonfinite(t_new, y_c)
-                f_new = f(t_new, y_c)                                  # final E of PECE
-                counters.nfev += 1
-                F[1:] = F[:-1]
-                F[0] = f_new
-                for rec in pending:
-                    commit(*rec)
-                pending.clear()
-                commit(t, y, fy, t_new, y_c, f_new)
-                t, y, fy = t_new, y_c, f_new
-                if adaptive:
-                    fac = ctrl.accept(err, after_reject)
-                    after_reject = False
-                    if fac >= 1.25:
-                        h = min(hs * fac, self.max_step)
-        except (SpatialMBDError, np.linalg.LinAlgError, FloatingPointError) as exc:
-            if getattr(exc, "t", None) is None:
-                exc.t = t
-            raise
+    def make_controller(self):
+        if not self.adaptive:
+            return FixedStepController(self.step)
+        # the history is re-spaced at every change: grow only by >= 1.25 (at most x2)
+        return IController(safety=self.safety, max_factor=2.0, deadband=1.25)

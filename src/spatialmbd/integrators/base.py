@@ -6,22 +6,27 @@ of motion once per call (one *function evaluation*, as counted in Table 15.3) an
 ``project`` hook maps an accepted state back onto its manifold (unit Euler parameters, or the
 constraint manifold for the projection method).
 
-Adding an integrator (numbered contract, after scipy.integrate._ivp):
+Adding an integrator (after scipy.integrate._ivp and diffrax's solver / controller split):
 
-1. subclass :class:`Integrator`, set ``name``, ``order`` and ``adaptive``;
-2. implement ``_integrate(problem, t0, y0, t_eval, counters, outputs, progress)``, appending the
-   state at each time of ``t_eval`` to the list ``outputs`` in order, updating ``counters`` and
-   calling ``progress(t)`` after accepted steps (it may stop early by raising; see below);
+1. write a :class:`.driver.Stepper` (``start``, ``step(t, y, t_new) -> Step`` with the new
+   state, its error norm and a dense interpolant, ``accept`` when it carries state);
+2. subclass :class:`Integrator`, set ``name``, ``order`` and ``adaptive`` and implement
+   ``make_stepper()`` and ``make_controller()`` (a controller of :mod:`.controllers`);
 3. register the class with :func:`register`.
+
+The loop itself (output sampling, projection, counters, progress, events, partial results) is
+:func:`.driver.run`, the same for every integrator.
 
 Failures: the right-hand side raises :class:`spatialmbd.errors.SpatialMBDError` (singular matrix,
 Newton failure), or produces NaN, or the step size underflows. ``Integrator.integrate`` catches
 these and returns an :class:`IntegrationResult` with ``status == "failed"``, a message giving the
-time and the cause, and every output computed before the failure.
+time and the cause, and every output computed before the failure. A terminal event ends the run
+with ``status == "event"`` (a success: ``result.success`` is True).
 """
 from __future__ import annotations
 
 import abc
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional
@@ -47,11 +52,16 @@ class ODEProblem:
         when it only rescales components that rhs normalises anyway (unit Euler parameters);
         integrators may then keep a derivative computed before the projection (FSAL).
     stages: optional compiled evaluation of explicit Runge-Kutta stages,
-        ``stages(t, y, h, A, C, K, s0, s1, out, t_last) -> s``: for s = s0 .. s1-1,
-        out = y + h sum_(j<s) A[s, j] K[j] and K[s] = rhs(t + C[s] h, out) (t_last for the last
-        stage), exactly as :func:`.explicit.rk_stages` does with ``rhs``, in one call. Returns
-        the first stage it did not complete (s1 when all went well); the integrator evaluates
-        the rest with ``rhs`` (which then reports the problem, e.g. a singular matrix).
+        ``stages(t, y, h, tableau, nodes, slopes, s0, s1, out, t_last) -> s``: for
+        s = s0 .. s1-1, out = y + h sum_(j<s) tableau[s, j] slopes[j] and
+        slopes[s] = rhs(t + nodes[s] h, out) (t_last for the last stage), exactly as
+        :func:`.explicit.rk_stages` does with ``rhs``, in one call. Returns the first stage it
+        did not complete (s1 when all went well); the integrator evaluates the rest with ``rhs``
+        (which then reports the problem, e.g. a singular matrix).
+    n_quadrature: the last ``n_quadrature`` components of y are quadratures: rhs does not depend
+        on them (e.g. the work W of the non-conservative forces). Implicit integrators leave
+        their (zero) Jacobian columns out and keep them out of the Newton convergence test
+        (their update is exact once the other components have converged).
     """
 
     rhs: RHS
@@ -59,6 +69,7 @@ class ODEProblem:
     jac: Optional[Callable[[float, np.ndarray], np.ndarray]] = None
     project_keeps_rhs: bool = False
     stages: Optional[Callable] = None
+    n_quadrature: int = 0
 
 
 @dataclass
@@ -81,9 +92,13 @@ class Counters:
 class IntegrationResult:
     """Outputs of an integration at the requested times.
 
-    t: (n_out,) the output times actually reached (a prefix of t_eval when failed).
+    t: (n_out,) the output times actually reached (a prefix of t_eval when failed; after a
+        terminal event the prefix before the event followed by the event time).
     y: (n_out, n) the state at those times (dense output, not the internal steps).
-    status: "success" or "failed"; message says why it failed (time and cause).
+    status: "success", "event" (a terminal event stopped the run) or "failed"; message says
+        why it failed (time and cause) or which event stopped it.
+    events: the located events (:class:`.driver.EventRecord`: t, y, index, name, terminal) in
+        time order.
     """
 
     t: np.ndarray
@@ -92,25 +107,33 @@ class IntegrationResult:
     message: str
     counters: Counters = field(default_factory=Counters)
     t_fail: Optional[float] = None
+    events: list = field(default_factory=list)
+    last: Optional[tuple] = None       # (t, y) of the last accepted step
 
     @property
     def success(self) -> bool:
-        return self.status == "success"
+        return self.status in ("success", "event")
 
 
 class Integrator(abc.ABC):
-    """Base class: a time-stepping strategy. Subclasses implement ``_integrate``."""
+    """Base class: the options of a time-stepping strategy; ``make_stepper`` and
+    ``make_controller`` give the pieces :func:`.driver.run` drives."""
 
     name: str = ""
     order: int = 0
     adaptive: bool = False
+    max_step: float = math.inf
+    min_step: float = 0.0
 
     def integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
-                  progress: Optional[Callable[[float], None]] = None) -> IntegrationResult:
+                  progress: Optional[Callable[[float], None]] = None, events=None,
+                  event_tol: float = 1e-12) -> IntegrationResult:
         """Integrate from (t0, y0) and return the state at each time of ``t_eval``.
 
         t_eval: (n_out,) increasing, t_eval[0] >= t0. progress: called with the current time
-        after accepted steps (for progress bars).
+        after accepted steps (for progress bars). events: zero crossings to locate (see
+        :mod:`.driver`: callables g(t, y) or objects with ``function``, ``terminal``,
+        ``direction``); event_tol: their time tolerance (s).
         """
         t_eval = np.asarray(t_eval, dtype=float)
         if t_eval.ndim != 1 or t_eval.size == 0:
@@ -118,15 +141,16 @@ class Integrator(abc.ABC):
         if np.any(np.diff(t_eval) <= 0) or t_eval[0] < t0:
             raise ValueError("t_eval must be strictly increasing and start at or after t0")
         counters = Counters()
-        outputs: list[np.ndarray] = []
         y0 = np.array(y0, dtype=float)
         if problem.project is not None:
             y0 = problem.project(t0, y0)
+        state = RunState()
         start = time.perf_counter()
         status, message, t_fail = "success", "", None
         try:
             with np.errstate(all="ignore"):
-                self._integrate(problem, float(t0), y0, t_eval, counters, outputs, progress)
+                self._integrate(problem, float(t0), y0, t_eval, counters, state.outputs, progress,
+                                events=events, event_tol=event_tol, state=state)
         except (SpatialMBDError, FloatingPointError, np.linalg.LinAlgError) as exc:
             status = getattr(exc, "status", "failed")     # "budget": stopped by a budget
             t_fail = getattr(exc, "t", None)
@@ -136,25 +160,45 @@ class Integrator(abc.ABC):
         except Exception as exc:  # noqa: BLE001 - a non-project error mid-run (e.g. LAPACK's
             # ValueError): the outputs computed so far are returned with the cause; before
             # the first evaluation it is a setting the integrator cannot use: raised
-            if counters.nfev == 0 and not outputs:
+            if counters.nfev == 0 and not state.outputs:
                 raise
             status = "failed"
             t_fail = getattr(exc, "t", None)
             message = f"{type(exc).__name__}: {exc}"
         counters.wall_time = time.perf_counter() - start
+        outputs = state.outputs
         n_out = len(outputs)
         y = np.array(outputs) if n_out else np.empty((0, y0.size))
         if status != "success" and t_fail is None:
             t_fail = float(t_eval[n_out]) if n_out < t_eval.size else float(t_eval[-1])
         if status != "success" and not message.startswith("t ="):
             message = f"t = {t_fail:.6g} s: {message}"
-        return IntegrationResult(t=t_eval[:n_out].copy(), y=y, status=status, message=message,
-                                 counters=counters, t_fail=t_fail)
+        if status == "success" and state.terminated is not None:
+            ev = state.terminated
+            status = "event"
+            message = f"t = {ev.t:.9g} s: terminal event {ev.name!r} (events[{ev.index}])"
+        return IntegrationResult(t=np.array(state.times, dtype=float), y=y, status=status,
+                                 message=message, counters=counters, t_fail=t_fail,
+                                 events=list(state.events), last=state.last)
+
+    def _integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
+                   counters: Counters, outputs: list, progress, events=None,
+                   event_tol: float = 1e-12, state=None) -> None:
+        """Run the driver; append y(t_eval[k]) to ``outputs`` in order; raise on failure."""
+        if state is None:
+            state = RunState(outputs=outputs)
+        run(self.make_stepper(), self.make_controller(), problem, float(t0),
+            np.asarray(y0, dtype=float), np.asarray(t_eval, dtype=float), counters, state,
+            progress=progress, events=events, event_tol=event_tol, max_step=self.max_step,
+            min_step=self.min_step)
 
     @abc.abstractmethod
-    def _integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
-                   counters: Counters, outputs: list, progress) -> None:
-        """Append y(t_eval[k]) to ``outputs`` in order; raise on failure (see module doc)."""
+    def make_stepper(self):
+        """A fresh :class:`.driver.Stepper` for one run."""
+
+    @abc.abstractmethod
+    def make_controller(self):
+        """A fresh step-size controller (:mod:`.controllers`) for one run."""
 
 
 def check_finite(t: float, y: np.ndarray, what: str = "state") -> None:
@@ -188,3 +232,7 @@ def get_integrator(spec, **options) -> Integrator:
                              + ", ".join(sorted(INTEGRATORS)))
         return INTEGRATORS[key](**options)
     raise TypeError(f"integrator must be a name or an Integrator, not {type(spec).__name__}")
+
+
+# the driver needs check_finite (through .controller), so it is imported last
+from .driver import RunState, run  # noqa: E402

@@ -11,13 +11,44 @@ from __future__ import annotations
 
 import abc
 
-import math
-
 import numpy as np
 
-from ..errors import SpatialMBDError
 from .base import Integrator, register
-from .controller import positive, raise_if_nonfinite
+from .controller import hermite, positive
+from .controllers import FixedStepController
+from .driver import Step, Stepper
+
+
+class OneStepStepper(Stepper):
+    """The stepping formula of a fixed-step one-step method; ``advance(f, t, y, h, f0)`` gives
+    y_(n+1) from f0 = f(t_n, y_n). Dense output (only needed for events): the cubic Hermite
+    interpolant from (y_n, f_n) and (y_(n+1), f(t_(n+1), y_(n+1))), the latter evaluated on
+    first use (counted in nfev)."""
+
+    def __init__(self, name, advance, evaluations):
+        self.name = name
+        self.advance = advance
+        self.evaluations = evaluations
+
+    def start(self, problem, t0, y0, t_end, counters):
+        self.f = problem.rhs
+        self.counters = counters
+        return None
+
+    def step(self, t, y, t_new):
+        f, counters = self.f, self.counters
+        h = t_new - t
+        f0 = f(t, y)
+        y_new = self.advance(f, t, y, h, f0)
+        counters.nfev += self.evaluations
+        cache = []
+
+        def dense(s):
+            if not cache:
+                cache.append(f(t_new, y_new))
+                counters.nfev += 1
+            return hermite((s - t) / h, h, y, f0, y_new, cache[0])
+        return Step(t_new, y_new, None, 1, dense)
 
 
 class FixedStepIntegrator(Integrator):
@@ -36,35 +67,29 @@ class FixedStepIntegrator(Integrator):
     def _advance(self, f, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """One step of size h from (t, y); returns y_(n+1) (a new array)."""
 
-    def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
-        f = problem.rhs
-        project = problem.project
-        advance = self._advance
-        stages = self.stages
-        h = self.step
-        t, y = t0, y0
-        try:
-            for t_out in t_eval.tolist():
-                if t_out > t:
-                    # number of steps to t_out; the last one lands exactly on it
-                    m = max(1, math.ceil((t_out - t) / h - 1e-9))
-                    t_start = t
-                    for i in range(1, m + 1):
-                        t_new = t_out if i == m else t_start + i * h
-                        y = advance(f, t, y, t_new - t)
-                        counters.nfev += stages
-                        if project is not None:
-                            y = project(t_new, y)
-                        raise_if_nonfinite(t_new, y)
-                        t = t_new
-                        counters.steps += 1
-                        if progress is not None:
-                            progress(t)
-                outputs.append(y)
-        except (SpatialMBDError, np.linalg.LinAlgError, FloatingPointError) as exc:
-            if getattr(exc, "t", None) is None:
-                exc.t = t
-            raise
+    def _advance_from(self, f, t, y, h, f0):
+        """One step given f0 = f(t, y) (already evaluated)."""
+        return self._advance(_Memo(f, t, y, f0), t, y, h)
+
+    def make_stepper(self):
+        return OneStepStepper(self.name, self._advance_from, self.stages)
+
+    def make_controller(self):
+        return FixedStepController(self.step, land_on_outputs=True)
+
+
+class _Memo:
+    """f with its value at (t, y) known (the first stage of a step is not evaluated twice)."""
+
+    __slots__ = ("f", "t", "y", "f0")
+
+    def __init__(self, f, t, y, f0):
+        self.f, self.t, self.y, self.f0 = f, t, y, f0
+
+    def __call__(self, t, y):
+        if t == self.t and y is self.y:
+            return self.f0
+        return self.f(t, y)
 
 
 @register
@@ -110,6 +135,9 @@ class RungeKutta4(FixedStepIntegrator):
 
     def _advance(self, f, t, y, h):
         return rk4_step(f, t, y, h, f(t, y))
+
+    def _advance_from(self, f, t, y, h, f0):
+        return rk4_step(f, t, y, h, f0)
 
 
 def rk4_step(f, t: float, y: np.ndarray, h: float, k1: np.ndarray) -> np.ndarray:

@@ -4,12 +4,21 @@
 
 An implicit, stiffly stable multistep method. Each step solves G(y) = y - (12/25) h f(t, y) - psi
 = 0 by simplified Newton iterations with the iteration matrix M = I - (12/25) h J, J = df/dy from
-``problem.jac`` or forward finite differences of ``rhs`` (n + 1 evaluations, counted in nfev).
-J and the LU factorisation of M are reused across steps: J is re-evaluated only when Newton fails
-(then the step is retried with the fresh J) or converged slowly (> 3 iterations; J is refreshed
-before the next step); M is re-factorised only when J or the step size changes. Newton stops when
-the estimated remaining error rate/(1 - rate) ||dy|| < newton_tol (weighted RMS norm, scale
+``problem.jac`` or forward finite differences of ``rhs`` (one evaluation per column, except the
+``problem.n_quadrature`` trailing quadrature components whose columns are zero, + 1; counted in
+nfev), evaluated at the predicted end of the step (t_(n+1), y^p), where Newton works (J can turn
+fast along the solution: on the flyball governor the stiff spring directions rotate with the
+shaft). J and the LU factorisation of M are reused across iterations and steps: J is
+re-evaluated when Newton fails with a reused J (the step is retried with the fresh J, same h) or
+converged slowly (> 3 iterations); after a failure of a reused J it is evaluated up front for the
+next 1, 2, 4, then 8 steps (reset when a reused J succeeds again). M is re-factorised only when
+J or the step size changes. Newton stops when the estimated remaining error
+rate/(1 - rate) ||dy|| < newton_tol (weighted RMS norm over the non-quadrature components, scale
 atol + rtol |y|), the rate being carried over between solves (Hairer & Wanner, Sec. IV.8).
+
+Structure: :class:`GearStepper` is the stepping formula (:class:`.driver.Stepper`), the step
+size comes from an :class:`.controllers.IController` with a deadband (or a constant step), and
+:func:`.driver.run` does the rest.
 
 Start-up: BDF4 needs y_n .. y_(n-3); the first four steps use the L-stable, stiffly accurate
 4th-order SDIRK method of Hairer & Wanner (Solving ODEs II, Table IV.6.5, gamma = 1/4) at the same
@@ -35,33 +44,300 @@ from typing import Optional
 import numpy as np
 from scipy.linalg import lapack
 
-from ..errors import SpatialMBDError
 from .base import Integrator, register
-from .controller import (EPS, StepController, atol_vector, default_max_step, end_step, hermite,
-                         initial_step, lagrange_weights, min_step_size, newton_error,
-                         non_negative, positive, raise_if_nonfinite, resample_matrix,
-                         underflow_error, validate_tolerances)
+from .controller import (EPS, atol_vector, default_max_step, hermite, initial_step,
+                         lagrange_weights, non_negative, positive, raise_if_nonfinite,
+                         resample_matrix, validate_tolerances)
+from .controllers import FixedStepController, IController
+from .driver import Step, Stepper
 
 BDF4_ALPHA = np.array([48.0, -36.0, 16.0, -3.0]) / 25.0    # Eq. (13.26), on y_n .. y_(n-3)
 BDF4_BETA = 12.0 / 25.0                                    # Eq. (13.26), on h f_(n+1)
 BDF4_ERR = 12.0 / 137.0                                    # local error / (y_c - y_p)
+MAX_GROWTH = 2.0                                           # step growth cap per step
 EXTRAPOLATE5 = np.array([5.0, -10.0, 10.0, -5.0, 1.0])     # quartic predictor
 
 # SDIRK4, Hairer & Wanner II, Table IV.6.5 (L-stable, stiffly accurate, gamma = 1/4).
 SD_GAMMA = 0.25
-SD_C = (0.25, 0.75, 11.0 / 20.0, 0.5, 1.0)
-SD_A = (
+SD_NODES = (0.25, 0.75, 11.0 / 20.0, 0.5, 1.0)
+SD_COEF = (
     np.zeros(0),
     np.array([1.0 / 2.0]),
     np.array([17.0 / 50.0, -1.0 / 25.0]),
     np.array([371.0 / 1360.0, -137.0 / 2720.0, 15.0 / 544.0]),
     np.array([25.0 / 24.0, -49.0 / 48.0, 125.0 / 16.0, -85.0 / 12.0]),
 )
-SD_B = np.array([25.0 / 24.0, -49.0 / 48.0, 125.0 / 16.0, -85.0 / 12.0, 1.0 / 4.0])
+SD_WEIGHTS = np.array([25.0 / 24.0, -49.0 / 48.0, 125.0 / 16.0, -85.0 / 12.0, 1.0 / 4.0])
 SD_BHAT = np.array([59.0 / 48.0, -17.0 / 96.0, 225.0 / 32.0, -85.0 / 12.0, 0.0])
-SD_E = SD_B - SD_BHAT
+SD_ERROR_WEIGHTS = SD_WEIGHTS - SD_BHAT
 
 _getrf, _getrs = lapack.get_lapack_funcs(("getrf", "getrs"), (np.empty(1),))
+
+
+class NewtonSolver:
+    """Simplified Newton for y = psi + gh f(t, y) with the iteration matrix I - gh J.
+
+    J = df/dy from ``problem.jac`` or forward differences of ``rhs`` (one column per
+    non-quadrature component, + 1 evaluation; counted in nfev). J and the LU factorisations of
+    I - gh J (kept for the last two values of gh) are reused across iterations and steps; the
+    caller refreshes J only when Newton fails with a J that is not current. Convergence:
+    rate/(1 - rate) ||dy|| < newton_tol in the weighted RMS norm over the non-quadrature
+    components (Hairer & Wanner II, Sec. IV.8), the contraction rate carried between solves.
+    """
+
+    def __init__(self, problem, n, rtol, atol, newton_tol, max_newton, counters):
+        self.f = problem.rhs
+        self.jac = problem.jac
+        self.n = n
+        self.nd = n - int(problem.n_quadrature or 0)   # components in the convergence test
+        self.rtol, self.atol = rtol, atol
+        self.newton_tol, self.max_newton = newton_tol, max_newton
+        self.counters = counters
+        self.J = np.zeros((n, n))
+        self.lu_cache: dict = {}
+        self.rate = None
+        self.current = False            # J evaluated at the current step's start
+
+    def refresh(self, t, y, fy=None):
+        """J = df/dy at (t, y); drops the LU factorisations."""
+        n, nd, f, counters = self.n, self.nd, self.f, self.counters
+        if self.jac is not None:
+            self.J = np.array(self.jac(t, y), dtype=float).reshape(n, n)
+        else:
+            J = self.J
+            if fy is None:
+                fy = f(t, y)
+                counters.nfev += 1
+            typical = self.atol / self.rtol
+            for j in range(nd):
+                yj = y.copy()
+                d = math.sqrt(EPS) * max(abs(y[j]), typical[j])
+                yj[j] += d
+                d = yj[j] - y[j]                 # the exactly representable increment
+                J[:, j] = (f(t, yj) - fy) / d
+            counters.nfev += nd
+        counters.njev += 1
+        if not np.all(np.isfinite(self.J)):
+            raise_if_nonfinite(t, self.J.ravel(), "Jacobian")
+        self.lu_cache.clear()
+        self.current = True
+
+    def factor(self, gh):
+        """LU of I - gh J (cached per gh); False when singular."""
+        lu_cache = self.lu_cache
+        lu = lu_cache.get(gh)
+        if lu is None:
+            for key, val in lu_cache.items():          # a round-off different step: reuse
+                if abs(key - gh) <= 1e-9 * gh:
+                    return val
+            if len(lu_cache) >= 2:
+                lu_cache.clear()
+            M = -gh * self.J
+            M.flat[::self.n + 1] += 1.0
+            lu_, piv, info = _getrf(M, overwrite_a=True)
+            self.counters.nlu += 1
+            lu = (lu_, piv) if info == 0 else False
+            lu_cache[gh] = lu
+        return lu
+
+    def solve(self, t_new, psi, gh, y, scale):
+        """Solve y = psi + gh f(t_new, y) from the guess y. Returns (y, iterations) or
+        (None, cause)."""
+        lu = self.factor(gh)
+        if lu is False:
+            return None, "singular iteration matrix I - gh J"
+        lu_, piv = lu
+        f, counters, nd = self.f, self.counters, self.nd
+        newton_tol, max_newton = self.newton_tol, self.max_newton
+        rate = self.rate
+        if rate is not None:
+            rate = max(rate, 1e-3)          # remembered contraction rate, floored
+        dn_old = 0.0
+        for it in range(max_newton):
+            fy = f(t_new, y)
+            counters.nfev += 1
+            if not math.isfinite(fy.dot(fy)) and not np.all(np.isfinite(fy)):
+                return None, "non-finite derivative"
+            dy, _ = _getrs(lu_, piv, psi + gh * fy - y)
+            e = dy[:nd] / scale[:nd]
+            dn = math.sqrt(float(np.dot(e, e)) / nd)
+            if it > 0:
+                rate = dn / dn_old
+                if rate >= 1.0:
+                    self.rate = None
+                    return None, f"diverging, contraction rate {rate:.3g}"
+                if rate ** (max_newton - it) / (1.0 - rate) * dn > newton_tol:
+                    self.rate = None
+                    return None, f"too slow, contraction rate {rate:.3g}"
+            y = y + dy
+            if dn == 0.0 or (rate is not None and rate < 1.0
+                             and rate / (1.0 - rate) * dn < newton_tol):
+                if it > 0:
+                    self.rate = rate
+                return y, it + 1
+            dn_old = dn
+        self.rate = None
+        return None, f"no convergence in {max_newton} iterations"
+
+
+class GearStepper(Stepper):
+    """BDF4 (Eq. 13.26) with the SDIRK4 start-up; see the module docstring."""
+
+    name = "bdf4"
+
+    def __init__(self, opts):
+        self.o = opts
+
+    def start(self, problem, t0, y0, t_end, counters):
+        o = self.o
+        f = problem.rhs
+        self.f, self.counters = f, counters
+        n = y0.size
+        self.n = n
+        self.atol = atol_vector(o.atol, n)
+        self.newton = NewtonSolver(problem, n, o.rtol, self.atol, o.newton_tol, o.max_newton,
+                                   counters)
+        self.fy = f(t0, y0)
+        counters.nfev += 1
+        raise_if_nonfinite(t0, self.fy, "derivative")
+        span = t_end - t0
+        if o.adaptive:
+            h = o.step if o.step is not None else initial_step(
+                f, t0, y0, self.fy, 3, o.rtol, self.atol, o.max_step, span, counters)
+            h = min(h, o.max_step, span / 4.0)
+        else:
+            h = o.step
+        self.Y = np.empty((5, n))          # y_n, y_(n-1), .., y_(n-4) spaced by hY
+        self.Y[0] = y0
+        self.n_hist = 1
+        self.hY = h
+        self.slopes = np.empty((5, n))     # SDIRK stage derivatives
+        self.refresh_next = True
+        self.backoff = 0          # steps with a Jacobian evaluated up front (see ``step``)
+        self.proactive = 0
+        return h
+
+    # ------------------------------------------------------------------ SDIRK4 start-up step
+    def _sdirk(self, t, y, hs, scale):
+        """One SDIRK4 step; returns (y_new, f_new, error vector, iterations) or None, cause."""
+        gh = SD_GAMMA * hs
+        slopes = self.slopes
+        guess = y + gh * self.fy
+        iters = 0
+        Yst = y
+        for i in range(5):
+            psi = y + hs * np.dot(SD_COEF[i], slopes[:i]) if i else y
+            if i:
+                guess = psi + gh * slopes[i - 1]
+            Yst, it = self.newton.solve(t + SD_NODES[i] * hs, psi, gh, guess, scale)
+            if Yst is None:
+                return None, it
+            iters = max(iters, it)
+            slopes[i] = (Yst - psi) * (1.0 / gh)
+        err = None
+        if self.o.adaptive:
+            lu_, piv = self.newton.factor(gh)
+            err, _ = _getrs(lu_, piv, hs * np.dot(SD_ERROR_WEIGHTS, slopes))   # filtered
+        return (Yst, slopes[4].copy(), err, iters), None
+
+    def step(self, t, y, t_new):
+        o, newton = self.o, self.newton
+        hs = t_new - t
+        n = self.n
+        while True:
+            scale = self.atol + o.rtol * np.abs(y)
+            startup = self.n_hist < 5
+            if startup:
+                if self.refresh_next:
+                    newton.refresh(t, y, self.fy)
+                    self.refresh_next = False
+                if self.n_hist > 1 and hs != self.hY:
+                    self.n_hist = 1                     # restart the uniform start-up
+                    self.Y[0] = y
+                out, cause = self._sdirk(t, y, hs, scale)
+                if out is not None:
+                    y_new, f_new, err_vec, iters = out
+                    dense = _HermiteStep(t, hs, y, self.fy, y_new, f_new)
+            else:
+                Y = self.Y
+                if hs != self.hY:
+                    self.Y = Y = resample_matrix(5, hs / self.hY) @ Y
+                    self.hY = hs
+                y_p = np.dot(EXTRAPOLATE5, Y)                      # predictor
+                psi = np.dot(BDF4_ALPHA, Y[:4])                   # Eq. (13.26)
+                if self.refresh_next:
+                    # J at the predicted end of the step, where Newton works: J can change
+                    # fast along the solution (e.g. stiff directions rotating with a body)
+                    newton.refresh(t_new, y_p)
+                    self.refresh_next = False
+                y_new, cause = newton.solve(t_new, psi, BDF4_BETA * hs, y_p, scale)
+                out = y_new
+                if y_new is not None:
+                    iters = cause
+                    err_vec = (y_new - y_p) * BDF4_ERR
+                    f_new = None
+                    dense = _HistoryPolynomial(t_new, hs, np.vstack([y_new[None], Y[:4]]))
+            if out is not None:
+                break
+            if newton.current:
+                return Step(t_new, None, failed=cause, k=5)
+            self.counters.rejected += 1                 # retry with a fresh Jacobian
+            self.refresh_next = True
+            # a Jacobian one step old failed: evaluate it up front for the next few steps
+            # (1, 2, 4, 8 then 8 each time it fails again) instead of failing every step
+            self.backoff = min(2 * self.backoff + 1, 8)
+            self.proactive = self.backoff
+        if not newton.current:
+            self.backoff = 0                            # the reused Jacobian did the job
+        newton.current = False
+        self.iters = iters
+        self.h_last = hs
+        self.f_new = f_new
+        err = None
+        if o.adaptive:
+            sc = self.atol + o.rtol * np.maximum(np.abs(y), np.abs(y_new))
+            e = err_vec / sc
+            err = math.sqrt(float(np.dot(e, e)) / n)
+        return Step(t_new, y_new, err, 4 if startup else 5, dense,
+                    hold=self.n_hist + 1 < 5)
+
+    def accept(self, step, y_final):
+        Y = self.Y
+        Y[1:] = Y[:-1]
+        Y[0] = y_final
+        self.hY = self.h_last
+        if self.n_hist < 5:
+            self.fy = self.f_new
+        self.n_hist = min(self.n_hist + 1, 5)
+        if self.iters > 3:
+            self.refresh_next = True                    # slow convergence: new J next step
+        elif self.proactive > 0:
+            self.proactive -= 1
+            self.refresh_next = True
+
+
+class _HermiteStep:
+    """Cubic Hermite interpolant of one step, as a callable of the time (s)."""
+
+    __slots__ = ("t", "h", "y0", "f0", "y1", "f1")
+
+    def __init__(self, t, h, y0, f0, y1, f1):
+        self.t, self.h, self.y0, self.f0, self.y1, self.f1 = t, h, y0, f0, y1, f1
+
+    def __call__(self, s):
+        return hermite((s - self.t) / self.h, self.h, self.y0, self.f0, self.y1, self.f1)
+
+
+class _HistoryPolynomial:
+    """The quartic through y_(n+1), y_n, .., y_(n-3) (spacing h), as a callable of the time."""
+
+    __slots__ = ("t_new", "h", "Y")
+
+    def __init__(self, t_new, h, Y):
+        self.t_new, self.h, self.Y = t_new, h, Y
+
+    def __call__(self, s):
+        return np.dot(lagrange_weights((s - self.t_new) / self.h, 5), self.Y)
 
 
 @register
@@ -100,245 +376,17 @@ class GearBDF4(Integrator):
             raise ValueError(f"option max_newton={max_newton!r} must be an integer >= 1")
         self.max_newton = int(max_newton)
         self.safety = float(safety)
-        StepController(5, safety=self.safety)
+        self.make_controller()
 
     def __repr__(self) -> str:
         mode = "adaptive" if self.adaptive else "fixed"
         return f"GearBDF4({mode}, step={self.step!r}, rtol={self.rtol!r})"
 
-    def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
-        f = problem.rhs
-        jac = problem.jac
-        project = problem.project
-        n = y0.size
-        adaptive = self.adaptive
-        rtol = self.rtol
-        atol = atol_vector(self.atol, n)
-        newton_tol = self.newton_tol
-        max_newton = self.max_newton
-        ctrl5 = StepController(5, safety=self.safety, max_factor=2.0)   # BDF4 error ~ h^5
-        ctrl4 = StepController(4, safety=self.safety, max_factor=2.0)   # SDIRK embedded ~ h^4
-        touts = t_eval.tolist()
-        n_out = len(touts)
-        t_end = touts[-1]
-        span = t_end - t0
-        k_out = 0
-        if touts[0] == t0:
-            outputs.append(y0)
-            k_out = 1
-        if k_out == n_out:
-            return
-        name = self.name
+    def make_stepper(self):
+        return GearStepper(self)
 
-        # ---------------------------------------------------------------- Jacobian and LU
-        J = np.empty((n, n))
-        lu_cache: dict = {}
-        state = {"rate": None}
-
-        def refresh_jacobian(t, y):
-            """J = df/dy at (t, y) from problem.jac or forward differences; drops the LUs."""
-            nonlocal J
-            if jac is not None:
-                J = np.array(jac(t, y), dtype=float).reshape(n, n)
-            else:
-                f0 = f(t, y)
-                counters.nfev += 1
-                typical = atol / rtol
-                for j in range(n):
-                    yj = y.copy()
-                    d = math.sqrt(EPS) * max(abs(y[j]), typical[j])
-                    yj[j] += d
-                    d = yj[j] - y[j]                 # the exactly representable increment
-                    J[:, j] = (f(t, yj) - f0) / d
-                counters.nfev += n
-            counters.njev += 1
-            if not np.all(np.isfinite(J)):
-                raise_if_nonfinite(t, J.ravel(), "Jacobian")
-            lu_cache.clear()
-
-        def factor(gh):
-            """LU of M = I - gh J (cached per gh); None when M is singular."""
-            lu = lu_cache.get(gh)
-            if lu is None:
-                for key, val in lu_cache.items():      # a round-off different step: reuse
-                    if abs(key - gh) <= 1e-9 * gh:
-                        return val
-                if len(lu_cache) >= 2:
-                    lu_cache.clear()
-                M = -gh * J
-                M.flat[::n + 1] += 1.0
-                lu_, piv, info = _getrf(M, overwrite_a=True)
-                counters.nlu += 1
-                lu = (lu_, piv) if info == 0 else False
-                lu_cache[gh] = lu
-            return lu
-
-        def newton(t_new, psi, gh, y, scale):
-            """Solve y = psi + gh f(t_new, y). Returns (y, iterations) or (None, cause)."""
-            lu = factor(gh)
-            if lu is False:
-                return None, "singular iteration matrix I - gh J"
-            lu_, piv = lu
-            rate = state["rate"]
-            if rate is not None:
-                rate = max(rate, 1e-3)          # remembered contraction rate, floored
-            dn_old = 0.0
-            for it in range(max_newton):
-                fy = f(t_new, y)
-                counters.nfev += 1
-                if not math.isfinite(fy.dot(fy)) and not np.all(np.isfinite(fy)):
-                    return None, "non-finite derivative"
-                dy, _ = _getrs(lu_, piv, psi + gh * fy - y)
-                e = dy / scale
-                dn = math.sqrt(float(np.dot(e, e)) / n)
-                if it > 0:
-                    rate = dn / dn_old
-                    if rate >= 1.0:
-                        state["rate"] = None
-                        return None, f"diverging, contraction rate {rate:.3g}"
-                    if rate ** (max_newton - it) / (1.0 - rate) * dn > newton_tol:
-                        state["rate"] = None
-                        return None, f"too slow, contraction rate {rate:.3g}"
-                y = y + dy
-                if dn == 0.0 or (rate is not None and rate < 1.0
-                                 and rate / (1.0 - rate) * dn < newton_tol):
-                    if it > 0:
-                        state["rate"] = rate
-                    return y, it + 1
-                dn_old = dn
-            state["rate"] = None
-            return None, f"no convergence in {max_newton} iterations"
-
-        # ---------------------------------------------------------------- SDIRK4 start-up step
-        Kst = np.empty((5, n))
-
-        def sdirk(t, y, fy, hs, scale):
-            """One SDIRK4 step; returns (y_new, f_new, error vector, iterations) or None, cause."""
-            gh = SD_GAMMA * hs
-            guess = y + gh * fy
-            iters = 0
-            Y = y
-            for i in range(5):
-                psi = y + hs * np.dot(SD_A[i], Kst[:i]) if i else y
-                if i:
-                    guess = psi + gh * Kst[i - 1]
-                Y, it = newton(t + SD_C[i] * hs, psi, gh, guess, scale)
-                if Y is None:
-                    return None, it
-                iters = max(iters, it)
-                Kst[i] = (Y - psi) * (1.0 / gh)
-            err = None
-            if adaptive:
-                lu_, piv = factor(gh)
-                err, _ = _getrs(lu_, piv, hs * np.dot(SD_E, Kst))   # filtered estimate
-            return (Y, Kst[4].copy(), err, iters), None
-
-        # ---------------------------------------------------------------- main loop
-        t, y = t0, y0
-        try:
-            fy = f(t0, y0)
-            counters.nfev += 1
-            raise_if_nonfinite(t0, fy, "derivative")
-            if adaptive:
-                h = self.step if self.step is not None else initial_step(
-                    f, t0, y0, fy, 3, rtol, atol, self.max_step, span, counters)
-                h = min(h, self.max_step, span / 4.0)
-            else:
-                h = self.step
-            Y = np.empty((5, n))          # y_n, y_(n-1), .., y_(n-4) spaced by hY
-            Y[0] = y0
-            n_hist = 1
-            hY = h
-            J_current = False
-            refresh = True
-            after_reject = False
-            last_cause = "error test failed"
-            while t < t_end:
-                hs = end_step(t, h, t_end)
-                t_new = t_end if hs == t_end - t else t + hs
-                if adaptive and hs < min_step_size(t, span, self.min_step):
-                    raise underflow_error(name, t, hs, last_cause)
-                if refresh:
-                    refresh_jacobian(t, y)
-                    J_current = True
-                    refresh = False
-                scale = atol + rtol * np.abs(y)
-                startup = n_hist < 5
-                if startup:
-                    if n_hist > 1 and hs != hY:
-                        n_hist = 1                     # restart the uniform start-up
-                        Y[0] = y
-                    out, cause = sdirk(t, y, fy, hs, scale)
-                    if out is not None:
-                        y_new, f_new, err_vec, iters = out
-                else:
-                    if hs != hY:
-                        Y = resample_matrix(5, hs / hY) @ Y
-                        hY = hs
-                    y_p = np.dot(EXTRAPOLATE5, Y)                      # predictor
-                    psi = np.dot(BDF4_ALPHA, Y[:4])                   # Eq. (13.26)
-                    y_new, cause = newton(t_new, psi, BDF4_BETA * hs, y_p, scale)
-                    out = y_new
-                    if y_new is not None:
-                        iters = cause
-                        err_vec = (y_new - y_p) * BDF4_ERR
-                if out is None:                        # Newton failure
-                    counters.rejected += 1
-                    if not J_current:
-                        refresh = True                 # retry with a fresh Jacobian
-                        continue
-                    if not adaptive:
-                        raise newton_error(name, t, hs, cause)
-                    h = 0.5 * hs
-                    after_reject = True
-                    last_cause = "Newton iteration failed: " + cause
-                    continue
-                if adaptive:
-                    sc = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-                    e = err_vec / sc
-                    err = math.sqrt(float(np.dot(e, e)) / n)
-                    ctrl = ctrl4 if startup else ctrl5
-                    if not err <= 1.0:
-                        counters.rejected += 1
-                        h = hs * ctrl.reject(err)
-                        after_reject = True
-                        last_cause = ("error test failed" if math.isfinite(err) else
-                                      "error estimate not finite")
-                        continue
-                if project is not None:
-                    y_new = project(t_new, y_new)
-                raise_if_nonfinite(t_new, y_new)
-                Y[1:] = Y[:-1]
-                Y[0] = y_new
-                hY = hs
-                J_current = False
-                if iters > 3:
-                    refresh = True                     # slow convergence: new J next step
-                # ---- accept: outputs in (t, t_new]
-                counters.steps += 1
-                while k_out < n_out and touts[k_out] <= t_new:
-                    to = touts[k_out]
-                    if to == t_new:
-                        outputs.append(y_new)
-                    else:
-                        if startup:
-                            yo = hermite((to - t) / hs, hs, y, fy, y_new, f_new)
-                        else:
-                            yo = np.dot(lagrange_weights((to - t_new) / hs, 5), Y)
-                        outputs.append(yo if project is None else project(to, yo))
-                    k_out += 1
-                n_hist = min(n_hist + 1, 5)
-                t, y = t_new, y_new
-                if startup:
-                    fy = f_new
-                if progress is not None:
-                    progress(t)
-                if adaptive:
-                    fac = ctrl.accept(err, after_reject)
-                    after_reject = False
-                    if fac >= 1.25 and n_hist == 5:
-                        h = min(hs * fac, self.max_step)
-        except (SpatialMBDError, np.linalg.LinAlgError, FloatingPointError) as exc:
-            if getattr(exc, "t", None) is None:
-                exc.t = t
-            raise
+    def make_controller(self):
+        if not self.adaptive:
+            return FixedStepController(self.step)
+        # the history is re-spaced at every change: grow only by >= 1.25 (at most x MAX_GROWTH)
+        return IController(safety=self.safety, max_factor=MAX_GROWTH, deadband=1.25)

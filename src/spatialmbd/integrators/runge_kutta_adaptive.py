@@ -8,14 +8,13 @@ scale_i = atol_i + rtol max(|y_n,i|, |y_(n+1),i|). Dense output uses the fourth-
 extension of Dormand-Prince (Shampine 1986, the same coefficients as MATLAB's ode45 and SciPy's
 RK45); it reproduces both end points of a step.
 
-Projection: when ``problem.project`` changes the accepted y_(n+1), the FSAL derivative is
-recomputed at the projected state (1 extra evaluation, counted in nfev; not when the problem
-declares ``project_keeps_rhs``), and the interpolant gets the linear correction
-theta (y_proj - y_raw) so it still passes through both (projected) end points; dense outputs
-are projected too (the hook is idempotent on the manifold).
+Projection (done by the driver, :mod:`.driver`): when ``problem.project`` changes the accepted
+y_(n+1), the FSAL derivative is recomputed at the projected state (1 extra evaluation, counted in
+nfev; not when the problem declares ``project_keeps_rhs``); the driver gives the interpolant the
+linear correction theta (y_proj - y_raw) so it still passes through both (projected) end points.
 
 The arithmetic of a step (stages, error norm, continuous extension) is compiled
-(:func:`.explicit.rk_combine` with the tableau :data:`DOPRI_AB`, :func:`dopri_error`,
+(:func:`.explicit.rk_combine` with the tableau :data:`DOPRI_TABLEAU`, :func:`dopri_error`,
 :func:`dopri_interpolate`); the step-size control stays in Python. When the problem offers
 ``stages`` (a compiled evaluation of a run of stages, see :class:`.base.ODEProblem`), the six
 stages of an attempt are one call.
@@ -27,17 +26,19 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import SpatialMBDError
 from ..jit import njit
 from .base import Integrator, register
 from .explicit import rk_stages
-from .controller import (StepController, atol_vector, default_max_step, end_step,
-                         initial_step, min_step_size, non_negative, positive,
-                         raise_if_nonfinite, underflow_error, validate_tolerances)
+from .controller import (atol_vector, default_max_step, initial_step, non_negative, positive,
+                         raise_if_nonfinite, validate_tolerances)
+from .controllers import make_controller
+from .driver import Step, Stepper
 
-# Dormand-Prince 5(4) tableau (Dormand & Prince 1980).
-DOPRI_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-DOPRI_A = [
+# Dormand-Prince 5(4) tableau (Dormand & Prince 1980). Names: nodes c_i, tableau rows a_ij,
+# weights b_i, slopes k_i (the stage derivatives) -- not A / K, which are the rotation matrix
+# and M + alpha D^T D in the text.
+DOPRI_NODES = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_DOPRI_ROWS = [
     np.array([]),
     np.array([1 / 5]),
     np.array([3 / 40, 9 / 40]),
@@ -45,13 +46,13 @@ DOPRI_A = [
     np.array([19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729]),
     np.array([9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656]),
 ]
-DOPRI_B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+DOPRI_WEIGHTS = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
 # E = b(5th order) - b_hat(4th order), including the FSAL stage k7.
-DOPRI_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525,
+DOPRI_ERROR_WEIGHTS = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525,
                     -1 / 40])
 # Continuous extension of order 4 (Shampine 1986): y(t_n + theta h) =
 #   y_n + h sum_i k_i (P[i] . [theta, theta^2, theta^3, theta^4]); row sums equal b.
-DOPRI_P = np.array([
+DOPRI_DENSE = np.array([
     [1.0, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
     [0.0, 0.0, 0.0, 0.0],
     [0.0, 131558114200 / 32700410799, -68118460800 / 10900136933,
@@ -65,23 +66,23 @@ DOPRI_P = np.array([
 
 
 #: The tableau as one (7, 7) array: row s (1..5) holds a_sj, row 6 the weights b, so that
-#: "stage" 6 is y_(n+1) and K_6 = f(t_(n+1), y_(n+1)) the FSAL derivative.
-DOPRI_AB = np.zeros((7, 7))
+#: "stage" 6 is y_(n+1) and k_7 = f(t_(n+1), y_(n+1)) the FSAL derivative.
+DOPRI_TABLEAU = np.zeros((7, 7))
 for _s in range(1, 6):
-    DOPRI_AB[_s, :_s] = DOPRI_A[_s]
-DOPRI_AB[6, :6] = DOPRI_B
+    DOPRI_TABLEAU[_s, :_s] = _DOPRI_ROWS[_s]
+DOPRI_TABLEAU[6, :6] = DOPRI_WEIGHTS
 
 
 @njit
-def dopri_error(y, y_new, K, hs, atol, rtol):
-    """Weighted RMS norm of the local error estimate hs sum_j e_j K_j, scale
+def dopri_error(y, y_new, slopes, hs, atol, rtol):
+    """Weighted RMS norm of the local error estimate hs sum_j e_j k_j, scale
     atol + rtol max(|y|, |y_new|)."""
     n = y.size
     acc = 0.0
     for i in range(n):
         e = 0.0
         for j in range(7):
-            e += DOPRI_E[j] * K[j, i]
+            e += DOPRI_ERROR_WEIGHTS[j] * slopes[j, i]
         scale = atol[i] + rtol * max(abs(y[i]), abs(y_new[i]))
         e *= hs / scale
         acc += e * e
@@ -89,19 +90,20 @@ def dopri_error(y, y_new, K, hs, atol, rtol):
 
 
 @njit
-def dopri_interpolate(y, hs, K, theta, delta, out):
-    """Dormand-Prince continuous extension: out = y + hs sum_j (P[j] . [theta, .., theta^4]) K_j
+def dopri_interpolate(y, hs, slopes, theta, delta, out):
+    """Dormand-Prince continuous extension: out = y + hs sum_j (P[j] . [theta, .., theta^4]) k_j
     (+ theta delta when delta is not empty: the correction for a projected end point)."""
     t2 = theta * theta
     t3 = t2 * theta
     t4 = t3 * theta
     w = np.empty(7)
     for j in range(7):
-        w[j] = DOPRI_P[j, 0] * theta + DOPRI_P[j, 1] * t2 + DOPRI_P[j, 2] * t3 + DOPRI_P[j, 3] * t4
+        w[j] = (DOPRI_DENSE[j, 0] * theta + DOPRI_DENSE[j, 1] * t2 + DOPRI_DENSE[j, 2] * t3
+                + DOPRI_DENSE[j, 3] * t4)
     for i in range(y.size):
         acc = 0.0
         for j in range(7):
-            acc += w[j] * K[j, i]
+            acc += w[j] * slopes[j, i]
         out[i] = y[i] + hs * acc
     if delta.size:
         for i in range(y.size):
@@ -111,16 +113,88 @@ def dopri_interpolate(y, hs, K, theta, delta, out):
 _NO_DELTA = np.zeros(0)
 
 
-def dopri_dense(y_old: np.ndarray, h: float, K: np.ndarray, theta: float) -> np.ndarray:
+def dopri_dense(y_old: np.ndarray, h: float, slopes: np.ndarray, theta: float) -> np.ndarray:
     """Dormand-Prince continuous extension at t_n + theta h (theta in [0, 1]).
 
-    y_old: (n,), K: (7, n) stage derivatives of the step, h: step size (s). Order 4.
+    y_old: (n,), slopes: (7, n) stage derivatives of the step, h: step size (s). Order 4.
     """
-    K = np.ascontiguousarray(K, dtype=float)
-    out = np.empty(K.shape[1])
-    dopri_interpolate(np.ascontiguousarray(y_old, dtype=float), float(h), K, float(theta),
+    slopes = np.ascontiguousarray(slopes, dtype=float)
+    out = np.empty(slopes.shape[1])
+    dopri_interpolate(np.ascontiguousarray(y_old, dtype=float), float(h), slopes, float(theta),
                       _NO_DELTA, out)
     return out
+
+
+class DormandPrinceStepper(Stepper):
+    """The Dormand-Prince 5(4) stepping formula (FSAL); see the module docstring."""
+
+    name = "rk45"
+
+    def __init__(self, rtol, atol, first_step, max_step):
+        self.rtol, self.atol_opt = rtol, atol
+        self.first_step, self.max_step = first_step, max_step
+
+    def start(self, problem, t0, y0, t_end, counters):
+        f = problem.rhs
+        self.f, self.counters = f, counters
+        self.stages = problem.stages
+        self.project_keeps_rhs = problem.project_keeps_rhs
+        n = y0.size
+        self.atol = atol_vector(self.atol_opt, n)
+        self.slopes = np.empty((7, n))        # the stage derivatives k_1 .. k_7
+        self.slopes[0] = f(t0, y0)
+        self.fsal = False
+        counters.nfev += 1
+        raise_if_nonfinite(t0, self.slopes[0], "derivative")
+        span = t_end - t0
+        if self.first_step is not None:
+            return min(self.first_step, self.max_step, span)
+        return initial_step(f, t0, y0, self.slopes[0], 4, self.rtol, self.atol, self.max_step,
+                            span, counters)
+
+    def step(self, t, y, t_new):
+        hs = t_new - t
+        slopes = self.slopes
+        if self.fsal:
+            slopes[0] = slopes[6]                     # FSAL (kept until now for the dense output)
+            self.fsal = False
+        y_new = np.empty(y.size)
+        done = 1 if self.stages is None else self.stages(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES,
+                                                         slopes, 1, 7, y_new, t_new)
+        if done < 7:                                  # (the rest of) the stages in Python
+            rk_stages(self.f, t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, slopes, done, 7, y_new, t_new)
+        self.counters.nfev += 6
+        err = dopri_error(y, y_new, slopes, hs, self.atol, self.rtol)
+        return Step(t_new, y_new, err, 5, _DopriDense(y, hs, t, slopes))
+
+    def accept(self, step, y_final):
+        slopes = self.slopes
+        if y_final is not step.y_new and not self.project_keeps_rhs \
+                and not np.array_equal(y_final, step.y_new):
+            step.dense.own_slopes()                   # before the FSAL slope changes
+            slopes[6] = self.f(step.t_new, y_final)   # FSAL derivative at the projected state
+            self.counters.nfev += 1
+        self.fsal = True
+
+
+class _DopriDense:
+    """Shampine's continuous extension of one step, as a callable of the time (s)."""
+
+    __slots__ = ("y", "hs", "t", "slopes", "owned")
+
+    def __init__(self, y, hs, t, slopes):
+        self.y, self.hs, self.t, self.slopes = y, hs, t, slopes
+        self.owned = False
+
+    def own_slopes(self):
+        if not self.owned:
+            self.slopes = self.slopes.copy()
+            self.owned = True
+
+    def __call__(self, s):
+        out = np.empty(self.y.size)
+        dopri_interpolate(self.y, self.hs, self.slopes, (s - self.t) / self.hs, _NO_DELTA, out)
+        return out
 
 
 @register
@@ -147,110 +221,18 @@ class DormandPrince45(Integrator):
         self.max_step = default_max_step(max_step)
         self.min_step = non_negative(min_step, "min_step")
         self.first_step = None if first_step is None else positive(first_step, "first_step")
-        self._ctrl_args = (5, float(safety), float(min_factor), float(max_factor),
-                           controller, float(beta))
-        StepController(*self._ctrl_args)       # validate now
+        if controller not in ("pi", "standard"):
+            raise ValueError(f"option controller={controller!r} must be 'standard' or 'pi'")
+        self._ctrl = (controller, dict(safety=float(safety), min_factor=float(min_factor),
+                                       max_factor=float(max_factor), beta=float(beta)))
+        self.make_controller()                 # validate now
 
     def __repr__(self) -> str:
         return f"DormandPrince45(rtol={self.rtol!r}, atol={self.atol!r})"
 
-    def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
-        f = problem.rhs
-        project = problem.project
-        keeps_rhs = problem.project_keeps_rhs
-        n = y0.size
-        rtol = self.rtol
-        atol = atol_vector(self.atol, n)
-        max_step = self.max_step
-        ctrl = StepController(*self._ctrl_args)
-        touts = t_eval.tolist()
-        n_out = len(touts)
-        t_end = touts[-1]
-        span = t_end - t0
-        k_out = 0
-        if touts[0] == t0:
-            outputs.append(y0)
-            k_out = 1
-        if k_out == n_out:
-            return
-        AB, C = DOPRI_AB, DOPRI_C
-        stages = problem.stages
-        K = np.empty((7, n))
-        error = dopri_error
-        t, y = t0, y0
-        try:
-            K[0] = f(t0, y0)
-            counters.nfev += 1
-            raise_if_nonfinite(t0, K[0], "derivative")
-            if self.first_step is not None:
-                h = min(self.first_step, max_step, span)
-            else:
-                h = initial_step(f, t0, y0, K[0], 4, rtol, atol, max_step, span, counters)
-            after_reject = False
-            not_finite = False
-            while t < t_end:
-                h_min = min_step_size(t, span, self.min_step)
-                # ---- attempt steps until one is accepted
-                while True:
-                    hs = end_step(t, h, t_end)
-                    if hs < h_min:
-                        raise underflow_error(
-                            self.name, t, hs, "error test failed repeatedly"
-                            + ("; the derivative is not finite" if not_finite else ""))
-                    t_new = t_end if hs == t_end - t else t + hs
-                    y_new = np.empty(n)
-                    done = 1 if stages is None else stages(t, y, hs, AB, C, K, 1, 7, y_new,
-                                                           t_new)
-                    if done < 7:                          # (the rest of) the stages in Python
-                        rk_stages(f, t, y, hs, AB, C, K, done, 7, y_new, t_new)
-                    counters.nfev += 6
-                    err = error(y, y_new, K, hs, atol, rtol)
-                    if err <= 1.0:
-                        break
-                    not_finite = not math.isfinite(err)
-                    counters.rejected += 1
-                    h = hs * ctrl.reject(err)
-                    after_reject = True
-                not_finite = False
-                # ---- accept
-                fac = ctrl.accept(err, after_reject)
-                after_reject = False
-                Kd = K                                   # the stages of the interpolant
-                delta = _NO_DELTA
-                if project is not None:
-                    y_p = project(t_new, y_new)
-                    if keeps_rhs:
-                        delta = y_p - y_new
-                        y_new = y_p
-                    elif y_p is not y_new and not np.array_equal(y_p, y_new):
-                        delta = y_p - y_new
-                        y_new = y_p
-                        if k_out < n_out and touts[k_out] < t_new:
-                            Kd = K.copy()                # before K[6] changes
-                        K[6] = f(t_new, y_new)           # FSAL derivative at projected state
-                        counters.nfev += 1
-                raise_if_nonfinite(t_new, y_new)
-                # ---- dense output, Shampine's continuous extension
-                while k_out < n_out and touts[k_out] <= t_new:
-                    to = touts[k_out]
-                    if to == t_new:
-                        outputs.append(y_new)
-                    else:
-                        th = (to - t) / hs
-                        yo = np.empty(n)
-                        dopri_interpolate(y, hs, Kd, th, delta, yo)
-                        if project is not None:
-                            yo = project(to, yo)
-                        outputs.append(yo)
-                    k_out += 1
-                K[0] = K[6]                               # FSAL
-                t, y = t_new, y_new
-                counters.steps += 1
-                if progress is not None:
-                    progress(t)
-                h = min(hs * fac, max_step)
-        except (SpatialMBDError, np.linalg.LinAlgError, FloatingPointError) as exc:
-            if getattr(exc, "t", None) is None:
-                exc.t = t
-            raise
+    def make_stepper(self):
+        return DormandPrinceStepper(self.rtol, self.atol, self.first_step, self.max_step)
 
+    def make_controller(self):
+        kind, opts = self._ctrl
+        return make_controller(kind, **dict(opts))

@@ -12,8 +12,13 @@ finite-difference Jacobians, which SciPy's own ``nfev`` omits); steps counts acc
 njev and nlu are SciPy's counts; ``rejected`` is not reported by SciPy and stays 0.
 
 Projection: SciPy owns its internal state, so ``problem.project`` can only be applied to the
-outputs, not to the accepted steps; the drift off the manifold is therefore not corrected during
-the integration (use a spatialmbd integrator when projection matters).
+outputs (and located events), not to the accepted steps; the drift off the manifold is
+therefore not corrected during the integration (use a spatialmbd integrator when projection
+matters).
+
+Structure: :class:`ScipyStepper` is a self-controlled :class:`.driver.Stepper` (each ``step``
+is one solver step; SciPy chooses h), so outputs, events, counters and partial results come
+from the common driver.
 
 Failures: a non-finite derivative raises SimulationError at once (SciPy's implicit methods would
 raise ValueError from their LU). A SciPy step failure (e.g. "Required step size is less than
@@ -24,13 +29,13 @@ from __future__ import annotations
 
 from typing import Optional
 
-import numpy as np
 import scipy.integrate
 
-from ..errors import SimulationError, SpatialMBDError
+from ..errors import SimulationError
 from .base import Integrator, register
 from .controller import (atol_vector, default_max_step, non_negative, positive,
                          raise_if_nonfinite, validate_tolerances)
+from .driver import Step, Stepper
 
 
 class ScipyIntegrator(Integrator):
@@ -56,18 +61,27 @@ class ScipyIntegrator(Integrator):
     def __repr__(self) -> str:
         return f"{type(self).__name__}(rtol={self.rtol!r}, atol={self.atol!r})"
 
-    def _integrate(self, problem, t0, y0, t_eval, counters, outputs, progress) -> None:
+    def make_stepper(self):
+        return ScipyStepper(self)
+
+    def make_controller(self):
+        return None
+
+
+class ScipyStepper(Stepper):
+    """A SciPy OdeSolver as a self-controlled stepper: each ``step`` is one solver step."""
+
+    self_controlled = True
+    projects_state = False
+
+    def __init__(self, integ):
+        self.integ = integ
+        self.name = integ.name
+
+    def start(self, problem, t0, y0, t_end, counters):
+        integ = self.integ
         rhs = problem.rhs
-        project = problem.project
-        touts = t_eval.tolist()
-        n_out = len(touts)
-        t_end = touts[-1]
-        k_out = 0
-        if touts[0] == t0:
-            outputs.append(y0)
-            k_out = 1
-        if k_out == n_out:
-            return
+        self.counters = counters
 
         def fun(t, y):
             counters.nfev += 1
@@ -75,50 +89,35 @@ class ScipyIntegrator(Integrator):
             raise_if_nonfinite(t, dy, "derivative")    # SciPy's LU would raise ValueError
             return dy
 
-        kwargs = dict(rtol=self.rtol, atol=atol_vector(self.atol, y0.size),
-                      max_step=self.max_step, first_step=self.first_step)
-        if self.implicit and problem.jac is not None:
+        kwargs = dict(rtol=integ.rtol, atol=atol_vector(integ.atol, y0.size),
+                      max_step=integ.max_step, first_step=integ.first_step)
+        if integ.implicit and problem.jac is not None:
             kwargs["jac"] = problem.jac
-        if self.method == "LSODA":
-            kwargs["min_step"] = self.min_step
-        t = t0
-        solver = None
+        if integ.method == "LSODA":
+            kwargs["min_step"] = integ.min_step
+        self.solver = getattr(scipy.integrate, integ.method)(fun, t0, y0, t_end, **kwargs)
+        return None
+
+    def step(self, t, y, t_new):
+        solver = self.solver
         try:
-            solver = getattr(scipy.integrate, self.method)(fun, t0, y0, t_end, **kwargs)
-            while solver.status == "running":
-                message = solver.step()
-                if solver.status == "failed":
-                    t = solver.t
-                    err = SimulationError(f"t = {t:.6g} s: SciPy {self.method} failed: "
-                                          f"{message}")
-                    err.t = t
-                    raise err
-                t = solver.t
-                y = solver.y
-                raise_if_nonfinite(t, y)
-                counters.steps += 1
-                if k_out < n_out and touts[k_out] <= t:
-                    dense = None
-                    while k_out < n_out and touts[k_out] <= t:
-                        to = touts[k_out]
-                        if to == t:
-                            yo = y.copy()
-                        else:
-                            if dense is None:
-                                dense = solver.dense_output()
-                            yo = dense(to)
-                        outputs.append(yo if project is None else project(to, yo))
-                        k_out += 1
-                if progress is not None:
-                    progress(t)
-        except (SpatialMBDError, np.linalg.LinAlgError, FloatingPointError) as exc:
-            if getattr(exc, "t", None) is None:
-                exc.t = t
-            raise
+            message = solver.step()
         finally:
-            if solver is not None:
-                counters.njev = int(solver.njev or 0)
-                counters.nlu = int(solver.nlu or 0)
+            self.counters.njev = int(solver.njev or 0)
+            self.counters.nlu = int(solver.nlu or 0)
+        if solver.status == "failed":
+            t = solver.t
+            err = SimulationError(f"t = {t:.6g} s: SciPy {self.integ.method} failed: {message}")
+            err.t = t
+            raise err
+        y_new = solver.y.copy()
+        cache = []
+
+        def dense(s):
+            if not cache:
+                cache.append(solver.dense_output())
+            return cache[0](s)
+        return Step(solver.t, y_new, 0.0, 1, dense)
 
 
 @register

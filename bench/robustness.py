@@ -1,0 +1,182 @@
+#!/usr/bin/env python
+"""Robustness benchmark: random valid mechanisms x methods x integrators, 0.1 s each.
+
+    python bench/robustness.py                       # 12 mechanisms, seed 0
+    python bench/robustness.py --n 24 --seed 3 --timeout 30 --json out.json
+
+Mechanisms (drawn with the seed): open chains of 2-8 links with spherical or revolute joints
+and link masses log-uniform over 1e-3 .. 1e3 kg (mass ratios up to 1e6); closed loops (the
+spatial four-bar RSSR / RSUR of the text, the free slider-crank, the N-four-bar with N = 1..3,
+whose planar revolute joints are redundant); the Bricard mechanism (redundant); an N-four-bar
+started exactly at its dead-centre (flat, singular) position, moving through it. Every
+mechanism runs for 0.1 s with every method (standard, baumgarte, penalty,
+augmented_lagrangian, projection) and every integrator given (default: bdf4, scipy-radau,
+scipy-bdf, rk45) at the default tolerances, each run limited to --timeout s of wall time.
+Prints a table of failures and timeouts and the wall-time distribution per integrator.
+Not part of the test suite.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import signal  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+from spatialmbd import ModelBuilder, models  # noqa: E402
+from spatialmbd.models import _slender_inertia  # noqa: E402
+from spatialmbd.simulate import simulate  # noqa: E402
+
+METHODS = ["standard", "baumgarte", "penalty", "augmented_lagrangian", "projection"]
+INTEGRATORS = ["bdf4", "scipy-radau", "scipy-bdf", "rk45"]
+
+
+def random_chain(rng):
+    n = int(rng.integers(2, 9))
+    joint = str(rng.choice(["spherical", "revolute"]))
+    b = ModelBuilder(f"chain{n}_{joint}_massratio", gravity=(0.0, 0.0, -9.81))
+    prev = "ground"
+    x = 0.0
+    for k in range(n):
+        m = float(10 ** rng.uniform(-3, 3))
+        L = float(rng.uniform(0.2, 1.5))
+        b.add_body(f"link{k}", m, (1e-4 * m, m * L * L / 12, m * L * L / 12),
+                   r=(x + L / 2, 0.0, 0.0))
+        if joint == "spherical":
+            b.add_joint("spherical", f"j{k}", prev, f"link{k}", point=(x, 0.0, 0.0))
+        else:
+            b.add_joint("revolute", f"j{k}", prev, f"link{k}", point=(x, 0.0, 0.0),
+                        axis=(0.0, 1.0, 0.0))
+        prev = f"link{k}"
+        x += L
+    return b
+
+
+def dead_centre_four_bar(n: int = 1):
+    """The N-four-bar of models.n_four_bar at its flat (singular) position: cranks along +x,
+    couplers collinear with them, every crank turning at -1 rad/s about z, so the mechanism
+    moves through the dead centre at t = 0."""
+    b = ModelBuilder(f"n_four_bar{n}_dead_centre", gravity=(0.0, -9.81, 0.0))
+    for k in range(n + 1):
+        b.add_body(f"crank{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 0.5, 0.0, 0.0),
+                   omega=(0.0, 0.0, -1.0), rdot=(0.0, -0.5, 0.0))
+        b.add_joint("revolute", f"O{k}", "ground", f"crank{k}", point=(k, 0, 0), axis=(0, 0, 1))
+    for k in range(n):
+        b.add_body(f"coupler{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 1.5, 0.0, 0.0),
+                   rdot=(0.0, -1.0, 0.0))
+        b.add_joint("revolute", f"A{k}", f"crank{k}", f"coupler{k}", point=(k + 1, 0, 0),
+                    axis=(0, 0, 1))
+        b.add_joint("revolute", f"B{k}", f"coupler{k}", f"crank{k + 1}", point=(k + 2, 0, 0),
+                    axis=(0, 0, 1))
+    return b
+
+
+def mechanisms(n, rng):
+    fixed = [
+        ("four_bar_RSSR", lambda: models.four_bar()),
+        ("four_bar_RSUR", lambda: models.four_bar("universal")),
+        ("slider_crank_free", lambda: models.slider_crank(driven=False)),
+        ("bricard", models.bricard),
+        ("dead_centre_1", lambda: dead_centre_four_bar(1)),
+        ("n_four_bar_2", lambda: models.n_four_bar(2)),
+    ]
+    out = list(fixed)
+    while len(out) < n:
+        kind = rng.integers(0, 3)
+        if kind == 0:
+            b = random_chain(rng)
+            out.append((b.name, lambda b=b: b))
+        elif kind == 1:
+            k = int(rng.integers(1, 4))
+            out.append((f"n_four_bar_{k}", lambda k=k: models.n_four_bar(k)))
+        else:
+            k = int(rng.integers(1, 3))
+            out.append((f"dead_centre_{k}", lambda k=k: dead_centre_four_bar(k)))
+    return out[:n]
+
+
+class Timeout(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise Timeout()
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--n", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--timeout", type=float, default=30.0)
+    ap.add_argument("--t-end", type=float, default=0.1)
+    ap.add_argument("--integrators", default=",".join(INTEGRATORS))
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    rng = np.random.default_rng(args.seed)
+    integrators = args.integrators.split(",")
+    methods = args.methods.split(",")
+    warnings.simplefilter("ignore")
+    signal.signal(signal.SIGALRM, _alarm)
+    # warm-up: compile every method's kernels once
+    warm = models.four_bar().compile()
+    for meth in methods:
+        simulate(warm, 0.001, method=meth, integrator="rk45")
+    rows = []
+    for name, make in mechanisms(args.n, rng):
+        model = make().compile()
+        for meth in methods:
+            for integ in integrators:
+                signal.setitimer(signal.ITIMER_REAL, args.timeout)
+                start = time.perf_counter()
+                try:
+                    res = simulate(model, args.t_end, method=meth, integrator=integ)
+                    status, message = res.status, res.message
+                    counters = res.counters
+                except Timeout:
+                    status, message, counters = "timeout", f"> {args.timeout} s", {}
+                except Exception as exc:                  # noqa: BLE001 (recorded)
+                    status, message, counters = "error", f"{type(exc).__name__}: {exc}", {}
+                finally:
+                    signal.setitimer(signal.ITIMER_REAL, 0.0)
+                wall = time.perf_counter() - start
+                rows.append(dict(mechanism=name, method=meth, integrator=integ, status=status,
+                                 message=message[:300], wall=wall,
+                                 steps=counters.get("steps"), rejected=counters.get("rejected"),
+                                 nfev=counters.get("nfev")))
+                flag = "" if status == "success" else f"  <-- {status}: {message[:120]}"
+                print(f"{name:28s} {meth:22s} {integ:12s} {wall:7.3f} s{flag}", flush=True)
+    print()
+    print(f"{'integrator':12s} {'runs':>5s} {'failed':>6s} {'timeout':>7s} {'median s':>9s} "
+          f"{'p90 s':>7s} {'max s':>7s} {'>1 s':>5s}")
+    for integ in integrators:
+        rs = [r for r in rows if r["integrator"] == integ]
+        w = np.array([r["wall"] for r in rs])
+        print(f"{integ:12s} {len(rs):5d} "
+              f"{sum(r['status'] in ('failed', 'error') for r in rs):6d} "
+              f"{sum(r['status'] == 'timeout' for r in rs):7d} {np.median(w):9.3f} "
+              f"{np.percentile(w, 90):7.3f} {w.max():7.3f} {int((w > 1).sum()):5d}")
+    print()
+    print(f"{'method':22s} {'runs':>5s} {'failed':>6s} {'timeout':>7s}")
+    for meth in methods:
+        rs = [r for r in rows if r["method"] == meth]
+        print(f"{meth:22s} {len(rs):5d} "
+              f"{sum(r['status'] in ('failed', 'error') for r in rs):6d} "
+              f"{sum(r['status'] == 'timeout' for r in rs):7d}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(dict(args=vars(args), rows=rows), indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,333 @@
+"""The one integration loop: a stepper, an injected step-size controller, and everything else.
+
+The shape of SciPy's ``OdeSolver._step_impl`` driven by ``solve_ivp`` (or diffrax's solver /
+step-size controller / saving split): a *stepper* (:class:`Stepper`) knows only its stepping
+formula -- ``step(t, y, t_new)`` returns a :class:`Step` (y at t_new, the weighted RMS norm of its
+local error estimate, a dense interpolant on [t, t_new]) -- and the *controller*
+(:mod:`.controllers`) only turns error norms into step sizes. :func:`run` owns:
+
+* the step-size bookkeeping: landing on t_end (or on every output time for fixed-step one-step
+  methods), max_step, the underflow test h < max(min_step, 16 eps |t|), rejections and
+  nonlinear-solver (Newton) failures;
+* the post-step projection (``ODEProblem.project``) of every accepted state; the dense output
+  gets the linear correction theta (y_proj - y_raw) so it passes through the projected end point;
+* output sampling at ``t_eval`` through the stepper's dense output (projected too);
+* counters (steps, rejected; the stepper counts nfev, njev, nlu), the progress callback;
+* **events**: zero crossings of g(t, y) (an :class:`Event`), located by bracketing on the
+  accepted step and Brent's method on the dense output to ``event_tol`` (s); a terminal event
+  stops the run at the located time, with the state there as the last output;
+* partial results on failure (the exceptions carry the time ``.t``; ``Integrator.integrate``
+  turns them into a "failed" result with every output computed before).
+
+Event convention: a crossing is a strict sign change between the ends of an accepted step
+(g_old < 0 <= g_new rising, g_old > 0 >= g_new falling), so a zero at the start of the run (e.g.
+a restart from a terminal event) does not fire again. ``direction`` > 0 keeps rising crossings
+only, < 0 falling ones, 0 both.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, List, Optional
+
+import numpy as np
+
+from ..errors import SimulationError
+from .controller import EPS, end_step, min_step_size, raise_if_nonfinite, underflow_error
+
+
+# ----------------------------------------------------------------------------- step contract
+@dataclass
+class Step:
+    """What a stepper returns for one attempted step from (t, y).
+
+    t_new: end of the step (s; normally the requested one; a multistep start-up may cover more).
+    y_new: (n,) state at t_new (before projection), None when ``failed``.
+    err: weighted RMS norm of the local error estimate (accept when <= 1); None: no estimate.
+    k: the local error behaves like h^k (the controller's exponent).
+    dense: callable t -> y (n,) on [t, t_new] (None: not available, see ``Stepper.dense``).
+    hold: the stepper asks the controller to keep h (a multistep start-up).
+    failed: cause when the nonlinear (Newton) solve failed (the step is retried smaller).
+    n_steps: internal steps this step stands for (a multistep start-up); progress_times their ends.
+    h: the step size the controller scales (default t_new - t; a start-up's internal step).
+    """
+
+    t_new: float
+    y_new: Optional[np.ndarray]
+    err: Optional[float] = None
+    k: int = 1
+    dense: Optional[Callable[[float], np.ndarray]] = None
+    hold: bool = False
+    failed: Optional[str] = None
+    n_steps: int = 1
+    progress_times: Optional[list] = None
+    h: Optional[float] = None
+
+
+class Stepper:
+    """One stepping formula. Subclasses implement ``start`` and ``step`` (and ``accept`` when
+    they carry state from step to step: FSAL derivatives, a multistep history, a Jacobian).
+
+    Attributes: ``name``; ``self_controlled`` (True: the stepper chooses its own steps, e.g. a
+    SciPy solver; the driver then passes t_new = None); ``projects_state`` (False: the stepper
+    owns its state, so projection can only be applied to outputs).
+    """
+
+    name = ""
+    self_controlled = False
+    projects_state = True
+
+    def start(self, problem, t0: float, y0: np.ndarray, t_end: float, counters) -> Optional[float]:
+        """Prepare from (t0, y0); return the first step size (s) or None (the controller's)."""
+        raise NotImplementedError
+
+    def step(self, t: float, y: np.ndarray, t_new: Optional[float]) -> Step:
+        """Attempt one step from (t, y) to t_new; return a :class:`Step` (raise on errors)."""
+        raise NotImplementedError
+
+    def accept(self, step: Step, y_final: np.ndarray) -> None:
+        """The driver accepted ``step``; ``y_final`` is its (projected) end state."""
+
+
+# ----------------------------------------------------------------------------- events
+class Event:
+    """A zero crossing g(t, y) = 0 to locate.
+
+    function: (t, y) -> float. terminal: stop the run at the first crossing. direction: > 0
+    rising crossings only, < 0 falling only, 0 both. name: for messages and results.
+    """
+
+    def __init__(self, function: Callable, terminal: bool = False, direction: float = 0.0,
+                 name: Optional[str] = None):
+        if not callable(function):
+            raise ValueError(f"event function {function!r} is not callable")
+        self.function = function
+        self.terminal = bool(terminal)
+        self.direction = float(direction)
+        self.name = name or getattr(function, "__name__", "event")
+
+    @classmethod
+    def coerce(cls, spec, index: int) -> "Event":
+        """An Event from an Event, an object with ``.function`` (and optional ``.terminal``,
+        ``.direction``, ``.name``) or a callable with optional such attributes (SciPy style)."""
+        if isinstance(spec, Event):
+            return spec
+        fun = getattr(spec, "function", None)
+        if fun is None:
+            fun = spec
+        if not callable(fun):
+            raise ValueError(f"events[{index}] = {spec!r} is neither callable nor has a callable "
+                             "'function' attribute")
+        name = getattr(spec, "name", None) or getattr(fun, "__name__", None)
+        if not name or name == "<lambda>":
+            name = f"event{index}"
+        return cls(fun, terminal=getattr(spec, "terminal", False),
+                   direction=getattr(spec, "direction", 0.0), name=name)
+
+
+@dataclass
+class EventRecord:
+    """A located event: time t (s), state y (n,), index into the events list, name, terminal."""
+
+    t: float
+    y: np.ndarray
+    index: int
+    name: str
+    terminal: bool
+
+
+def _crossed(g_old: float, g_new: float, direction: float) -> bool:
+    rising = g_old < 0.0 <= g_new
+    falling = g_old > 0.0 >= g_new
+    if direction > 0:
+        return rising
+    if direction < 0:
+        return falling
+    return rising or falling
+
+
+def _brent(fun, a: float, b: float, fa: float, fb: float, xtol: float) -> float:
+    """Root of fun in [a, b] with fa, fb of opposite signs (or fb == 0): Brent's method
+    (scipy.optimize.brentq) to |error| <= xtol + 4 eps |root|; b itself when fb == 0 and the
+    interval holds no earlier sign change of the bracket."""
+    if fb == 0.0:
+        return b
+    from scipy.optimize import brentq
+    return float(brentq(fun, a, b, xtol=xtol, rtol=4.0 * EPS))
+
+
+# ----------------------------------------------------------------------------- the loop
+@dataclass
+class RunState:
+    """Where the driver is: shared with ``Integrator.integrate`` to build partial results."""
+
+    times: list = field(default_factory=list)
+    outputs: list = field(default_factory=list)
+    events: List[EventRecord] = field(default_factory=list)
+    terminated: Optional[EventRecord] = None
+    last: Optional[tuple] = None          # (t, y) of the last accepted step (diagnostics)
+
+
+def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
+        counters, state: RunState, progress=None, events=None, event_tol: float = 1e-12,
+        max_step: float = math.inf, min_step: float = 0.0, t_end: Optional[float] = None) -> None:
+    """Integrate y' = problem.rhs from (t0, y0) to t_end (default t_eval[-1]).
+
+    Appends (t_eval[k], y(t_eval[k])) to state.times / state.outputs in order, located events to
+    state.events; a terminal event sets state.terminated and ends the run after appending its
+    state as the last output. Raises SpatialMBDError subclasses with ``.t`` on failure.
+    """
+    project = problem.project
+    project_steps = project is not None and stepper.projects_state
+    touts = t_eval.tolist()
+    n_out = len(touts)
+    t_end = touts[-1] if t_end is None else float(t_end)
+    span = t_end - t0
+    times, outputs = state.times, state.outputs
+    k_out = 0
+    while k_out < n_out and touts[k_out] == t0:
+        times.append(t0)
+        outputs.append(y0)
+        k_out += 1
+    evs = [Event.coerce(e, i) for i, e in enumerate(events or ())]
+    if k_out == n_out and not evs:
+        return
+    selfc = stepper.self_controlled or controller is None
+    adaptive = not selfc and controller.adaptive
+    land = not selfc and getattr(controller, "land_on_outputs", False)
+    g_old = [float(e.function(t0, y0)) for e in evs]
+    t, y = t0, y0
+    try:
+        h = stepper.start(problem, t0, y0, t_end, counters)
+        if not adaptive and not selfc:
+            h = controller.step
+        elif h is not None:
+            h = min(h, max_step)
+        anchor, n_anchor = t0, 0        # fixed steps landing on outputs: t = anchor + i h
+        after_reject = False
+        last_cause = "error test failed repeatedly"
+        while t < t_end:
+            # ---------------------------------------------------------- attempt a step
+            if selfc:
+                st = stepper.step(t, y, None)
+            else:
+                if land:
+                    t_target = touts[k_out] if k_out < n_out else t_end
+                    m = max(1, math.ceil((t_target - anchor) / h - 1e-9))
+                    n_anchor += 1
+                    t_new = t_target if n_anchor >= m else anchor + n_anchor * h
+                else:
+                    hs = end_step(t, h, t_end)
+                    if adaptive and hs < min_step_size(t, span, min_step):
+                        raise underflow_error(stepper.name, t, hs, last_cause)
+                    t_new = t_end if hs == t_end - t else t + hs
+                st = stepper.step(t, y, t_new)
+                hs = st.h if st.h is not None else st.t_new - t
+                if st.failed is not None:
+                    counters.rejected += st.n_steps
+                    if not adaptive:
+                        err = SimulationError(
+                            f"t = {t:.6g} s: {stepper.name}: Newton iteration did not converge "
+                            f"with step size h = {hs:.3g} s ({st.failed}); reduce the step size")
+                        err.t = t
+                        raise err
+                    h = controller.failed(hs)
+                    after_reject = True
+                    last_cause = "Newton iteration failed: " + st.failed
+                    continue
+                if adaptive and st.err is not None and not st.err <= 1.0:
+                    counters.rejected += st.n_steps
+                    h = controller.reject(hs, st.err, st.k)
+                    after_reject = True
+                    last_cause = ("error test failed repeatedly" if math.isfinite(st.err) else
+                                  "error estimate not finite; the derivative is not finite")
+                    continue
+            # ---------------------------------------------------------- accept
+            t_new, y_raw = st.t_new, st.y_new
+            y_new = project(t_new, y_raw) if project_steps else y_raw
+            raise_if_nonfinite(t_new, y_new)
+            stepper.accept(st, y_new)
+            counters.steps += st.n_steps
+            state.last = (t_new, y_new)
+            dense = _corrected_dense(st.dense, t, t_new, y_raw, y_new)
+            # ---------------------------------------------------------- events
+            t_stop = t_new
+            if evs:
+                g_new = [float(e.function(t_new, y_new)) for e in evs]
+                found = []
+                for i, e in enumerate(evs):
+                    if _crossed(g_old[i], g_new[i], e.direction):
+                        if dense is None:
+                            raise SimulationError(f"{stepper.name} has no dense output to "
+                                                  f"locate event {e.name!r}")
+                        fun = e.function
+                        te = _brent(lambda s, fun=fun: fun(s, dense(s)), t, t_new, g_old[i],
+                                    g_new[i], event_tol)
+                        found.append((te, i))
+                found.sort()
+                for te, i in found:
+                    ye = y_new if te == t_new else dense(te)
+                    if project is not None and (te != t_new or not project_steps):
+                        ye = project(te, ye)
+                    rec = EventRecord(te, ye, i, evs[i].name, evs[i].terminal)
+                    state.events.append(rec)
+                    if rec.terminal:
+                        state.terminated = rec
+                        t_stop = te
+                        break
+                g_old = g_new
+            # ---------------------------------------------------------- outputs in (t, t_stop]
+            while k_out < n_out and touts[k_out] <= t_stop:
+                to = touts[k_out]
+                if to == t_new:
+                    yo = y_new
+                    if project is not None and not project_steps:
+                        yo = project(to, yo)
+                else:
+                    yo = dense(to)
+                    if project is not None:
+                        yo = project(to, yo)
+                times.append(to)
+                outputs.append(yo)
+                k_out += 1
+            if state.terminated is not None:
+                if not times or times[-1] != t_stop:
+                    times.append(t_stop)
+                    outputs.append(state.terminated.y)
+                if progress is not None:
+                    progress(t_stop)
+                return
+            if progress is not None:
+                for tp in (st.progress_times or (t_new,)):
+                    progress(tp)
+            if land and t_new == (touts[k_out - 1] if k_out else None):
+                anchor, n_anchor = t_new, 0
+            t, y = t_new, y_new
+            if not selfc:
+                if adaptive and st.err is not None:
+                    h = min(controller.accept(hs, st.err, st.k, after_reject, st.hold), max_step)
+                elif adaptive:
+                    h = min(hs, max_step)
+                after_reject = False
+    except Exception as exc:
+        if getattr(exc, "t", None) is None:
+            try:
+                exc.t = t
+            except AttributeError:
+                pass
+        raise
+
+
+def _corrected_dense(dense, t0, t1, y_raw, y_proj):
+    """dense(s) + theta (y_proj - y_raw), theta = (s - t0) / (t1 - t0): passes through the
+    projected end point (the raw interpolant when the projection did nothing)."""
+    if dense is None or y_proj is y_raw:
+        return dense
+    delta = y_proj - y_raw
+    if not np.any(delta):
+        return dense
+    h = t1 - t0
+
+    def corrected(s):
+        return dense(s) + ((s - t0) / h) * delta
+    return corrected
