@@ -78,13 +78,13 @@ def test_driver_errors():
     body(b)
     b.add_joint("spherical", "s", "ground", "a", point=(0, 0, 0))
     with pytest.raises(ModelError, match="cannot take an angle driver.*revolute"):
-        b.add_driver("d", "angle", ConstantVelocity(1.0), joint="s")
+        b.add_driver("angle", "d", ConstantVelocity(1.0), joint="s")
     with pytest.raises(ModelError, match="coordinate 'q'"):
-        b.add_driver("d", "coordinate", 0.0, body="a", coordinate="q")
+        b.add_driver("coordinate", "d", 0.0, body="a", coordinate="q")
     with pytest.raises(ModelError, match="unknown driver kind"):
-        b.add_driver("d", "speed", 0.0, joint="s")
+        b.add_driver("speed", "d", 0.0, joint="s")
     with pytest.raises(ModelError, match="unknown motion law"):
-        b.add_driver("d", "coordinate", {"type": "sine"}, body="a", coordinate="x")
+        b.add_driver("coordinate", "d", {"type": "sine"}, body="a", coordinate="x")
 
 
 def test_force_errors():
@@ -129,3 +129,33 @@ def test_omega_local_is_converted_to_global():
     b = ModelBuilder()
     body(b, bryant=(0.0, 0.0, np.pi / 2), omega_local=(1.0, 0, 0))
     assert np.allclose(b.bodies["a"].omega, A_from_p(b.bodies["a"].p) @ [1, 0, 0])
+
+
+def test_python_and_file_vocabulary_agree():
+    """add_driver(kind, name) as add_joint(type, name); add_body takes the file's names."""
+    import warnings
+    from spatialmbd.io.modelfile import load_model, model_to_dict
+    b = ModelBuilder("v", gravity=(0, 0, -9.81))
+    b.add_body("a", 1.0, (0.1, 0.1, 0.1), position=(0, 1, 0), velocity=(0.5, 0, 0),
+               angular_velocity=(1.0, 0, 0), bryant_deg=(30, 0, 0))
+    b.add_joint("revolute", "pin", "ground", "a", point=(0, 0, 0), axis=(1, 0, 0))
+    b.add_driver("angle", "motor", 0.0, joint="pin")
+    spec = b.bodies["a"]
+    assert np.allclose(spec.r, (0, 1, 0)) and np.allclose(spec.rdot, (0.5, 0, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        c = ModelBuilder("v", gravity=(0, 0, -9.81))
+        c.add_body("a", 1.0, (0.1, 0.1, 0.1), r=(0, 1, 0), rdot=(0.5, 0, 0), omega=(1.0, 0, 0),
+                   bryant=(np.radians(30), 0, 0))
+    assert np.allclose(spec.p, c.bodies["a"].p)
+    # the file's body entry builds the same body
+    d = model_to_dict(b)
+    again, _ = load_model(d)
+    assert np.allclose(again.q0, b.compile().q0)
+    with pytest.raises(ModelError, match="not both"):
+        c.add_body("b", 1.0, (0.1, 0.1, 0.1), r=(0, 0, 0), position=(1, 0, 0))
+    # the old argument order still works, with a deprecation warning
+    with pytest.warns(DeprecationWarning, match="kind comes first"):
+        c.add_joint("revolute", "pin", "ground", "a", point=(0, 1, 0), axis=(1, 0, 0))
+        c.add_driver("motor", "angle", 0.0, joint="pin")
+    assert c.drivers["motor"].kind == "angle"

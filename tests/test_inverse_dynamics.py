@@ -36,7 +36,7 @@ def pendulum(driven=True, spring=None):
                r=(0, L_ROD / 2, 0), points={"tip": (0, L_ROD / 2, 0)})
     b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
     if driven:
-        b.add_driver("motor", "angle", {"type": "polynomial", "coefficients": POLY},
+        b.add_driver("angle", "motor", {"type": "polynomial", "coefficients": POLY},
                      joint="pivot")
     if spring:
         b.add_force("rotational_spring_damper", "spring", joint="pivot", **spring)
@@ -91,7 +91,7 @@ def test_unbalanced_rotor_has_zero_drive_torque_and_closed_form_bearing_moment()
     b.add_body("rotor", 5.0, (I1, I2, I3), r=(0, 0, 0.4),
                A=[[c, 0, s], [0, 1, 0], [-s, 0, c]])
     b.add_joint("revolute", "bearing", "ground", "rotor", point=(0, 0, 0.4), axis=(0, 0, 1))
-    b.add_driver("drive", "angle", ConstantVelocity(rate=Omega), joint="bearing")
+    b.add_driver("angle", "drive", ConstantVelocity(rate=Omega), joint="bearing")
     model = b.compile()
     t = np.linspace(0, 1.0, 23)
     res = inverse_dynamics(model, t)
@@ -126,7 +126,7 @@ def test_bricard_with_redundant_joints_has_unique_torque_from_virtual_work():
     """Bricard linkage (one redundant joint equation) driven at joint O: the redundancy is
     among the joints, so the effort is still unique and equals the virtual-work torque."""
     b = models.bricard()
-    b.add_driver("drive", "angle", ConstantVelocity(rate=0.8), joint="O")
+    b.add_driver("angle", "drive", ConstantVelocity(rate=0.8), joint="O")
     model = b.compile()
     t = np.linspace(0.0, 1.5, 16)
     with pytest.warns(NonUniqueEffortsWarning, match="efforts are unique"):
@@ -162,9 +162,9 @@ def test_round_trip_efforts_as_forces_reproduce_the_motion():
     b.add_joint("revolute", "shoulder", "ground", "bar1", point=(0, 0, 0), axis=(1, 0, 0))
     b.add_joint("revolute", "elbow", "bar1", "bar2", point=(0, 1, 0), axis=(0, 1, 0))
     free = b.compile()
-    b.add_driver("d1", "angle", {"type": "harmonic", "amplitude": 0.6, "frequency": 3.0},
+    b.add_driver("angle", "d1", {"type": "harmonic", "amplitude": 0.6, "frequency": 3.0},
                  joint="shoulder")
-    b.add_driver("d2", "angle", {"type": "polynomial", "coefficients": [0, 0.5, 0.4]},
+    b.add_driver("angle", "d2", {"type": "polynomial", "coefficients": [0, 0.5, 0.4]},
                  joint="elbow")
     model = b.compile()
     t = np.linspace(0.0, 1.0, 201)
@@ -195,7 +195,7 @@ def test_redundant_drivers_give_minimum_norm_efforts_and_a_flag():
     lam_a = tau / (1 + c^2), lam_z = tau c / (1 + c^2) with c = (L/2) cos(theta)."""
     b = pendulum()
     h = L_ROD / 2
-    b.add_driver("lift", "coordinate", UserFunction(
+    b.add_driver("coordinate", "lift", UserFunction(
         f=lambda t: h * np.sin(theta(t)),
         fdot=lambda t: h * np.cos(theta(t)) * theta_d(t),
         fddot=lambda t: h * (np.cos(theta(t)) * theta_dd(t) - np.sin(theta(t)) * theta_d(t)**2)),
@@ -217,7 +217,7 @@ def test_under_driven_mechanism_is_an_error_naming_the_free_joint():
     b.add_body("bar2", 1.0, (1 / 12, 1e-4, 1 / 12), r=(0, 1.5, 0))
     b.add_joint("revolute", "shoulder", "ground", "bar1", point=(0, 0, 0), axis=(1, 0, 0))
     b.add_joint("revolute", "elbow", "bar1", "bar2", point=(0, 1, 0), axis=(1, 0, 0))
-    b.add_driver("d1", "angle", 0.0, joint="shoulder")
+    b.add_driver("angle", "d1", 0.0, joint="shoulder")
     with pytest.raises(ModelError, match=r"mobility 2.*1 driver.*elbow"):
         inverse_dynamics(b.compile(), [0.0, 0.1])
 

@@ -79,7 +79,7 @@ def test_kinematic_analysis_needs_all_dofs_driven():
 
 def test_too_many_drivers_named():
     b = models.slider_crank(crank_speed=6.0)
-    b.add_driver("slider_x", "coordinate", ConstantVelocity(rate=0.1, initial=0.2), body="slider",
+    b.add_driver("coordinate", "slider_x", ConstantVelocity(rate=0.1, initial=0.2), body="slider",
                  coordinate="x")
     with pytest.raises(ModelError, match="more drivers than degrees of freedom"):
         kinematic_analysis(b.compile(), [0.0, 0.1])
@@ -87,7 +87,7 @@ def test_too_many_drivers_named():
 
 def test_non_converging_newton_reports_time_and_joints():
     b = models.slider_crank(crank_speed=6.0)
-    b.add_driver("slider_x", "coordinate", Harmonic(amplitude=5.0, frequency=1.0, offset=0.2),
+    b.add_driver("coordinate", "slider_x", Harmonic(amplitude=5.0, frequency=1.0, offset=0.2),
                  body="slider", coordinate="x")
     b.drivers.pop("crank_drive")
     model = b.compile()
@@ -113,8 +113,8 @@ def test_coordinate_and_translation_drivers():
     b = ModelBuilder(gravity=(0, 0, 0))
     b.add_body("slider", 1.0, (1, 1, 1))
     b.add_joint("cylindrical", "cyl", "ground", "slider", point=(0, 0, 0), axis=(0, 0, 1))
-    b.add_driver("lift", "translation", Harmonic(0.5, 2.0), joint="cyl")
-    b.add_driver("turn", "angle", ConstantVelocity(rate=3.0), joint="cyl")
+    b.add_driver("translation", "lift", Harmonic(0.5, 2.0), joint="cyl")
+    b.add_driver("angle", "turn", ConstantVelocity(rate=3.0), joint="cyl")
     model = b.compile()
     t = np.linspace(0, 3, 31)
     res = kinematic_analysis(model, t, tol=1e-13)

@@ -105,7 +105,7 @@ def test_driver_effort_input_and_driver_output_give_the_static_compliance():
     b = ModelBuilder("pendulum", gravity=(0, 0, -G))
     b.add_body("rod", m, (m * L**2 / 12, m * L**2 / 12, 1e-4), r=(0, 0, -L / 2))
     b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
-    b.add_driver("motor", "angle", 0.0, joint="pivot")
+    b.add_driver("angle", "motor", 0.0, joint="pivot")
     model = b.compile()
     lin = linearize(model, inputs=["motor"], outputs=["motor", "rod.y", "motor.rate"])
     assert lin.n == 1
@@ -185,7 +185,7 @@ def test_pendulum_on_a_driven_shaft_in_the_turning_frame():
                omega=(0, 0, Omega))
     b.add_joint("revolute", "spin", "ground", "shaft", point=(0, 0, 0.5), axis=(0, 0, 1))
     b.add_joint("revolute", "pin", "shaft", "rod", point=(0, 0, 0), axis=(1, 0, 0))
-    b.add_driver("motor", "angle", ConstantVelocity(rate=Omega), joint="spin")
+    b.add_driver("angle", "motor", ConstantVelocity(rate=Omega), joint="spin")
     model = b.compile()
     I_x = I_y = m * L**2 / 3
     w2 = (m * G * L / 2 - Omega**2 * (I_y - axial)) / I_x
@@ -329,7 +329,7 @@ def test_motor_holding_a_rod_below_horizontal_as_input():
     b.add_body("rod", m, (m * L**2 / 12, 1e-4, m * L**2 / 12), r=(0, L / 2, 0),
                points={"tip": (0, L / 2, 0)})
     b.add_joint("revolute", "pivot", "ground", "rod", point=(0, 0, 0), axis=(1, 0, 0))
-    b.add_driver("motor", "angle", th0, joint="pivot")
+    b.add_driver("angle", "motor", th0, joint="pivot")
     model = b.compile()
     sol = static_equilibrium(model)
     lin = linearize(model, sol.q, np.zeros(6), inputs=["motor"],

@@ -128,9 +128,9 @@ def rich_builder() -> ModelBuilder:
                 point2=(1.0, 0.0, 0.0), length=0.97)
     b.add_joint("cylindrical", "cyl", "ground", "1e3", point=(2.0, 0.5, -0.5), axis=(0, 1, 0),
                 reference=(1, 0, 0))
-    b.add_driver("d1", "coordinate", Polynomial([0.0, 0.1, -0.02]), body="yes", coordinate="z")
-    b.add_driver("d2", "translation", SmoothStep(t0=0.0, t1=1.5, f0=0.0, f1=0.2), joint="cyl")
-    b.add_driver("d3", "angle", Harmonic(amplitude=0.3, frequency=2.0, phase=0.1, offset=-0.05),
+    b.add_driver("coordinate", "d1", Polynomial([0.0, 0.1, -0.02]), body="yes", coordinate="z")
+    b.add_driver("translation", "d2", SmoothStep(t0=0.0, t1=1.5, f0=0.0, f1=0.2), joint="cyl")
+    b.add_driver("angle", "d3", Harmonic(amplitude=0.3, frequency=2.0, phase=0.1, offset=-0.05),
                  joint="cyl")
     b.add_force("spring_damper", "sd", body_i="ground", body_j="a", point_i=(0, 0, 1),
                 point_j="tip", stiffness=100.0, damping=1.5, natural_length=0.4,
@@ -266,7 +266,7 @@ def model_to_dict_state(builder):
 # --------------------------------------------------------------------------- not writable
 def test_user_law_and_user_force_cannot_be_saved(tmp_path):
     b = models.pendulum_ch15()
-    b.add_driver("spin", "angle", UserFunction(np.sin, np.cos, lambda t: -np.sin(t)),
+    b.add_driver("angle", "spin", UserFunction(np.sin, np.cos, lambda t: -np.sin(t)),
                  joint="pivot")
     b.add_force("user", "push", function=lambda t, q, v: (np.zeros((1, 3)), np.zeros((1, 3))))
     target = tmp_path / "p.yaml"

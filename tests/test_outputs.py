@@ -22,7 +22,7 @@ def pendulum(omega0=0.0, spring=None, driver=None):
     if spring is not None:
         b.add_force("rotational_spring_damper", "spiral", joint="pivot", **spring)
     if driver is not None:
-        b.add_driver("motor", "angle", driver, joint="pivot")
+        b.add_driver("angle", "motor", driver, joint="pivot")
     return b.compile()
 
 

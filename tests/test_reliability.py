@@ -340,7 +340,7 @@ def dead_centre_slider_crank(rate=1.0):
     b.add_joint("revolute", "A", "crank", "rod", point=A.tolist(), axis=[0, 0, 1])
     b.add_joint("revolute", "B", "rod", "slider", point=B.tolist(), axis=[0, 0, 1])
     b.add_joint("translational", "S", "ground", "slider", point=B.tolist(), axis=[1, 0, 0])
-    b.add_driver("push", "translation", {"type": "constant_velocity", "rate": rate,
+    b.add_driver("translation", "push", {"type": "constant_velocity", "rate": rate,
                                          "initial": 0.0}, joint="S")
     return b.compile(), (3.0 - x0) / rate
 

@@ -68,7 +68,7 @@ def test_nut_falls_with_the_closed_form_acceleration(pitch):
 
 def test_angle_driver_on_a_screw_drives_the_translation():
     b = nut_on_screw(0.1)
-    b.add_driver("motor", "angle", ConstantVelocity(4.0), joint="thread")
+    b.add_driver("angle", "motor", ConstantVelocity(4.0), joint="thread")
     kin = kinematic_analysis(b.compile(), np.linspace(0, 3.0, 31))
     z = kin.body("nut")["r"][:, 2]
     assert np.abs(z - (1.0 + 0.1 * 4.0 * kin.t / (2 * math.pi))).max() < 1e-10

@@ -161,7 +161,7 @@ def test_translation_driver_effort_sign_holding_a_weight():
         b = ModelBuilder("lift", gravity=(0, 0, -G))
         b.add_body("slider", 3.0, (0.1, 0.1, 0.1), r=(0, 0, 1.0))
         b.add_joint("translational", "guide", "ground", "slider", point=(0, 0, 1.0), axis=axis)
-        b.add_driver("jack", "translation", 0.0, joint="guide")
+        b.add_driver("translation", "jack", 0.0, joint="guide")
         sol = static_equilibrium(b.compile())
         assert sol.efforts["jack"] == pytest.approx(sign * 3.0 * G, rel=1e-10)
         assert sol.units["jack"] == "N"
@@ -180,7 +180,7 @@ def test_quasi_static_with_a_free_spring_loaded_joint():
     b.add_joint("revolute", "shoulder", "ground", "upper", point=(0, 0, 0), axis=(1, 0, 0))
     b.add_joint("revolute", "elbow", "upper", "fore", point=(0, L1, 0), axis=(1, 0, 0))
     b.add_force("rotational_spring_damper", "spring", joint="elbow", stiffness=k)
-    b.add_driver("motor", "angle", ConstantVelocity(rate=0.8), joint="shoulder")
+    b.add_driver("angle", "motor", ConstantVelocity(rate=0.8), joint="shoulder")
     t = np.linspace(0.0, 2.0, 9)
     qs = quasi_static(b.compile(), t)
     theta = 0.8 * t

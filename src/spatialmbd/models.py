@@ -58,7 +58,7 @@ def slider_crank(driven: bool = True, crank_speed: float = 6.0) -> ModelBuilder:
     b.add_joint("universal", "C", "rod", "slider", point=(0.2, 0, 0), axis=y, axis2=(0, 0, 1))
     b.add_joint("translational", "D", "ground", "slider", point=(0.2, 0, 0), axis=(1, 0, 0))
     if driven:
-        b.add_driver("crank_drive", "angle", ConstantVelocity(rate=crank_speed), joint="A")
+        b.add_driver("angle", "crank_drive", ConstantVelocity(rate=crank_speed), joint="A")
     return b
 
 
@@ -120,7 +120,7 @@ def four_bar(coupler_joint: str = "spherical", crank_speed: float | None = None)
                     axis2=(0, 1, 0))
     b.add_joint("revolute", "rocker_pivot", "ground", "rocker", point=D0, axis=(0, 1, 0))
     if crank_speed is not None:
-        b.add_driver("crank_drive", "angle", ConstantVelocity(rate=crank_speed),
+        b.add_driver("angle", "crank_drive", ConstantVelocity(rate=crank_speed),
                      joint="crank_pivot")
     return b
 

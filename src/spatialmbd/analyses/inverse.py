@@ -419,11 +419,11 @@ def prescribed_motion_model(model, motion):
                 raise ModelError(f"motion column {name!r}: joint {joint!r} is a {jtype}; name "
                                  f"the coordinate, e.g. '{joint}.angle' or "
                                  f"'{joint}.translation'")
-            b.add_driver(f"{joint}_drive" if not part else f"{joint}_{part}_drive", kind, law,
+            b.add_driver(kind, f"{joint}_drive" if not part else f"{joint}_{part}_drive", law,
                          joint=joint)
             continue
         if joint in b.bodies and part in COORDINATES:
-            b.add_driver(f"{joint}_{part}_drive", "coordinate", law, body=joint, coordinate=part)
+            b.add_driver("coordinate", f"{joint}_{part}_drive", law, body=joint, coordinate=part)
             continue
         raise ModelError(f"motion column {name!r} names no driver, joint or body coordinate "
                          f"of the model (drivers: {', '.join(b.drivers) or 'none'}; joints: "

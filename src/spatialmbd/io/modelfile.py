@@ -1067,7 +1067,7 @@ def _parse(P, data, default_name="model"):
                 (d.get("body") is not None and d["body"] not in ok_bodies):
             continue
         try:
-            b.add_driver(d["name"], kind, law, joint=d.get("joint"), body=d.get("body"),
+            b.add_driver(kind, d["name"], law, joint=d.get("joint"), body=d.get("body"),
                          coordinate=d.get("coordinate"))
         except ModelError as exc:
             _relabel(P, path, f"drivers[{d['name']!r}]", str(exc))

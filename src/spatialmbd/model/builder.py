@@ -134,11 +134,13 @@ class ModelBuilder:
         self.ground_shapes: list = []
 
     # ----------------------------------------------------------------------------- bodies
-    def add_body(self, name: str, mass: float, inertia, r=(0.0, 0.0, 0.0), *, p=None,
-                 euler_zxz=None, bryant=None, A=None, rdot=(0.0, 0.0, 0.0), omega=None,
+    def add_body(self, name: str, mass: float, inertia, r=None, *, p=None,
+                 euler_zxz=None, bryant=None, A=None, rdot=None, omega=None,
                  omega_local=None, points: Optional[dict] = None,
                  vectors: Optional[dict] = None, shapes: Optional[list] = None,
-                 color: Optional[str] = None) -> str:
+                 color: Optional[str] = None, position=None, velocity=None,
+                 angular_velocity=None, angular_velocity_local=None, euler_parameters=None,
+                 matrix=None, euler_zxz_deg=None, bryant_deg=None) -> str:
         """Add a rigid body.
 
         mass: kg > 0. inertia: 3 principal moments or a 3x3 tensor about the centre of mass in
@@ -147,8 +149,35 @@ class ModelBuilder:
         Eq. 4.5) or A (3x3 rotation matrix, body -> global); identity if none.
         rdot: m/s. omega: angular velocity in global axes, or omega_local in body axes (rad/s).
         points / vectors: named points (m) and vectors fixed on the body, in body axes.
+
+        The model file's names are accepted too, so a file and a script read alike:
+        position (= r), velocity (= rdot), angular_velocity (= omega), angular_velocity_local
+        (= omega_local), euler_parameters (= p), matrix (= A), and the angle sets in degrees,
+        euler_zxz_deg and bryant_deg. The book's symbols r, rdot, omega, p, A stay valid.
         """
         what = f"bodies[{name!r}]"
+        import math as _math
+
+        def one(symbol, value, word, other):
+            if value is not None and other is not None:
+                raise ModelError(f"{what}: give {symbol} or {word}, not both (the same input)")
+            return value if value is not None else other
+        r = one("r", r, "position", position)
+        rdot = one("rdot", rdot, "velocity", velocity)
+        omega = one("omega", omega, "angular_velocity", angular_velocity)
+        omega_local = one("omega_local", omega_local, "angular_velocity_local",
+                          angular_velocity_local)
+        p = one("p", p, "euler_parameters", euler_parameters)
+        A = one("A", A, "matrix", matrix)
+        for deg, key in ((euler_zxz_deg, "euler_zxz"), (bryant_deg, "bryant")):
+            if deg is not None:
+                rad = [_math.radians(float(x)) for x in _vector(deg, f"{what}.{key}_deg")]
+                if key == "euler_zxz":
+                    euler_zxz = one("euler_zxz", euler_zxz, "euler_zxz_deg", rad)
+                else:
+                    bryant = one("bryant", bryant, "bryant_deg", rad)
+        r = (0.0, 0.0, 0.0) if r is None else r
+        rdot = (0.0, 0.0, 0.0) if rdot is None else rdot
         self._check_new_name(name, "body")
         mass = check_mass(mass, f"{what}.mass")
         J = check_inertia(inertia, f"{what}.inertia")
@@ -233,15 +262,23 @@ class ModelBuilder:
         return name
 
     # ----------------------------------------------------------------------------- drivers
-    def add_driver(self, name: str, kind: str, law, *, joint: Optional[str] = None,
+    def add_driver(self, kind: str, name: str, law, *, joint: Optional[str] = None,
                    body: Optional[str] = None, coordinate: Optional[str] = None) -> str:
-        """Add a driver prescribing f(t) (a MotionLaw, a number, or a law dict).
+        """Add a driver of ``kind`` named ``name`` prescribing f(t) (a MotionLaw, a number, or a
+        law dict) -- the argument order of add_joint(type, name, ...) and add_force.
 
-        kind "angle": rotation of a revolute/cylindrical ``joint`` (rad);
-        kind "translation": translation along a translational/cylindrical ``joint`` (m);
+        kind "angle": rotation of a revolute/cylindrical/screw ``joint`` (rad);
+        kind "translation": translation along a translational/cylindrical/screw ``joint`` (m);
         kind "coordinate": ``coordinate`` (x, y, z, e0..e3) of ``body``.
+        (The old order add_driver(name, kind, ...) still works, with a DeprecationWarning.)
         """
         from ..motion import make_law
+        if kind not in DRIVER_TYPES and isinstance(name, str) and name in DRIVER_TYPES:
+            import warnings
+            warnings.warn(f"add_driver({kind!r}, {name!r}, ...): the driver kind comes first "
+                          f"now, as in add_joint and add_force; write add_driver({name!r}, "
+                          f"{kind!r}, ...)", DeprecationWarning, stacklevel=2)
+            kind, name = name, kind
         what = f"drivers[{name!r}]"
         self._check_new_name(name, "driver")
         if kind not in DRIVER_TYPES:
