@@ -15,7 +15,7 @@ import spatialmbd
 from spatialmbd import cli, models
 from spatialmbd.cli import main
 from spatialmbd.io.modelfile import load_model, model_to_dict, save_model
-from spatialmbd.io.results_io import load_results
+from spatialmbd.io.results_io import load_results, read_results
 
 COMMANDS = ["run", "info", "plot", "animate", "examples", "demo", "validate"]
 SHORT = {"type": "dynamic", "t_end": 0.3, "output_step": 0.02,
@@ -166,7 +166,9 @@ def test_failed_simulation_exit_1_with_partial_results(tmp_path, pendulum_file, 
                   r"t = (\S+) s: non-finite", captured.err)
     assert m and 0.04 < float(m.group(1)) <= 0.12 and 0.1 < float(m.group(2)) < 0.12
     assert "Traceback" not in captured.err
-    df = pd.read_csv(csv)
+    assert csv.read_text().startswith("# status: failed; t = ")    # a partial CSV says so
+    df = pd.read_csv(csv, comment="#")
+    assert read_results(csv).attrs["status"] == "failed"
     assert 3 <= len(df) <= 7 and df["t"].iloc[-1] <= 0.12 and np.all(np.isfinite(df["pendulum.z"]))
     loaded = load_results(h5)
     assert loaded.status == "failed" and len(loaded.t) == len(df)

@@ -239,7 +239,7 @@ def write_animation(results, path, *, model=None, title: Optional[str] = None,
     reactions: draw the joint reaction forces (see :func:`animation_scene`). renderer: "auto"
     (WebGL with the Canvas fallback) or "canvas" (no three.js bundle, a smaller page).
     """
-    from .io.results_io import atomic_write
+    from .atomic import atomic_write
     from .viewer.animation import animation_html
     scene = animation_scene(results, model=model, max_frames=max_frames, reactions=reactions)
     if title is None:

@@ -240,12 +240,15 @@ def _apply_overrides(analysis, args):
     return dataclasses.replace(analysis, **changes), notes
 
 
-def _run_analysis(model, analysis, progress: bool):
+def _run_analysis(model, analysis, progress: bool, budget=None):
     """Run; return (results, wall time, warning texts)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         start = time.perf_counter()
-        results = analysis.run(model, progress=progress)
+        if budget is not None and getattr(analysis, "type", "dynamic") == "dynamic":
+            results = analysis.run(model, progress=progress, budget=budget)
+        else:
+            results = analysis.run(model, progress=progress)
         wall = time.perf_counter() - start
     texts = []
     for w in caught:
@@ -305,7 +308,6 @@ RESULT_SUFFIXES = (".csv", ".h5", ".hdf5")
 
 
 def cmd_run(args) -> int:
-    from .io.results_io import save_results, to_dataframe
     model, analysis = _load(args.model)
     analysis, notes = _apply_overrides(analysis, args)
     if getattr(args, "outputs", None):
@@ -314,20 +316,43 @@ def cmd_run(args) -> int:
     if not args.quiet:
         for note in notes:
             print(f"note: {note}")
-    results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet)
+    budget = _budget_of(args)
+    results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet,
+                                                 budget=budget)
     if getattr(analysis, "type", "dynamic") in ENGINEERING_TYPES:
         return _write_engineering(results, analysis, outs, wall, warning_texts, args.quiet)
-    table = to_dataframe(results)
-    for out in outs:
-        save_results(results, out, analysis=analysis, table=table)
+    from .io.results_io import save_all
+    written = save_all(results, outs, analysis=analysis)
     if not args.quiet:
         print(_summary(results, wall, warning_texts))
-        for out in outs:
-            print(f"results written to {out} ({len(table)} rows, {len(table.columns)} columns)")
+        for out, (rows, columns) in written.items():
+            print(f"results written to {out} ({rows} rows, {columns} columns)")
+    if results.status == "interrupted":
+        _err(_failure_line(results).replace("the analysis failed", "interrupted"))
+        return 130
     if results.status != "success":
         _err(_failure_line(results))
         return 1
     return 0
+
+
+def _budget_of(args):
+    """The Budget of --max-steps / --max-wall-time (None without them)."""
+    steps, wall = getattr(args, "max_steps", None), getattr(args, "max_wall_time", None)
+    if steps is None and wall is None:
+        return None
+    from .budget import Budget
+    return Budget(max_steps=steps, max_wall_time=wall)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+    return value
 
 
 def _with_outputs(model, analysis, tokens):
@@ -689,6 +714,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "such as joint:pivot, force:spring, imu:link.tip (docs/outputs.md)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar, no summary (errors are still reported)")
+    g = p.add_argument_group("budget (a run that reaches it stops with its results so far, "
+                             "status 'budget', exit status 1)")
+    g.add_argument("--max-steps", type=_positive_int, metavar="N",
+                   help="stop after N accepted integration steps")
+    g.add_argument("--max-wall-time", type=_positive, metavar="S",
+                   help="stop after S seconds of wall time")
     p.set_defaults(func=cmd_run)
 
     p = command("info", "describe a model: bodies, joints, drivers, forces, DoF",

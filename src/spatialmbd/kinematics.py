@@ -112,16 +112,21 @@ def describe_residual(model, phi: np.ndarray, count: int = 3) -> str:
     return "; ".join(parts)
 
 
-def solve_positions(model, q: np.ndarray, t: float = 0.0, tol: float = 1e-10,
-                    max_iter: int = 30, hold: Optional[np.ndarray] = None):
-    """Newton-Raphson for Phi(q, t) = 0 starting at q (nb, 7); returns (q, NewtonInfo).
+def newton_positions(model, q: np.ndarray, t: float = 0.0, tol: float = 1e-10,
+                     max_iter: int = 30, solve=None, hold: Optional[np.ndarray] = None,
+                     what: str = "position analysis"):
+    """The one Newton-Raphson iteration for Phi(q, t) = 0 (kinematics, initial-condition
+    correction, projection), in the 6-per-body space with the rotation part applied exactly
+    (ERRATA for (14.6)).
 
-    Square full-rank D: LU; otherwise the minimum-norm correction (Moore-Penrose, 14.12).
-    hold: optional boolean mask (6 nb,) of velocity-space coordinates not to move.
-    Raises ConvergenceError (time, iterations, largest residuals and their joints).
-    """
+    solve(D, b) -> dx: the linear solve of each step (default: LU for a square full-rank D,
+    else the minimum-norm correction (14.12)); hold: optional mask (6 nb,) of coordinates not
+    to move (then the minimum-norm correction over the others). Returns (q, dx_total,
+    NewtonInfo). Raises ConvergenceError naming ``what``, the time, the iterations and the
+    largest residuals with their joints."""
     asm = model.assembler
     q = np.array(q, dtype=float).reshape(model.nb, 7)
+    total = np.zeros(6 * model.nb)
     residuals = []
     for it in range(max_iter + 1):
         cv = asm.evaluate(q, None, t)
@@ -130,32 +135,65 @@ def solve_positions(model, q: np.ndarray, t: float = 0.0, tol: float = 1e-10,
         if not np.isfinite(err):
             break
         if err <= tol:
-            return q, NewtonInfo(it, residuals, True)
+            return q, total, NewtonInfo(it, residuals, True)
         if it == max_iter:
             break
-        D = cv.D
-        if hold is not None:
-            D = _dense(D)[:, ~hold]
-            dx = np.zeros(6 * model.nb)
-            dx[~hold] = np.linalg.lstsq(D, -cv.phi, rcond=None)[0]
-        elif D.shape[0] == D.shape[1]:
-            dx = JacobianFactor(D, model, t).solve(-cv.phi)
+        if hold is not None and np.any(hold):
+            dx = minimum_norm_solve(cv.D, -cv.phi, hold)
+        elif solve is not None:
+            dx = solve(cv.D, -cv.phi)
+        elif cv.D.shape[0] == cv.D.shape[1]:
+            dx = JacobianFactor(cv.D, model, t).solve(-cv.phi)
         else:
-            dx = minimum_norm_solve(D, -cv.phi)
+            dx = minimum_norm_solve(cv.D, -cv.phi)                     # Eq. (14.12)
         q = apply_correction(q, dx)
+        total += dx
     raise ConvergenceError(
-        f"t = {t:.6g} s: position analysis did not converge in {len(residuals) - 1} Newton "
+        f"t = {t:.6g} s: {what} did not converge in {len(residuals) - 1} Newton "
         f"iterations (max |Phi| = {residuals[-1]:.3g}, tolerance {tol:.1g}); largest "
         f"residuals: {describe_residual(model, cv.phi)}. The mechanism may be unable to "
         "assemble here (drivers beyond its range, a bad initial guess, or inconsistent "
         "joints).")
 
 
-def minimum_norm_solve(D, b: np.ndarray) -> np.ndarray:
-    """x = D^T (D D^T)^+ b, the least-squares minimum-norm solution (14.12), rank-safe."""
-    if sp.issparse(D) and D.shape[1] > 2000:
-        return spla.lsqr(D, b, atol=1e-14, btol=1e-14, iter_lim=10 * D.shape[1])[0]
-    return np.linalg.lstsq(_dense(D), b, rcond=None)[0]
+def solve_positions(model, q: np.ndarray, t: float = 0.0, tol: float = 1e-10,
+                    max_iter: int = 30, hold: Optional[np.ndarray] = None):
+    """Newton-Raphson for Phi(q, t) = 0 starting at q (nb, 7); returns (q, NewtonInfo).
+
+    Square full-rank D: LU; otherwise the minimum-norm correction (Moore-Penrose, 14.12).
+    hold: optional boolean mask (6 nb,) of velocity-space coordinates not to move.
+    Raises ConvergenceError (time, iterations, largest residuals and their joints).
+    """
+    q, _, info = newton_positions(model, q, t, tol, max_iter, hold=hold)
+    return q, info
+
+
+def minimum_norm_solve(D, b: np.ndarray, hold: Optional[np.ndarray] = None) -> np.ndarray:
+    """The one minimum-norm solve: x = D^+ b = D^T (D D^T)^+ b, rank-safe, with the columns
+    in ``hold`` kept at zero (14.12). Dense: Cholesky of D D^T, least squares when it is
+    singular; sparse: SuperLU of D D^T, LSQR when it is singular."""
+    n = D.shape[1]
+    if hold is not None and np.any(hold):
+        x = np.zeros(n)
+        x[~hold] = np.linalg.lstsq(_dense(D)[:, ~hold], b, rcond=None)[0]
+        return x
+    if sp.issparse(D):
+        try:
+            y = spla.splu((D @ D.T).tocsc(), permc_spec="MMD_AT_PLUS_A").solve(b)
+            if np.all(np.isfinite(y)):
+                return D.T @ y
+        except RuntimeError:
+            pass
+        return spla.lsqr(D, b, atol=1e-15, btol=1e-15, iter_lim=20 * n)[0]
+    try:
+        c = la.cho_factor(D @ D.T, check_finite=False)
+        x = D.T @ la.cho_solve(c, b, check_finite=False)
+        if np.all(np.isfinite(x)) and np.allclose(D @ x, b, rtol=1e-8, atol=1e-12 * (
+                1.0 + np.abs(b).max(initial=0.0))):
+            return x
+    except la.LinAlgError:
+        pass
+    return np.linalg.lstsq(D, b, rcond=None)[0]
 
 
 # ------------------------------------------------------------------------------- mobility
@@ -291,7 +329,8 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
     instant, with the joints named if not). Each instant starts Newton from a second-order
     prediction q + v dt + vdot dt^2 / 2 of the previous solution.
     """
-    t = np.atleast_1d(np.asarray(t, dtype=float))
+    from .checks import check_times
+    t = check_times(t)
     nb = model.nb
     q = np.array(model.q0 if q_guess is None else q_guess, dtype=float).reshape(nb, 7)
     q, info = solve_positions(model, q, t[0], tol, max_iter)

@@ -287,7 +287,7 @@ def _violation_series(results, quantity: str):
 
 def save_figure(fig, path) -> pathlib.Path:
     """Write ``fig`` to ``path`` (PNG, SVG or PDF by the extension), atomically."""
-    from .io.results_io import atomic_write
+    from .atomic import atomic_write
     path = pathlib.Path(path)
     fmt = path.suffix.lower()
     if fmt not in FORMATS:

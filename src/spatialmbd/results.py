@@ -81,7 +81,8 @@ class Results:
             try:
                 ev = eom.evaluate(t[k], q[k], v[k].reshape(-1))
                 out = method.accelerations(ev, t[k])
-            except SpatialMBDError:
+            except (SpatialMBDError, np.linalg.LinAlgError, ValueError, FloatingPointError):
+                # a state where the run failed: kept, with NaN accelerations and multipliers
                 vdot[k] = np.nan
                 lam[k] = np.nan
                 continue
@@ -98,6 +99,11 @@ class Results:
 
     def body(self, name: str) -> dict:
         """Time series of one body: r, p, rdot, omega, rddot, omegadot (each (nt, 3|4))."""
+        if not isinstance(name, str) or name not in self.model.body_names:
+            from .errors import ModelError
+            from .suggest import unknown
+            raise ModelError(unknown("body", name, list(self.model.body_names))
+                             + (" (ground does not move)" if name == "ground" else ""))
         k = self.model.body_index(name)
         return dict(r=self.q[:, k, :3], p=self.q[:, k, 3:], rdot=self.v[:, k, :3],
                     omega=self.v[:, k, 3:], rddot=self.vdot[:, k, :3],
@@ -109,6 +115,11 @@ class Results:
 
     def point(self, name: str) -> dict:
         """Position and velocity (nt, 3) of a named point "body.point"."""
+        if not isinstance(name, str) or name not in self.model.points:
+            from .errors import ModelError
+            from .suggest import unknown
+            raise ModelError(unknown("point", name, list(self.model.points))
+                             + " (points are named 'body.point')")
         body, local = self.model.points[name]
         A = _rotations(self.q[:, body, 3:])
         s = np.einsum("nij,j->ni", A, local)

@@ -22,7 +22,9 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from . import guards
 from .assembly import SPARSE_THRESHOLD
+from .budget import Budget, BudgetGuard, check_fixed_steps, check_outputs
 from .dynamics import EquationsOfMotion, get_method
 from .dynamics import system as cs
 from .dynamics.correction import correct_initial_conditions, hold_mask
@@ -38,19 +40,33 @@ class RedundantConstraintsWarning(UserWarning):
     """The model has redundant constraint equations (reactions not uniquely determined)."""
 
 
-def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float = 0.0):
+def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float = 0.0,
+                 max_outputs: Optional[int] = None, n_state: int = 14, n_eq: int = 0):
+    """The output times (s): t_eval as given, or t0, t0 + output_step, ... up to t_end.
+    Refuses more than max_outputs samples (default budget.MAX_OUTPUT_SAMPLES) before any
+    array is allocated (n_state, n_eq: sizes for the memory estimate in the message)."""
+    t0 = guards.check_time("t0", t0)
     if t_eval is not None:
-        t_eval = np.asarray(t_eval, dtype=float)
-        if t_eval.ndim != 1 or t_eval.size == 0 or np.any(np.diff(t_eval) <= 0):
-            raise ModelError("t_eval must be a strictly increasing 1-D array of times")
+        try:
+            t_eval = np.asarray(t_eval, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError("t_eval must be a strictly increasing 1-D array of times (s), "
+                             f"got {type(t_eval).__name__}") from None
+        if t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)) \
+                or np.any(np.diff(t_eval) <= 0):
+            raise ModelError("t_eval must be a strictly increasing 1-D array of finite times")
+        check_outputs(t_eval.size, float(t_eval[-1] - t_eval[0]), None, max_outputs,
+                      n_state, n_eq)
         return t_eval
+    t_end = guards.check_time("t_end", t_end)
     if not (np.isfinite(t_end) and t_end > t0):
         raise ModelError(f"t_end must be greater than the start time {t0}, got {t_end}")
     if output_step is None:
         output_step = (t_end - t0) / 500.0
-    if not output_step > 0:
-        raise ModelError(f"output_step must be positive, got {output_step}")
-    n = int(np.floor((t_end - t0) / output_step + 1e-9))
+    output_step = guards.check_time("output_step", output_step, positive=True)
+    n_float = (t_end - t0) / output_step
+    check_outputs(n_float + 1, t_end - t0, output_step, max_outputs, n_state, n_eq)
+    n = int(np.floor(n_float + 1e-9))
     t = t0 + output_step * np.arange(n + 1)
     if t[-1] < t_end - 1e-12 * max(1.0, t_end):
         t = np.append(t, t_end)
@@ -63,7 +79,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
              atol: Optional[float] = None, method_options: Optional[dict] = None,
              integrator_options: Optional[dict] = None, q0=None, v0=None,
              correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
-             progress=False, t0: float = 0.0, outputs=None) -> Results:
+             progress=False, t0: float = 0.0, outputs=None, budget=None,
+             max_steps: Optional[int] = None, max_wall_time: Optional[float] = None) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
     method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
@@ -81,28 +98,44 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     outputs: what to record besides the standard columns (:mod:`spatialmbd.outputs`): Output
         requests, dicts or shorthands ("joints", "drivers", "forces", "bodies", "all");
         checked before the run, kept as ``results.output_requests``.
+    budget / max_steps / max_wall_time: caps on the run (a :class:`~.budget.Budget` or a dict;
+        max_steps: accepted steps, max_wall_time: s); a run that reaches one stops with status
+        "budget" and its results so far. Limits checked before the run: the number of output
+        samples and of fixed steps (see :mod:`.budget`).
 
-    Returns Results (status "success" or "failed" with everything computed up to the failure).
+    Returns Results: status "success"; "failed" (with the cause, and a diagnosis at a singular
+    position), "budget" or "interrupted" (Ctrl-C), each with everything computed until then.
+    Bad arguments raise ModelError naming the argument, the value and the valid choices.
     """
     from .outputs import parse_outputs
+    model = guards.compiled_model(model)
     nb = model.nb
-    t_out = output_times(t_end, output_step, t_eval, t0)
+    limits = Budget.make(budget, max_steps, max_wall_time)
+    t_out = output_times(t_end, output_step, t_eval, t0, limits.max_outputs, 13 * nb + 1,
+                         model.n_eq)
     requests = parse_outputs(model, outputs)
-    meth = get_method(method, **(method_options or {}))
+    guards.check_integrator_name(integrator)
+    meth = guards.make_method(method, method_options)
+    if integrator_options is not None and not isinstance(integrator_options, dict):
+        raise ModelError(f"integrator_options: expected a dict of options, got "
+                         f"{type(integrator_options).__name__}")
     integ_opts = dict(integrator_options or {})
     for key, value in (("step", step), ("rtol", rtol), ("atol", atol)):
         if value is not None:
             integ_opts[key] = value
     integ = _make_integrator(integrator, integ_opts)
+    q, v = guards.initial_state(model, q0, v0)
+    hold = guards.check_hold(model, hold)
+    guards.warn(guards.unit_warnings(model))
     eom = EquationsOfMotion(model, sparse=sparse)
 
-    q = np.array(model.q0 if q0 is None else q0, dtype=float).reshape(nb, 7)
-    v = np.array(model.v0 if v0 is None else v0, dtype=float).reshape(nb, 6)
     q = normalize_q(q)
     correction = None
     if correct_initial and model.n_eq:
+        q_given = q
         q, v, correction = correct_initial_conditions(model, q, v, t0, hold_mask(model, hold),
                                                       system=eom.system)
+        guards.warn([guards.correction_warning(model, correction, q_given)])
 
     mob = _redundancy(model, eom, q, t0)
     redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
@@ -137,17 +170,37 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         return y
 
     y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
+    _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, model.n_eq)
+    last_state = guards.LastState()
+    rhs = last_state.wrap(rhs)
     callback = _progress(progress, t0, t_out[-1])
+    stages = last_state.wrap_stages(meth.stages(eom.system) if compiled else None)
+    if limits.active:
+        callback = BudgetGuard(limits, callback)
+        rhs, stages = _guarded(rhs, stages, callback)
     start = time.perf_counter()
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
         problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
-                             stages=meth.stages(eom.system) if compiled else None)
+                             stages=stages)
         res = integ.integrate(problem, t0, y0, t_out, progress=callback)
     finally:
         if hasattr(callback, "close"):
             callback.close()
     wall = time.perf_counter() - start
+    if res.status == "failed":
+        if last_state.y is not None and np.all(np.isfinite(last_state.y[:7 * nb])):
+            last, t_last = normalize_q(last_state.y[:7 * nb].reshape(nb, 7)), last_state.t
+        else:
+            last = res.y[-1, :7 * nb].reshape(nb, 7) if len(res.t) else q
+            t_last = float(res.t[-1]) if len(res.t) else t0
+        rank0 = mob.rank if mob is not None else model.n_eq
+        sv = getattr(mob, "singular_values", None)
+        ratio0 = float(sv[rank0 - 1] / sv[0]) if sv is not None and rank0 and sv[0] else None
+        diagnosis = guards.singular_diagnosis(model, last, float(t_last), rank0, ratio0,
+                                              t_fail=res.t_fail)
+        if diagnosis:
+            res.message = f"{res.message}; {diagnosis}"
     if res.status != "success":
         messages.append(res.message)
     results = Results.from_integration(
@@ -290,6 +343,45 @@ def _python_rhs(model, eom, meth, track_work, driver_rows):
     return rhs
 
 
+def _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, n_eq=0) -> None:
+    """Refuse (before it starts) a fixed-step run of more steps than budget.MAX_FIXED_STEPS
+    without a step budget, with an estimate of its time from one timed evaluation."""
+    step = getattr(integ, "step", None)
+    if integ.adaptive or not step:
+        return
+    n_steps = (float(t_out[-1]) - t0) / step + len(t_out)
+    per_eval = None
+    if n_steps > 1e6 and not limits.active:
+        try:
+            rhs(t0, y0)
+            start = time.perf_counter()
+            rhs(t0, y0)
+            per_eval = time.perf_counter() - start
+        except Exception:  # noqa: BLE001 - the run itself reports evaluation failures
+            per_eval = None
+    from .budget import row_bytes
+    check_fixed_steps(n_steps, step, float(t_out[-1]) - t0,
+                      getattr(integ, "stages", 1) or 1, limits, per_eval,
+                      len(t_out) * row_bytes(y0.size, n_eq))
+
+
+def _guarded(rhs, stages, guard):
+    """rhs and the compiled stages hook with the wall-time budget checked on every call."""
+    check = guard.check_time
+
+    def guarded_rhs(t, y):
+        check(t)
+        return rhs(t, y)
+
+    if stages is None:
+        return guarded_rhs, None
+
+    def guarded_stages(t, *args):
+        check(t)
+        return stages(t, *args)
+    return guarded_rhs, guarded_stages
+
+
 def _make_integrator(integrator, options: dict):
     """get_integrator with a clear error for options the integrator does not take."""
     import inspect
@@ -297,15 +389,22 @@ def _make_integrator(integrator, options: dict):
     if isinstance(integrator, str) and integrator.lower() in INTEGRATORS and options:
         cls = INTEGRATORS[integrator.lower()]
         accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
-        wrong = sorted(set(options) - accepted)
+        wrong = sorted(set(options) - accepted, key=str)
         if wrong:
-            raise ModelError(f"integrator {integrator!r} takes no {', '.join(wrong)}; its "
-                             f"options are {', '.join(sorted(accepted)) or 'none'} (fixed-step "
-                             "integrators take step, adaptive ones rtol and atol)")
+            from .suggest import closest_first, suggest
+            raise ModelError(f"integrator {integrator!r} takes no {', '.join(map(str, wrong))}"
+                             f"{suggest(wrong[0], accepted)}; its options are "
+                             f"{', '.join(closest_first(wrong[0], sorted(accepted))) or 'none'}"
+                             " (fixed-step integrators take step, adaptive ones rtol and atol)")
     if isinstance(integrator, Integrator) and options:
         raise ModelError("step/rtol/atol cannot be combined with an Integrator instance; set "
                          "them on the instance")
-    return get_integrator(integrator, **options)
+    try:
+        return get_integrator(integrator, **options)
+    except ModelError:
+        raise
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ModelError(f"integrator {integrator!r}: {exc}") from None
 
 
 def _driver_rows(model) -> np.ndarray:

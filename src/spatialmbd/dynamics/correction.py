@@ -17,36 +17,9 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-import scipy.linalg as la
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import ConvergenceError
-from ..kinematics import apply_correction, describe_residual
-
-
-def pinv_solve(D, b: np.ndarray, hold: Optional[np.ndarray] = None) -> np.ndarray:
-    """x = D^+ b (minimum norm), with the columns in ``hold`` kept at zero."""
-    n = D.shape[1]
-    if hold is not None and np.any(hold):
-        Dd = D.toarray() if sp.issparse(D) else D
-        x = np.zeros(n)
-        x[~hold] = np.linalg.lstsq(Dd[:, ~hold], b, rcond=None)[0]
-        return x
-    if sp.issparse(D):
-        DDT = (D @ D.T).tocsc()
-        try:
-            y = spla.splu(DDT, permc_spec="MMD_AT_PLUS_A").solve(b)
-            if np.all(np.isfinite(y)):
-                return D.T @ y
-        except RuntimeError:
-            pass
-        return spla.lsqr(D, b, atol=1e-15, btol=1e-15, iter_lim=20 * n)[0]
-    try:
-        c = la.cho_factor(D @ D.T, check_finite=False)
-        return D.T @ la.cho_solve(c, b, check_finite=False)
-    except la.LinAlgError:
-        return np.linalg.lstsq(D, b, rcond=None)[0]
+from ..kinematics import describe_residual, minimum_norm_solve, newton_positions
 
 
 @dataclass
@@ -129,23 +102,11 @@ def _not_converged(model, q, t, max_iter, err, phi):
         "inconsistent.")
 
 
-def _correct_positions_lstsq(model, q, t, tol, max_iter, hold, assembler):
-    asm = assembler or model.assembler
-    total = np.zeros(6 * model.nb)
-    phi0 = None
-    for it in range(max_iter + 1):
-        cv = asm.evaluate(q, None, t)
-        err = float(np.abs(cv.phi).max()) if cv.phi.size else 0.0
-        if phi0 is None:
-            phi0 = err
-        if err <= tol:
-            return q, total, it, phi0
-        if it == max_iter or not np.isfinite(err):
-            break
-        dx = -pinv_solve(cv.D, cv.phi, hold)                                    # Eq. (14.12)
-        q = apply_correction(q, dx)
-        total += dx
-    raise _not_converged(model, q, t, max_iter, err, cv.phi)
+def _correct_positions_lstsq(model, q, t, tol, max_iter, hold, assembler=None):
+    """The minimum-norm Newton iteration (14.12) of :func:`..kinematics.newton_positions`."""
+    q, total, info = newton_positions(model, q, t, tol, max_iter, solve=minimum_norm_solve,
+                                      hold=hold, what="position correction")
+    return q, total, info.iterations, info.residuals[0]
 
 
 def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None, system=None):
@@ -171,7 +132,7 @@ def _correct_velocities_lstsq(model, q, v, t, hold, assembler):
     cv = asm.evaluate(q, v, t)
     resid = cv.D @ v - cv.nu
     before = float(np.abs(resid).max()) if resid.size else 0.0
-    v = v - pinv_solve(cv.D, resid, hold)                                         # Eq. (14.19)
+    v = v - minimum_norm_solve(cv.D, resid, hold)                                 # Eq. (14.19)
     resid = cv.D @ v - cv.nu
     after = float(np.abs(resid).max()) if resid.size else 0.0
     return v, before, after

@@ -128,15 +128,25 @@ class Integrator(abc.ABC):
             with np.errstate(all="ignore"):
                 self._integrate(problem, float(t0), y0, t_eval, counters, outputs, progress)
         except (SpatialMBDError, FloatingPointError, np.linalg.LinAlgError) as exc:
-            status = "failed"
+            status = getattr(exc, "status", "failed")     # "budget": stopped by a budget
             t_fail = getattr(exc, "t", None)
             message = str(exc)
+        except KeyboardInterrupt:                         # Ctrl-C: keep what was computed
+            status, message = "interrupted", "interrupted (Ctrl-C)"
+        except Exception as exc:  # noqa: BLE001 - a non-project error mid-run (e.g. LAPACK's
+            # ValueError): the outputs computed so far are returned with the cause; before
+            # the first evaluation it is a setting the integrator cannot use: raised
+            if counters.nfev == 0 and not outputs:
+                raise
+            status = "failed"
+            t_fail = getattr(exc, "t", None)
+            message = f"{type(exc).__name__}: {exc}"
         counters.wall_time = time.perf_counter() - start
         n_out = len(outputs)
         y = np.array(outputs) if n_out else np.empty((0, y0.size))
-        if status == "failed" and t_fail is None:
+        if status != "success" and t_fail is None:
             t_fail = float(t_eval[n_out]) if n_out < t_eval.size else float(t_eval[-1])
-        if status == "failed" and not message.startswith("t ="):
+        if status != "success" and not message.startswith("t ="):
             message = f"t = {t_fail:.6g} s: {message}"
         return IntegrationResult(t=t_eval[:n_out].copy(), y=y, status=status, message=message,
                                  counters=counters, t_fail=t_fail)

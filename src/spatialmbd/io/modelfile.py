@@ -179,12 +179,30 @@ def _describe(value) -> str:
         text = value if len(value) <= 40 else value[:37] + "..."
         return f"the string {text!r}{hint}"
     if isinstance(value, (int, float)):
-        return f"the number {value!r}"
+        return f"the number {_short(value)}"
     if isinstance(value, dict):
         return f"a mapping with keys {sorted(map(str, value))}"
     if isinstance(value, list):
         return f"a list of {len(value)} item{'s' if len(value) != 1 else ''}"
     return f"a {type(value).__name__}"
+
+
+def _member(value, collection) -> bool:
+    """``value in collection`` for names: False (not a TypeError) for lists and mappings."""
+    return isinstance(value, str) and value in collection
+
+
+def _finite(value) -> bool:
+    """math.isfinite that is False (not an OverflowError) for integers beyond float range."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:12]}...{text[-6:]} ({len(text)} digits)"
 
 
 def _is_number(value) -> bool:
@@ -196,8 +214,8 @@ def _number(P, path, value, positive=False, nonneg=False, integer=False) -> bool
         P.add(path, f"expected {'an integer' if integer else 'a number'}, got "
                     f"{_describe(value)}")
         return False
-    if not math.isfinite(value):
-        P.add(path, f"expected a finite number, got {value!r}")
+    if not _finite(value):
+        P.add(path, f"expected a finite number, got {_short(value)}")
         return False
     if integer and value != int(value):
         P.add(path, f"expected an integer, got {value!r}")
@@ -320,7 +338,7 @@ def _shape(P, path, value) -> bool:
     kind = value.get("type")
     if "type" not in value:
         return False
-    if kind not in SHAPE_KEYS:
+    if not _member(kind, SHAPE_KEYS):
         P.add(tuple(path) + ("type",), f"unknown shape type {_name(kind)}; valid types: "
                                         + ", ".join(SHAPE_KEYS))
         return False
@@ -465,9 +483,10 @@ class Analysis:
     time: float = 0.0
     frame_rate: Optional[list] = None
 
-    def run(self, model, progress=False):
+    def run(self, model, progress=False, budget=None):
         """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``;
-        the result objects of spatialmbd.analyses for the engineering types."""
+        the result objects of spatialmbd.analyses for the engineering types. budget: a
+        :class:`spatialmbd.budget.Budget` (or dict) for dynamic runs."""
         if self.type in ENGINEERING_TYPES:
             return self._run_engineering(model)
         if self.type == "kinematic":
@@ -488,7 +507,7 @@ class Analysis:
                         method_options=dict(self.method_options),
                         integrator_options=dict(self.integrator_options),
                         correct_initial=self.correct_initial, hold=self.hold,
-                        progress=progress, outputs=list(self.outputs))
+                        progress=progress, outputs=list(self.outputs), budget=budget)
 
     def _run_engineering(self, model):
         """inverse: InverseDynamicsResults; static: StaticResults at ``time``; quasi_static:
@@ -744,7 +763,7 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
                                            f"({', '.join(HOLD_NAMES)}), got {_describe(coords)}")
                     continue
                 for k, c in enumerate(coords):
-                    if c not in HOLD_NAMES:
+                    if not _member(c, HOLD_NAMES):
                         P.add(hpath + (body, k), f"{_describe(c)} is not one of "
                                                  f"{', '.join(HOLD_NAMES)} (translations x, y, "
                                                  "z; small rotations rx, ry, rz)")
@@ -752,6 +771,53 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
             if len(P) == n0:
                 a.hold = out
     return a
+
+
+# ============================================================================ ranges
+#: magnitude limits checked at load time (SI units), so that values that cannot be meant
+#: (1e300 m, a mass of 5e-324 kg) are errors naming their place instead of failures deep in
+#: a run; see docs/reliability.md. (key -> (smallest non-zero |x|, largest |x|, unit))
+RANGES = {
+    "length": (1e-100, 1e6, "m"),
+    "velocity": (1e-100, 1e6, "m/s"),
+    "angular_velocity": (1e-100, 1e6, "rad/s"),
+    "gravity": (1e-100, 1e4, "m/s^2"),
+    "mass": (1e-12, 1e12, "kg"),
+    "inertia": (1e-100, 1e12, "kg m^2"),
+    "number": (1e-100, 1e12, ""),
+}
+_RANGE_KEYS = {"position": "length", "points": "length", "center": "length", "size": "length",
+               "radius": "length", "length": "length", "natural_length": "length",
+               "velocity": "velocity", "angular_velocity": "angular_velocity",
+               "angular_velocity_local": "angular_velocity", "gravity": "gravity",
+               "mass": "mass", "inertia": "inertia"}
+_RANGE_KEYS.update({k: "length" for k in ("point", "point2", "point_i", "point_j")})
+
+
+def _range_checks(P, data) -> None:
+    """Record every finite number outside RANGES (by the nearest key naming a quantity)."""
+    stack = [(data, (), "number")]
+    while stack:
+        value, path, kind = stack.pop()
+        if isinstance(value, dict):
+            for k, v in value.items():
+                stack.append((v, path + (k,), _RANGE_KEYS.get(k, kind)
+                              if isinstance(k, str) and not (path and path[-1] == "points")
+                              else kind))
+        elif isinstance(value, list):
+            stack.extend((v, path + (k,), kind) for k, v in enumerate(value))
+        elif _is_number(value) and _finite(value) and value != 0:
+            low, high, unit = RANGES[kind]
+            size = abs(float(value))
+            what = {"number": "a number"}.get(kind, f"a {kind.replace('_', ' ')}")
+            if size > high:
+                P.add(path, f"{_short(value)}{' ' + unit if unit else ''} is out of range for "
+                            f"{what} (|x| <= {high:g}{' ' + unit if unit else ''}); check the "
+                            "value and its units")
+            elif size < low:
+                P.add(path, f"{_short(value)}{' ' + unit if unit else ''} is too small for "
+                            f"{what} (|x| >= {low:g}{' ' + unit if unit else ''}, or 0); check "
+                            "the value and its units")
 
 
 # ============================================================================ file -> builder
@@ -779,7 +845,7 @@ def _parse(P, data, default_name="model"):
                   "first line")
     else:
         version = data["spatialmbd"]
-        if not (_is_number(version) and version == int(version)):
+        if not (_is_number(version) and _finite(version) and version == int(version)):
             P.add(("spatialmbd",), f"the schema version must be an integer, got "
                                    f"{_describe(version)}")
         elif version != SCHEMA_VERSION:
@@ -789,6 +855,7 @@ def _parse(P, data, default_name="model"):
                                       else ""))
             return None, None
     _mapping(P, (), data, TOP_KEYS)
+    _range_checks(P, {k: v for k, v in data.items() if k in TOP_KEYS})
 
     name = data.get("name", default_name)
     if not _string(P, ("name",), name, "a model name (string)"):
@@ -930,7 +997,7 @@ def _parse(P, data, default_name="model"):
         complete = all(k in d for k in ("name", "type", "body_i", "body_j"))
         if "name" in d and _string(P, path + ("name",), d["name"], "a joint name (string)"):
             declared_joints.append(d["name"])
-        if "type" in d and d["type"] not in JOINT_TYPES:
+        if "type" in d and not _member(d["type"], JOINT_TYPES):
             P.add(path + ("type",), f"unknown joint type {_name(d['type'])}"
                                     f"{_suggest(d['type'], JOINT_TYPES)}; valid types: "
                                     + ", ".join(sorted(JOINT_TYPES)))
@@ -969,7 +1036,7 @@ def _parse(P, data, default_name="model"):
         if "name" in d:
             _string(P, path + ("name",), d["name"], "a driver name (string)")
         kind = d.get("kind")
-        if "kind" in d and kind not in DRIVER_TYPES:
+        if "kind" in d and not _member(kind, DRIVER_TYPES):
             P.add(path + ("kind",), f"unknown driver kind {_name(kind)}"
                                     f"{_suggest(kind, DRIVER_TYPES)}; valid: "
                                     + ", ".join(DRIVER_TYPES))
@@ -982,10 +1049,10 @@ def _parse(P, data, default_name="model"):
                 P.add(path + ("joint",), "a coordinate driver acts on a body, not a joint")
             if "body" in d:
                 _reference(P, path + ("body",), d["body"], declared_bodies, "body")
-            if "coordinate" in d and d["coordinate"] not in COORDINATES:
+            if "coordinate" in d and not _member(d["coordinate"], COORDINATES):
                 P.add(path + ("coordinate",), f"{_describe(d['coordinate'])} is not one of "
                                               + ", ".join(COORDINATES))
-        elif kind in DRIVER_TYPES:
+        elif _member(kind, DRIVER_TYPES):
             if "joint" not in d:
                 P.add(path, f"missing required key 'joint' (an {kind} driver acts on a joint)")
             else:
@@ -1026,7 +1093,7 @@ def _parse(P, data, default_name="model"):
                                     "described in a model file; add them in Python with "
                                     f"ModelBuilder.add_force({ftype!r}, ...) after load_builder()")
             continue
-        if ftype not in FORCE_TYPES:
+        if not _member(ftype, FORCE_TYPES):
             P.add(path + ("type",), f"unknown force type {_name(ftype)}"
                                     f"{_suggest(ftype, valid_types)}; valid types: "
                                     + ", ".join(valid_types))
@@ -1110,9 +1177,58 @@ def _parse_outputs_section(P, data) -> list:
 
 
 # ============================================================================ reading files
+#: limits of what the reader accepts (see docs/reliability.md): file size in bytes, nesting
+#: depth of lists/mappings, YAML aliases, values after alias expansion, digits of an integer
+MAX_FILE_BYTES = 64 * 1024 * 1024
+MAX_DEPTH = 64
+MAX_ALIASES = 1000
+MAX_NODES = 1_000_000
+MAX_INT_DIGITS = 300
+
+
+class _LimitError(Exception):
+    """A reader limit was exceeded (turned into a ModelFileError with the line)."""
+
+    def __init__(self, message, mark=None):
+        super().__init__(message)
+        self.mark = mark
+
+
 class _Loader(yaml.SafeLoader):
     """SafeLoader reading floats as YAML 1.2 does (``1e-6`` is a number, not a string) and
-    only true/false as booleans (not yes/no/on/off)."""
+    only true/false as booleans (not yes/no/on/off); with limits on nesting depth and aliases
+    (a "billion laughs" document is refused, not expanded)."""
+
+    _depth = 0
+    _aliases = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            self._aliases += 1
+            if self._aliases > MAX_ALIASES:
+                raise _LimitError(f"more than {MAX_ALIASES} YAML aliases (*name); a model "
+                                  "file needs few, write the values out",
+                                  self.peek_event().start_mark)
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise _LimitError(f"lists/mappings nested more than {MAX_DEPTH} levels deep "
+                                  "(a model file needs at most 6); check the brackets and the "
+                                  "indentation", self.peek_event().start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def construct_yaml_int(self, node):
+        digits = len(str(node.value).lstrip("+-").replace("_", ""))
+        if digits > MAX_INT_DIGITS:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"an integer with {digits} digits (the limit is "
+                f"{MAX_INT_DIGITS}); write a number in range", node.start_mark)
+        return super().construct_yaml_int(node)
+
+
+_Loader.add_constructor("tag:yaml.org,2002:int", _Loader.construct_yaml_int)
 
 
 _FLOAT_TAG = "tag:yaml.org,2002:float"
@@ -1129,11 +1245,18 @@ _Loader.add_implicit_resolver(_BOOL_TAG, re.compile(r"^(?:true|True|TRUE|false|F
                               list("tTfF"))
 
 
-def _walk(node, path, lines, duplicates, active=()) -> None:
+def _walk(node, path, lines, duplicates, active=(), count=None) -> None:
     """Line of every value (path -> 1-based line) and duplicate keys, from the YAML node tree
-    (``active``: the nodes being walked, so that recursive aliases end)."""
+    (``active``: the nodes being walked, so that recursive aliases end; ``count``: values
+    visited, aliases expanded, limited to MAX_NODES)."""
     if id(node) in active:
-        return
+        raise _LimitError("a YAML alias refers to a list or mapping that contains it (a "
+                          "recursive structure); write the values out", node.start_mark)
+    count = [0] if count is None else count
+    count[0] += 1
+    if count[0] > MAX_NODES:
+        raise _LimitError(f"the document holds more than {MAX_NODES:,} values once its "
+                          "aliases are expanded", node.start_mark)
     active = active + (id(node),)
     if isinstance(node, yaml.MappingNode):
         seen = set()
@@ -1146,19 +1269,46 @@ def _walk(node, path, lines, duplicates, active=()) -> None:
                 duplicates.append((where, knode.start_mark.line + 1))
             seen.add(key)
             lines.setdefault(where, vnode.start_mark.line + 1)
-            _walk(vnode, where, lines, duplicates, active)
+            _walk(vnode, where, lines, duplicates, active, count)
     elif isinstance(node, yaml.SequenceNode):
         for k, item in enumerate(node.value):
             lines.setdefault(path + (k,), item.start_mark.line + 1)
-            _walk(item, path + (k,), lines, duplicates, active)
+            _walk(item, path + (k,), lines, duplicates, active, count)
+
+
+def _expanded_size(node, memo: dict, active: set) -> int:
+    """Number of values of the node tree with aliases expanded (memoised per node, so a
+    "billion laughs" document costs its size, not its expansion); raises _LimitError above
+    MAX_NODES or for a recursive alias."""
+    key = id(node)
+    if key in memo:
+        return memo[key]
+    if key in active:
+        raise _LimitError("a YAML alias refers to a list or mapping that contains it (a "
+                          "recursive structure); write the values out", node.start_mark)
+    active.add(key)
+    total = 1
+    if isinstance(node, yaml.MappingNode):
+        total += sum(_expanded_size(v, memo, active) for _, v in node.value)
+    elif isinstance(node, yaml.SequenceNode):
+        total += sum(_expanded_size(v, memo, active) for v in node.value)
+    active.discard(key)
+    if total > MAX_NODES:
+        raise _LimitError(f"the document holds more than {MAX_NODES:,} values once its "
+                          "aliases are expanded (a 'billion laughs' document?)",
+                          node.start_mark)
+    memo[key] = total
+    return total
 
 
 def _read_yaml(text: str, source):
-    loader = _Loader(text)
     lines, duplicates = {}, []
+    loader = None
     try:
+        loader = _Loader(text)
         node = loader.get_single_node()
         if node is not None:
+            _expanded_size(node, {}, set())
             _walk(node, (), lines, duplicates)
         data = loader.construct_document(node) if node is not None else None
     except yaml.MarkedYAMLError as exc:
@@ -1168,10 +1318,27 @@ def _read_yaml(text: str, source):
             what = f"{exc.problem} ({exc.context})"
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         raise ModelFileError([f"{where}YAML syntax error: {what}"], source) from None
+    except _LimitError as exc:
+        where = f"line {exc.mark.line + 1}, column {exc.mark.column + 1}: " if exc.mark else \
+            "(top level): "
+        raise ModelFileError([f"{where}{exc}"], source) from None
+    except yaml.reader.ReaderError as exc:
+        line, column = _line_column(text, exc.position)
+        raise ModelFileError([f"line {line}, column {column}: the character "
+                              f"{_char(exc.character)} is not allowed in a YAML file; remove "
+                              "it (binary data or a wrong encoding?)"], source) from None
     except yaml.YAMLError as exc:
-        raise ModelFileError([f"YAML error: {exc}"], source) from None
+        raise ModelFileError([f"(top level): YAML error: {exc}"], source) from None
+    except (RecursionError, MemoryError):
+        raise ModelFileError([f"(top level): the document is nested too deeply or is too "
+                              f"large to read (limits: {MAX_DEPTH} levels, "
+                              f"{MAX_FILE_BYTES // 2 ** 20} MB)"], source) from None
+    except (ValueError, OverflowError) as exc:          # e.g. Python's int-digit limit
+        raise ModelFileError([f"(top level): a value cannot be read: {exc}"], source) \
+            from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     return data, lines, duplicates
 
 
@@ -1186,12 +1353,87 @@ def _read_json(text: str, source):
             out[key] = value
         return out
 
+    def parse_int(digits):
+        if len(digits.lstrip("-")) > MAX_INT_DIGITS:
+            raise _LimitError(f"an integer with {len(digits.lstrip('-'))} digits (the limit "
+                              f"is {MAX_INT_DIGITS}); write a number in range")
+        return int(digits)
+
     try:
-        data = json.loads(text, object_pairs_hook=pairs)
+        data = json.loads(text, object_pairs_hook=pairs, parse_int=parse_int)
     except json.JSONDecodeError as exc:
         raise ModelFileError([f"line {exc.lineno}, column {exc.colno}: JSON syntax error: "
                               f"{exc.msg}"], source) from None
+    except _LimitError as exc:
+        raise ModelFileError([f"(top level): {exc}"], source) from None
+    except (RecursionError, MemoryError):
+        raise ModelFileError([f"(top level): the document is nested too deeply or is too "
+                              f"large to read (limits: {MAX_DEPTH} levels, "
+                              f"{MAX_FILE_BYTES // 2 ** 20} MB)"], source) from None
+    except (ValueError, OverflowError) as exc:
+        raise ModelFileError([f"(top level): a value cannot be read: {exc}"], source) \
+            from None
+    deep = _too_deep(data)
+    if deep is not None:
+        raise ModelFileError([f"{_render(deep)}: lists/mappings nested more than {MAX_DEPTH} "
+                              "levels deep (a model file needs at most 6); check the "
+                              "brackets"], source)
     return data, {}, duplicates
+
+
+def _too_deep(data):
+    """The path of a value nested deeper than MAX_DEPTH, or None (iterative)."""
+    stack = [(data, ())]
+    while stack:
+        value, path = stack.pop()
+        if len(path) > MAX_DEPTH:
+            return path[:MAX_DEPTH]
+        if isinstance(value, dict):
+            stack.extend((v, path + (str(k),)) for k, v in value.items())
+        elif isinstance(value, (list, tuple)):
+            stack.extend((v, path + (k,)) for k, v in enumerate(value))
+    return None
+
+
+def _line_column(text: str, position: int):
+    before = text[:position]
+    return before.count("\n") + 1, position - (before.rfind("\n") + 1) + 1
+
+
+def _char(character) -> str:
+    code = ord(character) if isinstance(character, str) and len(character) == 1 else \
+        character if isinstance(character, int) else None
+    return f"U+{code:04X}" if code is not None else repr(character)
+
+
+def _decode(raw: bytes, source) -> str:
+    """The text of a model file: UTF-8 (with or without a byte-order mark), or UTF-16 /
+    UTF-32 with a byte-order mark; anything else is refused with what it looks like."""
+    boms = ((b"\xef\xbb\xbf", "utf-8-sig", "UTF-8"), (b"\xff\xfe\x00\x00", "utf-32", "UTF-32"),
+            (b"\x00\x00\xfe\xff", "utf-32", "UTF-32"), (b"\xff\xfe", "utf-16", "UTF-16"),
+            (b"\xfe\xff", "utf-16", "UTF-16"))
+    for bom, codec, label in boms:
+        if raw.startswith(bom):
+            try:
+                return raw.decode(codec)
+            except UnicodeDecodeError as exc:
+                raise ModelFileError([f"byte {exc.start}: the file starts with a {label} "
+                                      f"byte-order mark but is not valid {label} ({exc.reason})"
+                                      "; save it as UTF-8"], source) from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        head = raw[:4096]
+        if head and head.count(0) > len(head) // 4:
+            guess = "it looks like UTF-16 or UTF-32 without a byte-order mark"
+        else:
+            guess = "it looks like another encoding (e.g. Latin-1 or Windows-1252) or binary data"
+        line = raw[:exc.start].count(b"\n") + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise ModelFileError([f"line {line}, column {column}: byte 0x{raw[exc.start]:02x} is not "
+                              f"valid UTF-8; {guess}. Model files must be UTF-8 (UTF-16 is read "
+                              "with a byte-order mark): save the file as UTF-8"], source) \
+            from None
 
 
 def _plain_input(value):
@@ -1210,16 +1452,30 @@ def _plain_input(value):
 def _read(path_or_dict):
     """(data, source, lines, duplicates, default name) of a path or a dict."""
     if isinstance(path_or_dict, dict):
+        deep = _too_deep(path_or_dict)
+        if deep is not None:
+            raise ModelFileError([f"{_render(deep)}: lists/mappings nested more than "
+                                  f"{MAX_DEPTH} levels deep (or a structure that contains "
+                                  "itself)"])
         return _plain_input(path_or_dict), None, {}, [], "model"
     if not isinstance(path_or_dict, (str, os.PathLike)):
-        raise TypeError(f"expected a path (.yaml, .yml, .json) or a dict, not "
-                        f"{type(path_or_dict).__name__}")
+        raise ModelFileError([f"(top level): expected a path (.yaml, .yml, .json) or a dict, "
+                              f"not {type(path_or_dict).__name__}"])
     path = Path(path_or_dict)
     suffix = path.suffix.lower()
     if suffix not in YAML_SUFFIXES + JSON_SUFFIXES:
         raise ModelFileError([f"unsupported file extension {path.suffix!r}; use .yaml, .yml "
                               "or .json"], path)
-    text = path.read_text(encoding="utf-8")
+    try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ModelFileError([f"(top level): the file is {size:,} bytes; the limit is "
+                                  f"{MAX_FILE_BYTES:,} (io.modelfile.MAX_FILE_BYTES)"], path)
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ModelFileError([f"(top level): cannot read the file: {exc.strerror or exc}"],
+                             path) from None
+    text = _decode(raw, path)
     reader = _read_yaml if suffix in YAML_SUFFIXES else _read_json
     data, lines, duplicates = reader(text, path)
     return data, path, lines, duplicates, path.stem

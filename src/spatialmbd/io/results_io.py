@@ -69,66 +69,26 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime
+import io
 import json
-import os
 import pathlib
-import tempfile
 from dataclasses import dataclass, field
 from typing import Any, Optional
 
 import numpy as np
+
+# atomic writing lives in the core layer (spatialmbd.atomic); re-exported here
+from ..atomic import STALE_SECONDS, _Staged, atomic_write, clean_stale_temporaries  # noqa: F401
 
 FORMAT_NAME = "spatialmbd-results"
 FORMAT_VERSION = 1
 HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 CSV_SUFFIXES = (".csv",)
 
-__all__ = ["to_dataframe", "save_results", "write_csv", "write_hdf5", "read_results",
+__all__ = ["to_dataframe", "iter_table", "save_all", "clean_stale_temporaries", "save_results",
+           "write_csv", "write_hdf5", "read_results",
            "load_results", "LoadedResults", "atomic_write", "results_kind", "FORMAT_NAME",
            "FORMAT_VERSION"]
-
-
-# ----------------------------------------------------------------------------------------------
-# atomic writing
-# ----------------------------------------------------------------------------------------------
-def _default_mode() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
-@contextlib.contextmanager
-def atomic_write(path):
-    """Yield a temporary path next to ``path``; on normal exit fsync it and ``os.replace`` it
-    onto ``path``. On any exception (KeyboardInterrupt included) the temporary file is removed
-    and ``path`` is left untouched."""
-    path = pathlib.Path(path)
-    directory = path.parent if str(path.parent) else pathlib.Path(".")
-    if not directory.is_dir():
-        raise FileNotFoundError(f"cannot write {path}: directory {directory} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    os.close(fd)
-    tmp = pathlib.Path(tmp)
-    try:
-        yield tmp
-        mode = path.stat().st_mode & 0o777 if path.exists() else _default_mode()
-        os.chmod(tmp, mode)
-        fd = os.open(tmp, os.O_RDWR)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
-    with contextlib.suppress(OSError, AttributeError):        # make the rename durable
-        dfd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(dfd)
-        finally:
-            os.close(dfd)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -269,13 +229,161 @@ def save_results(results, path, *, analysis=None, table=None) -> pathlib.Path:
                      "(.hdf5) file name")
 
 
+#: rows of the results table computed and written at a time (bounded memory for long runs)
+CHUNK_ROWS = 20_000
+
+
+def _chunk_rows(results) -> int:
+    model = getattr(results, "model", None)
+    if model is None:
+        return CHUNK_ROWS
+    width = 30 * model.nb + 12 * sum(g.n for g in model.constraint_groups) + 20
+    return max(500, min(CHUNK_ROWS, 4_000_000 // width))
+
+
+def _slice(results, start: int, stop: int):
+    """The results at output rows start:stop (same kind)."""
+    kind = results_kind(results)
+    sl = slice(start, stop)
+    if kind == "loaded":
+        return dataclasses.replace(results, table=results.table.iloc[sl])
+    if kind == "kinematic":
+        return dataclasses.replace(
+            results, t=results.t[sl], q=results.q[sl], v=results.v[sl], vdot=results.vdot[sl],
+            points={k: {kk: np.asarray(vv)[sl] for kk, vv in d.items()}
+                    for k, d in results.points.items()},
+            newton_iterations=np.asarray(results.newton_iterations)[sl],
+            residual=np.asarray(results.residual)[sl])
+    return dataclasses.replace(results, t=results.t[sl], q=results.q[sl], v=results.v[sl],
+                               vdot=results.vdot[sl], lam=results.lam[sl],
+                               work=results.work[sl])
+
+
+def iter_table(results, chunk_rows: Optional[int] = None):
+    """The rows of :func:`to_dataframe` in DataFrames of at most chunk_rows rows, so that a
+    long run is written with bounded memory (the energy error keeps its reference, the
+    total energy at the first output time)."""
+    n = len(results.t) if results_kind(results) != "loaded" else len(results.table)
+    step = chunk_rows or _chunk_rows(results)
+    if n <= step:
+        yield to_dataframe(results)
+        return
+    total0 = None
+    for start in range(0, n, step):
+        df = to_dataframe(_slice(results, start, min(n, start + step)))
+        if "energy.total" in df.columns:
+            if total0 is None:
+                total0 = float(df["energy.total"].iloc[0])
+            df["energy.error"] = df["energy.total"] - total0 - \
+                df["energy.work_nonconservative"]
+        yield df
+
+
+def status_line(results) -> Optional[str]:
+    """The first line of a CSV of results that are not complete: '# status: <status>;
+    <message>' (None for status success)."""
+    status = str(getattr(results, "status", "success"))
+    if status == "success":
+        return None
+    message = " ".join(str(getattr(results, "message", "") or "").split())
+    return f"# status: {status}" + (f"; {message}" if message else "")
+
+
 def write_csv(results, path, *, table=None) -> pathlib.Path:
-    """The results table as CSV (header row, one row per output time), written atomically."""
+    """The results table as CSV (header row, one row per output time), written atomically.
+    Results that are not complete (status failed, budget, interrupted) start with a comment
+    line '# status: ...' (read them with :func:`read_results` or pandas' ``comment='#'``)."""
     path = pathlib.Path(path)
-    df = to_dataframe(results) if table is None else table
     with atomic_write(path) as tmp:
-        df.to_csv(tmp, index=False)
+        _write_csv_to(results, tmp, table)
     return path
+
+
+class _CSVSink:
+    """Receives the table chunk by chunk and writes it as CSV to ``tmp``."""
+
+    def __init__(self, results, tmp):
+        self.fh = open(tmp, "w", newline="")
+        self.rows, self.columns = 0, 0
+        line = status_line(results)
+        if line:
+            self.fh.write(line + "\n")
+
+    def add(self, df):
+        df.to_csv(self.fh, index=False, header=self.rows == 0 and self.columns == 0)
+        self.rows += len(df)
+        self.columns = len(df.columns)
+
+    def close(self):
+        self.fh.close()
+        return self.rows, self.columns
+
+    def abort(self):
+        self.fh.close()
+
+
+def _write_table(results, sinks, table=None) -> None:
+    """Compute the table once, in chunks, and hand every chunk to every sink."""
+    for df in ([table] if table is not None else iter_table(results)):
+        for sink in sinks:
+            sink.add(df)
+
+
+def _write_csv_to(results, tmp, table=None) -> tuple:
+    sink = _CSVSink(results, tmp)
+    try:
+        _write_table(results, [sink], table)
+    except BaseException:
+        sink.abort()
+        raise
+    return sink.close()
+
+
+def save_all(results, paths, *, analysis=None) -> dict:
+    """Write ``results`` to every path (.csv / .h5) as one set: all files are written to
+    temporaries first and moved onto their targets only when all of them are complete, so
+    an error or Ctrl-C while writing leaves every target as it was. Each HDF5 file records
+    the run (attrs run_id, outputs). Returns {path: (rows, columns)}."""
+    import uuid
+    run_id = uuid.uuid4().hex
+    paths = [pathlib.Path(p) for p in paths]
+    for path in paths:
+        if path.suffix.lower() not in CSV_SUFFIXES + HDF5_SUFFIXES:
+            raise ValueError(f"cannot tell the results format from {str(path)!r}: use a .csv "
+                             "or .h5 (.hdf5) file name")
+    staged, sinks = [], []
+    try:
+        for path in paths:
+            st = _Staged(path)
+            staged.append(st)
+            if path.suffix.lower() in CSV_SUFFIXES:
+                sinks.append(_CSVSink(results, st.tmp))
+            else:
+                sinks.append(_H5Sink(results, st.tmp, analysis, run_id,
+                                     [str(p) for p in paths]))
+        current = paths[0]
+        for df in iter_table(results):
+            for path, sink in zip(paths, sinks):
+                current = path
+                sink.add(df)
+        written = {}
+        for path, sink in zip(paths, sinks):
+            current = path
+            written[path] = sink.close()
+    except BaseException as exc:
+        for sink in sinks:
+            sink.abort()
+        for st in staged:
+            st.abort()
+        if isinstance(exc, OSError):
+            where = staged[-1].path if len(staged) < len(paths) else current
+            if str(where) not in str(exc):
+                raise OSError(exc.errno, f"cannot write {where}: {exc.strerror or exc} (the "
+                                         "previous files are kept)") from exc
+        raise
+    for st in staged:
+        st.commit()
+    return written
 
 
 class _Encoder(json.JSONEncoder):
@@ -367,43 +475,106 @@ def _metadata(results, analysis) -> dict:
 
 def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """The results with their model, settings and counters as HDF5 (layout in the module
-    docstring), written atomically."""
-    import h5py
+    docstring), written atomically; the table is computed and written in chunks."""
     path = pathlib.Path(path)
-    df = to_dataframe(results) if table is None else table
-    meta = _metadata(results, analysis)
-    kind = meta.get("kind", "dynamic")
-    arrays = {"t": results.t, "q": results.q, "v": results.v, "vdot": results.vdot}
-    if kind == "dynamic":
-        arrays.update(lam=results.lam, work=results.work)
-    else:
-        arrays.update(newton_iterations=results.newton_iterations, residual=results.residual)
     with atomic_write(path) as tmp:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT_NAME
-            f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["spatialmbd_version"] = str(meta.get("version", ""))
-            f.attrs["kind"] = kind
-            f.attrs["status"] = str(meta.get("status", ""))
-            f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat()
-            for name, arr in arrays.items():
-                if arr is None:
-                    continue
-                _dataset(f, name, np.asarray(arr))
-            tab = f.create_group("table")
-            tab.attrs["columns"] = json.dumps([str(c) for c in df.columns])
-            tab.attrs["units"] = json.dumps(column_units_of(df))
-            for c in df.columns:
-                _dataset(tab, str(c), df[c].to_numpy())
-            grp = f.create_group("metadata")
-            for key, value in meta.items():
-                grp.create_dataset(key, data=_json(value), dtype=h5py.string_dtype("utf-8"))
+        _write_hdf5_to(results, tmp, analysis, table)
     return path
 
 
-def _dataset(group, name, arr):
+class _H5Sink:
+    """Receives the table chunk by chunk; the HDF5 file is assembled in memory and written to
+    ``tmp`` by Python in blocks on :meth:`close`: a full disk or a file-size limit then raises
+    OSError (HDF5's own writes crash the process on them), and Ctrl-C is honoured between
+    blocks."""
+
+    def __init__(self, results, tmp, analysis=None, run_id=None, outputs=None):
+        import h5py
+        self.tmp = tmp
+        self.meta = _metadata(results, analysis)
+        kind = self.meta.get("kind", "dynamic")
+        arrays = {"t": results.t, "q": results.q, "v": results.v, "vdot": results.vdot}
+        if kind == "dynamic":
+            arrays.update(lam=results.lam, work=results.work)
+        else:
+            arrays.update(newton_iterations=results.newton_iterations,
+                          residual=results.residual)
+        self.n_total = len(results.t)
+        self.rows, self.columns = 0, 0
+        self.image = io.BytesIO()
+        self.f = f = h5py.File(self.image, "w")
+        if run_id:
+            f.attrs["run_id"] = run_id
+            f.attrs["outputs"] = json.dumps(outputs or [])
+        f.attrs["format"] = FORMAT_NAME
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["spatialmbd_version"] = str(self.meta.get("version", ""))
+        f.attrs["kind"] = kind
+        f.attrs["status"] = str(self.meta.get("status", ""))
+        f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat()
+        for name, arr in arrays.items():
+            if arr is not None:
+                _dataset(f, name, np.asarray(arr))
+        self.tab = f.create_group("table")
+
+    def add(self, df):
+        tab, first = self.tab, self.columns == 0
+        if first:
+            tab.attrs["columns"] = json.dumps([str(c) for c in df.columns])
+            tab.attrs["units"] = json.dumps(column_units_of(df))
+            self.columns = len(df.columns)
+        for c in df.columns:
+            arr = df[c].to_numpy()
+            if first:
+                _dataset(tab, str(c), arr, growable=len(df) < self.n_total)
+            else:
+                dset = tab[str(c)]
+                dset.resize((self.rows + len(arr),))
+                dset[self.rows:] = arr
+        self.rows += len(df)
+
+    def close(self):
+        import h5py
+        grp = self.f.create_group("metadata")
+        for key, value in self.meta.items():
+            grp.create_dataset(key, data=_json(value), dtype=h5py.string_dtype("utf-8"))
+        self.f.close()
+        view = self.image.getbuffer()
+        try:
+            with open(self.tmp, "wb") as fh:
+                for start in range(0, len(view), WRITE_BLOCK):
+                    fh.write(view[start:start + WRITE_BLOCK])
+        finally:
+            view.release()
+            self.image = None
+        return self.rows, self.columns
+
+    def abort(self):
+        import contextlib as _c
+        with _c.suppress(Exception):
+            self.f.close()
+
+
+def _write_hdf5_to(results, tmp, analysis=None, table=None, run_id=None, outputs=None):
+    sink = _H5Sink(results, tmp, analysis, run_id, outputs)
+    try:
+        _write_table(results, [sink], table)
+    except BaseException:
+        sink.abort()
+        raise
+    return sink.close()
+
+
+#: bytes written at a time (an HDF5 file is assembled in memory, then written in blocks)
+WRITE_BLOCK = 1 << 22
+
+
+def _dataset(group, name, arr, growable=False):
     kwargs = {"compression": "gzip", "compression_opts": 4, "shuffle": True} \
-        if arr.size > 4096 else {}
+        if arr.size > 4096 or growable else {}
+    if growable:
+        kwargs.update(maxshape=(None,) + arr.shape[1:], chunks=(min(max(len(arr), 1), 8192),)
+                      + arr.shape[1:])
     group.create_dataset(name, data=arr, **kwargs)
 
 
@@ -493,7 +664,10 @@ def read_results(path):
     if not path.exists():
         raise FileNotFoundError(f"no such results file: {path}")
     if suffix in CSV_SUFFIXES:
-        return pd.read_csv(path)
+        status, _ = _csv_status(path)
+        df = pd.read_csv(path, skiprows=1 if status else 0)
+        df.attrs["status"] = status or "success"
+        return df
     if suffix in HDF5_SUFFIXES:
         with _open_h5(path) as f:
             return _read_table(f, path)
@@ -543,7 +717,10 @@ def load_results(path) -> LoadedResults:
     path = pathlib.Path(path)
     suffix = path.suffix.lower()
     if suffix in CSV_SUFFIXES:
-        return _loaded_from_table(path, read_results(path))
+        loaded = _loaded_from_table(path, read_results(path))
+        status, message = _csv_status(path)
+        loaded.metadata.update(status=status or "success", message=message)
+        return loaded
     if suffix not in HDF5_SUFFIXES:
         raise ValueError(f"cannot tell the results format from {str(path)!r}: expected .csv "
                          "or .h5")
@@ -562,6 +739,16 @@ def load_results(path) -> LoadedResults:
                          vdot=arr.get("vdot"), table=table, metadata=meta, lam=arr.get("lam"),
                          work=arr.get("work"), newton_iterations=arr.get("newton_iterations"),
                          residual=arr.get("residual"), format_version=version)
+
+
+def _csv_status(path) -> tuple:
+    """(status, message) of a CSV results file from its '# status:' line, or (None, "")."""
+    with open(path, "r", encoding="utf-8", errors="replace") as fh:
+        first = fh.readline()
+    if not first.startswith("# status:"):
+        return None, ""
+    status, _, message = first[len("# status:"):].strip().partition(";")
+    return status.strip(), message.strip()
 
 
 def _text(value) -> str:
