@@ -281,3 +281,19 @@ def test_examples_slider_crank_and_flyball_run(tmp_path, capsys):
                                                str(tmp_path / "k.csv")]) == 0
     out = capsys.readouterr().out
     assert "d(output)/d(mass)" in out and "sleeve" in out
+
+
+def test_docs_page_examples_run(monkeypatch):
+    """The Python blocks of docs/sweeps.md run, and the page's claim holds (about 1e-11..1e-9)."""
+    import re
+    root = EXAMPLES.parent
+    monkeypatch.chdir(root)
+    blocks = re.findall(r"```python\n(.*?)```", (root / "docs" / "sweeps.md").read_text(),
+                        re.S)
+    assert len(blocks) == 2
+    namespace = {}
+    for code in blocks:
+        exec(compile(code, "docs/sweeps.md", "exec"), namespace)
+    rel = namespace["ds"]["period(rod.wx)"].values / namespace["exact"] - 1
+    assert np.all(np.abs(rel) < 1e-8)
+    assert (namespace["fd"]["status"] == "success").all()

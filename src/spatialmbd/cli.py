@@ -884,6 +884,17 @@ def build_parser() -> argparse.ArgumentParser:
 # ----------------------------------------------------------------------------------------------
 # entry point
 # ----------------------------------------------------------------------------------------------
+def _warm_batch():
+    from . import models
+    from .io import Analysis
+    from .sweep.batch import simulate_batch
+    pendulum = models.pendulum_ch15().compile()
+    for integrator in ("rk45", "rk4"):
+        simulate_batch([pendulum], Analysis(t_end=1e-3, output_step=1e-3, method="standard",
+                                            integrator=integrator, step=1e-3 if integrator ==
+                                            "rk4" else None))
+
+
 def cmd_warmup(args) -> int:
     """Compile every kernel now (each method, the integrators' fused stages, kinematics, the
     force elements), so that later runs start at once."""
@@ -902,6 +913,7 @@ def cmd_warmup(args) -> int:
             fly, 1e-3, method=m, integrator="rk45", output_step=1e-3)))
     steps.append(("fixed-step and implicit integrators", lambda: [
         simulate(fly, 2e-3, integrator=i, step=1e-3) for i in ("rk4", "bdf4")]))
+    steps.append(("batch engine of sweeps", _warm_batch))                  # issue 15
     with compile_notice(force=not warm and not args.quiet, every=10.0):
         for k, (what, run) in enumerate(steps):
             if not args.quiet:
