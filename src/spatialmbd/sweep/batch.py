@@ -39,7 +39,8 @@ import numpy as np
 
 from ..dynamics import system as cs
 from ..errors import ModelError
-from ..integrators.runge_kutta_adaptive import DOPRI_AB, DOPRI_C, dopri_error, dopri_interpolate
+from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
+                                                dopri_interpolate)
 from ..jit import njit
 
 try:
@@ -179,7 +180,7 @@ def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_step
             if hs < h_min:
                 return UNDERFLOW, t
             t_new = t_end if hs == t_end - t else t + hs
-            done = cs.stages_standard(t, y, hs, DOPRI_AB, DOPRI_C, K, 1, 7, y_new, t_new,
+            done = cs.stages_standard(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, K, 1, 7, y_new, t_new,
                                       F, I, W, mp)
             counters[0] += 6
             if done < 7:
