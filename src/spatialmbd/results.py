@@ -8,7 +8,6 @@ lam follows the convention of dynamics/eom.py: D^T lam are the reaction forces o
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 

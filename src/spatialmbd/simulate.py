@@ -28,7 +28,7 @@ from .budget import Budget, BudgetGuard, check_fixed_steps, check_outputs
 from .dynamics import EquationsOfMotion, get_method
 from .dynamics import system as cs
 from .dynamics.correction import correct_initial_conditions, hold_mask
-from .errors import ModelError, SimulationError, SpatialMBDError
+from .errors import ModelError, SpatialMBDError
 from .integrators import get_integrator
 from .integrators.base import ODEProblem, check_finite
 from .kinematics import mobility

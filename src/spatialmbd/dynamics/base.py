@@ -13,7 +13,7 @@ side, :meth:`Method.kernels`, which ``simulate`` uses; a method without one runs
 from __future__ import annotations
 
 import abc
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar, Optional
 
 import numpy as np

@@ -21,7 +21,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..assembly import ConstraintValues
-from ..state import BodyState
 from .system import System, mass_apply
 
 

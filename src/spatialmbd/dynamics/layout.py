@@ -63,38 +63,6 @@ KFIELDS = (("blkpos", "I", 3), ("rowblk", "I", 2), ("K_Cp", "I", 1), ("K_Ci", "I
 KSys = namedtuple("KSys", [f[0] for f in KFIELDS])
 
 
-def pack(fields, arrays: dict):
-    """(F, I, W): the arrays of ``fields`` in three flat buffers; I starts with the header
-    (offset and three dimensions per field)."""
-    nf = len(fields)
-    header = np.zeros(4 * nf, dtype=np.int64)
-    chunks = {"F": [], "I": [], "W": []}
-    sizes = {"F": 0, "I": 4 * nf, "W": 0}
-    for k, (name, buf, ndim) in enumerate(fields):
-        a = np.asarray(arrays[name])
-        if a.ndim != ndim:
-            raise ValueError(f"field {name}: expected {ndim} dimensions, got shape {a.shape}")
-        header[4 * k] = sizes[buf]
-        header[4 * k + 1:4 * k + 1 + ndim] = a.shape
-        chunks[buf].append(a.ravel())
-        sizes[buf] += a.size
-    F = np.concatenate(chunks["F"]).astype(float) if chunks["F"] else np.zeros(0)
-    I = np.concatenate([header] + chunks["I"]).astype(np.int64)
-    W = np.concatenate(chunks["W"]).astype(float) if chunks["W"] else np.zeros(0)
-    return np.ascontiguousarray(F), np.ascontiguousarray(I), np.ascontiguousarray(W)
-
-
-def field_view(fields, F, I, W, name):
-    """A NumPy view of one field (Python side)."""
-    k = [f[0] for f in fields].index(name)
-    _, buf, ndim = fields[k]
-    o = I[4 * k]
-    shape = tuple(int(x) for x in I[4 * k + 1:4 * k + 1 + ndim])
-    B = {"F": F, "I": I, "W": W}[buf]
-    return B[o:o + int(np.prod(shape))].reshape(shape)
-
-
-
 #: the views generated for each pack: (function, namedtuple, its fields, index of the first
 #: field in the pack's header, buffer names in the generated code)
 VIEWS = (("body_views", "Body", BODY_FIELDS, 0, ("F", "I", "W")),

@@ -41,9 +41,8 @@ from . import sparse as spc
 
 # --------------------------------------------------------------------------------- layout
 # The packed buffers and their compiled views are declared once, in :mod:`.layout`.
-from .layout import (BODY_FIELDS, CONS_FIELDS, FIELDS, KFIELDS, SCHUR_FIELDS, Body, Cons,  # noqa
-                     KSys, Schur, bare, body_views, cons_views, field_view, force_views, pack,
-                     schur_views, unpack_k)
+from .layout import (FIELDS, KFIELDS, body_views, cons_views, field_view, force_views,  # noqa: F401
+                     pack, schur_views, unpack_k)
 
 
 # --------------------------------------------------------------------------------- helpers

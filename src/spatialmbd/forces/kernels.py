@@ -22,7 +22,6 @@ from .. import jit
 from ..constraints.kernels import JointRows
 from ..jit import njit
 from .base import FORCE_TYPES
-from .kernel_tools import add_wrench  # noqa: F401  (re-exported for force modules)
 
 
 def _dispatch_source(kinds) -> str:

@@ -46,7 +46,7 @@ def _vector(S, G, k):
 
 @njit
 def kernel_point_force(S, G, k, g, energy, power, D):
-    r, A, rdot, omega = S[0], S[1], S[2], S[3]
+    A, rdot, omega = S[1], S[2], S[3]
     b = G.bi[k]
     f = _vector(S, G, k)
     s = rotate(A, b, G.s_i[k, 0], G.s_i[k, 1], G.s_i[k, 2])

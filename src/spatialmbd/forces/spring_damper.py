@@ -82,7 +82,6 @@ class SpringDamper(ForceType):
 
     @classmethod
     def build(cls, specs, ctx):
-        from ..rotations import A_from_p
         s_i, s_j, l0 = [], [], []
         for s in specs:
             pi = local_point(s, ctx.builder, s.params["body_i"], "point_i")

@@ -13,7 +13,7 @@ Every check names the element, the offending value and the fix, and raises
 from __future__ import annotations
 
 import math
-from typing import Any, Iterable, Optional
+from typing import Iterable, Optional
 
 import numpy as np
 
