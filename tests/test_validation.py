@@ -218,21 +218,54 @@ def test_reference_data_ship_inside_the_package():
             assert any(Path(rel).match(p) for p in patterns), rel
 
 
-@pytest.mark.slow
-def test_validate_passes_from_an_installed_wheel(tmp_path):
-    """`spatialmbd validate` in a fresh virtual environment holding only the built wheel."""
+def _wheel_venv(tmp_path):
+    """A fresh virtual environment (reusing the installed dependencies) holding only the wheel
+    built from this source tree: what a regular, non-editable `pip install` gives."""
     import subprocess
     import sys
     import spatialmbd
     root = Path(spatialmbd.__file__).resolve().parents[2]
     subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w",
-                    str(tmp_path / "whl"), str(root)], check=True)
+                    str(tmp_path / "whl"), str(root)], check=True, capture_output=True)
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)],
                    check=True)
     py = venv / "bin" / "python"
     wheel = next((tmp_path / "whl").glob("*.whl"))
-    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True)
+    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", str(wheel)],
+                   check=True, capture_output=True)
+    return py
+
+
+def test_validation_data_work_from_an_installed_wheel(tmp_path):
+    """From a regular install (outside the source tree): the reference data are found and two
+    validation cases pass (uncompiled, so the new install does not compile the kernels)."""
+    import os
+    import subprocess
+    py = _wheel_venv(tmp_path)
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    env.pop("PYTHONPATH", None)
+    probe = ("import spatialmbd, spatialmbd.validation.core as c, pathlib;"
+             "from spatialmbd.validation.adams import read_table;"
+             "assert 'site-packages' in spatialmbd.__file__, spatialmbd.__file__;"
+             "c.references()['adams'];"
+             "t, v, _ = read_table(c.adams_dir() / 'Revolute_Case01_ADAMS_Pos.txt');"
+             "assert len(t) == 501; print('ok')")
+    out = subprocess.run([str(py), "-c", probe], cwd=tmp_path, env=env, capture_output=True,
+                         text=True)
+    assert out.returncode == 0 and "ok" in out.stdout, out.stderr[-2000:]
+    out = subprocess.run([str(py), "-m", "spatialmbd", "validate", "slider_crank_kinematics",
+                          "heavy_top"], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    assert "all 2 validation cases passed" in out.stdout
+
+
+@pytest.mark.slow
+def test_validate_passes_from_an_installed_wheel(tmp_path):
+    """`spatialmbd validate` (all cases, compiled) in a fresh virtual environment holding only
+    the built wheel."""
+    import subprocess
+    py = _wheel_venv(tmp_path)
     out = subprocess.run([str(py), "-m", "spatialmbd", "validate"], cwd=tmp_path,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
