@@ -70,6 +70,12 @@ def test_other_encodings_are_named_and_utf8_required(tmp_path, encoding, words):
     assert words in problem and "must be UTF-8" in problem and problem.startswith("line ")
 
 
+def test_ascii_utf16_without_bom_is_named(tmp_path):
+    (problem,) = problems_of(PENDULUM.read_text(encoding="utf-8").encode("utf-16-le"),
+                             tmp_path)
+    assert "UTF-16 or UTF-32 without a byte-order mark" in problem and "UTF-8" in problem
+
+
 def test_binary_junk_names_line_and_character(tmp_path):
     (problem,) = problems_of("spatialmbd: 1\nname: a\x00b\n", tmp_path)
     assert problem.startswith("line 2, column 8") and "U+0000" in problem

@@ -1420,6 +1420,12 @@ def _decode(raw: bytes, source) -> str:
                 raise ModelFileError([f"byte {exc.start}: the file starts with a {label} "
                                       f"byte-order mark but is not valid {label} ({exc.reason})"
                                       "; save it as UTF-8"], source) from None
+    head = raw[:4096]
+    if head and head.count(0) > len(head) // 4:      # ASCII text in UTF-16/32 is valid UTF-8
+        raise ModelFileError([f"line 1, column 1: the file has {raw.count(0):,} zero bytes; it "
+                              "looks like UTF-16 or UTF-32 without a byte-order mark. Model "
+                              "files must be UTF-8 (UTF-16 is read with a byte-order mark): "
+                              "save the file as UTF-8"], source)
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
