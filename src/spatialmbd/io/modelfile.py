@@ -146,6 +146,7 @@ class _Problems:
     def __init__(self, lines: Optional[dict] = None):
         self.items: list = []
         self.lines = lines or {}
+        self.range_paths: list = []
 
     def __len__(self):
         return len(self.items)
@@ -154,9 +155,10 @@ class _Problems:
         self.items.append((tuple(path), str(message), line))
 
     def flagged(self, path) -> bool:
-        """Whether a problem was recorded at ``path`` or inside it (e.g. a range error)."""
+        """Whether a range error (:func:`_range_checks`) was recorded at ``path`` or inside
+        it: the builder's checks of that element are then skipped."""
         n = len(path)
-        return any(p[:n] == tuple(path) for p, _, _ in self.items)
+        return any(p[:n] == tuple(path) for p in self.range_paths)
 
     def line_of(self, path):
         path = tuple(str(p) if not isinstance(p, int) else p for p in path)
@@ -818,6 +820,8 @@ def _range_checks(P, data) -> None:
             size = abs(float(value))
             what = {"number": "a number", "inertia": "an inertia",
                     "angular_velocity": "an angular velocity"}.get(kind, f"a {kind}")
+            if size > high or size < low:
+                P.range_paths.append(tuple(path))
             if size > high:
                 P.add(path, f"{_short(value)}{' ' + unit if unit else ''} is out of range for "
                             f"{what} (|x| <= {high:g}{' ' + unit if unit else ''}); check the "
