@@ -70,6 +70,12 @@ def test_other_encodings_are_named_and_utf8_required(tmp_path, encoding, words):
     assert words in problem and "must be UTF-8" in problem and problem.startswith("line ")
 
 
+def test_ascii_utf16_without_bom_is_named(tmp_path):
+    (problem,) = problems_of(PENDULUM.read_text(encoding="utf-8").encode("utf-16-le"),
+                             tmp_path)
+    assert "UTF-16 or UTF-32 without a byte-order mark" in problem and "UTF-8" in problem
+
+
 def test_binary_junk_names_line_and_character(tmp_path):
     (problem,) = problems_of("spatialmbd: 1\nname: a\x00b\n", tmp_path)
     assert problem.startswith("line 2, column 8") and "U+0000" in problem
@@ -131,7 +137,7 @@ def test_huge_integers_and_file_size(tmp_path, monkeypatch):
     (("gravity", 2), 1e300, "out of range for a gravity"),
     (("bodies", 0, "position", 0), 1e300, "out of range for a length"),
     (("bodies", 0, "mass"), 5e-324, "too small for a mass"),
-    (("bodies", 0, "inertia", 0), 1e300, "out of range for a inertia"),
+    (("bodies", 0, "inertia", 0), 1e300, "out of range for an inertia"),
     (("bodies", 0, "name"), ["a", "b"], "expected a body name"),
     (("joints", 0, "type"), {"x": 1}, "unknown joint type"),
     (("joints", 0, "body_i"), ["ground"], "expected the name of a body"),
@@ -153,6 +159,13 @@ def test_absurd_driver_coefficients_are_range_errors():
     problems = problems_of(data)
     assert any(p.startswith("drivers[0].law.coefficients[1]") and "out of range" in p
                for p in problems)
+
+
+def test_extreme_values_do_not_reach_the_builder_checks():
+    data = pendulum_dict()
+    data["bodies"][0]["inertia"] = [6.7e-05, 1e308, 0.08]     # eigvalsh failed on this
+    (problem,) = problems_of(data)
+    assert problem.startswith("bodies[0].inertia[1]: 1e+308 kg m^2 is out of range")
 
 
 def test_principal_inertias_violating_the_triangle_inequality_are_an_error():

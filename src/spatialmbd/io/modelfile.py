@@ -91,6 +91,8 @@ _BODY_FIELDS = {"r": ("position",), "rdot": ("velocity",), "omega": ("angular_ve
 _COLOR = re.compile(r"^#[0-9a-fA-F]{6}$")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _EPS = np.finfo(float).eps
+#: what the builder's checks may raise on extreme values (recorded as problems at their place)
+_BUILD_ERRORS = (ModelError, ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError)
 
 
 # ============================================================================ errors
@@ -144,12 +146,19 @@ class _Problems:
     def __init__(self, lines: Optional[dict] = None):
         self.items: list = []
         self.lines = lines or {}
+        self.range_paths: list = []
 
     def __len__(self):
         return len(self.items)
 
     def add(self, path, message: str, line: Optional[int] = None) -> None:
         self.items.append((tuple(path), str(message), line))
+
+    def flagged(self, path) -> bool:
+        """Whether a range error (:func:`_range_checks`) was recorded at ``path`` or inside
+        it: the builder's checks of that element are then skipped."""
+        n = len(path)
+        return any(p[:n] == tuple(path) for p in self.range_paths)
 
     def line_of(self, path):
         path = tuple(str(p) if not isinstance(p, int) else p for p in path)
@@ -386,7 +395,7 @@ def _density_body(P, path, d: dict) -> dict:
     try:
         mass, inertia = body_mass_properties(d["shapes"], float(d["density"]),
                                              f"bodies[{d.get('name')!r}]")
-    except ModelError as exc:
+    except _BUILD_ERRORS as exc:
         P.add(path, str(exc))
         return d
     out = {k: v for k, v in d.items() if k != "density"}
@@ -443,7 +452,7 @@ def _law(P, path, value):
         return None
     try:
         return make_law(dict(value))
-    except ModelError as exc:
+    except _BUILD_ERRORS as exc:
         P.add(path, str(exc))
         return None
 
@@ -809,7 +818,10 @@ def _range_checks(P, data) -> None:
         elif _is_number(value) and _finite(value) and value != 0:
             low, high, unit = RANGES[kind]
             size = abs(float(value))
-            what = {"number": "a number"}.get(kind, f"a {kind.replace('_', ' ')}")
+            what = {"number": "a number", "inertia": "an inertia",
+                    "angular_velocity": "an angular velocity"}.get(kind, f"a {kind}")
+            if size > high or size < low:
+                P.range_paths.append(tuple(path))
             if size > high:
                 P.add(path, f"{_short(value)}{' ' + unit if unit else ''} is out of range for "
                             f"{what} (|x| <= {high:g}{' ' + unit if unit else ''}); check the "
@@ -945,7 +957,7 @@ def _parse(P, data, default_name="model"):
                 _shape(P, path + ("shapes", k), s)
         if "color" in d:
             _color(P, path + ("color",), d["color"])
-        if len(P) != n0 or not complete:
+        if len(P) != n0 or P.flagged(path) or not complete:
             continue
         kwargs = dict(r=d.get("position", (0.0, 0.0, 0.0)),
                       rdot=d.get("velocity", (0.0, 0.0, 0.0)),
@@ -966,14 +978,14 @@ def _parse(P, data, default_name="model"):
         for check in checks:
             try:
                 check()
-            except ModelError as exc:
+            except _BUILD_ERRORS as exc:
                 _relabel(P, path, label, str(exc), fields)
                 failed = True
         if failed:
             continue
         try:
             b.add_body(d["name"], d["mass"], d["inertia"], **kwargs)
-        except ModelError as exc:
+        except _BUILD_ERRORS as exc:
             _relabel(P, path, label, str(exc), fields)
             continue
         if "p" in orient:
@@ -1013,12 +1025,12 @@ def _parse(P, data, default_name="model"):
                 if par.name in d and _number(P, path + (par.name,), d[par.name],
                                              positive=par.positive):
                     params[par.name] = d[par.name]
-        if len(P) != n0 or not complete or \
+        if len(P) != n0 or P.flagged(path) or not complete or \
                 not {d["body_i"], d["body_j"]} <= ok_bodies | {GROUND}:
             continue        # problems here, or in a body it joins (reported there)
         try:
             b.add_joint(d["type"], d["name"], d["body_i"], d["body_j"], **params, **geometry)
-        except ModelError as exc:
+        except _BUILD_ERRORS as exc:
             _relabel(P, path, f"joints[{d['name']!r}]", str(exc))
             continue
         ok_joints.add(d["name"])
@@ -1061,7 +1073,7 @@ def _parse(P, data, default_name="model"):
                 if key in d:
                     P.add(path + (key,), "applies to coordinate drivers only")
         law = _law(P, path + ("law",), d["law"]) if "law" in d else None
-        if len(P) != n0 or not complete:
+        if len(P) != n0 or P.flagged(path) or not complete:
             continue
         if (d.get("joint") is not None and d["joint"] not in ok_joints) or \
                 (d.get("body") is not None and d["body"] not in ok_bodies):
@@ -1069,7 +1081,7 @@ def _parse(P, data, default_name="model"):
         try:
             b.add_driver(kind, d["name"], law, joint=d.get("joint"), body=d.get("body"),
                          coordinate=d.get("coordinate"))
-        except ModelError as exc:
+        except _BUILD_ERRORS as exc:
             _relabel(P, path, f"drivers[{d['name']!r}]", str(exc))
 
     # ------------------------------------------------------------------ forces
@@ -1133,11 +1145,11 @@ def _parse(P, data, default_name="model"):
                 else:
                     _number(P, where, val)
             params[key] = val
-        if len(P) != n0 or not complete or not refs_ok:
+        if len(P) != n0 or P.flagged(path) or not complete or not refs_ok:
             continue
         try:
             b.add_force(ftype, d["name"], **params)
-        except ModelError as exc:
+        except _BUILD_ERRORS as exc:
             _relabel(P, path, f"forces[{d['name']!r}]", str(exc))
 
     # ------------------------------------------------------------------ ground shapes
@@ -1171,7 +1183,7 @@ def _parse_outputs_section(P, data) -> list:
             continue
         try:
             out.append(Output.from_dict(item).to_dict())
-        except ModelError as exc:
+        except _BUILD_ERRORS as exc:
             P.add(("outputs", k), str(exc))
     return out
 
@@ -1420,6 +1432,12 @@ def _decode(raw: bytes, source) -> str:
                 raise ModelFileError([f"byte {exc.start}: the file starts with a {label} "
                                       f"byte-order mark but is not valid {label} ({exc.reason})"
                                       "; save it as UTF-8"], source) from None
+    head = raw[:4096]
+    if head and head.count(0) > len(head) // 4:      # ASCII text in UTF-16/32 is valid UTF-8
+        raise ModelFileError([f"line 1, column 1: the file has {raw.count(0):,} zero bytes; it "
+                              "looks like UTF-16 or UTF-32 without a byte-order mark. Model "
+                              "files must be UTF-8 (UTF-16 is read with a byte-order mark): "
+                              "save the file as UTF-8"], source)
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -1508,6 +1526,11 @@ def load_model(path_or_dict) -> tuple[Model, Analysis]:
     except ModelError as exc:
         source = None if isinstance(path_or_dict, dict) else path_or_dict
         raise ModelFileError([str(exc)], source) from None
+    except _BUILD_ERRORS as exc:        # numerical trouble with extreme (but in-range) values
+        source = None if isinstance(path_or_dict, dict) else path_or_dict
+        raise ModelFileError([f"(top level): the model cannot be compiled: "
+                              f"{type(exc).__name__}: {exc}; check extreme values"],
+                             source) from None
     if analysis is not None and analysis.outputs:
         from ..outputs import parse_outputs
         try:
