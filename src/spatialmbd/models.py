@@ -466,10 +466,13 @@ EXAMPLES.update({
                                       method={"name": "projection"},
                                       integrator={"name": "rk45", "rtol": 1e-9,
                                                   "atol": 1e-11})),
+    # rtol 1e-8: it passes the 14 flat (singular) positions of its 10 s; at 1e-9 a step
+    # lands within round-off of one, where the multipliers are ill-determined, and the step
+    # control stalls there (the failure is diagnosed); the error is set by the passages
     "n_four_bar": (n_four_bar, {"n": 2},
                    dict(type="dynamic", t_end=10.0, output_step=0.01,
                         method={"name": "projection"},
-                        integrator={"name": "rk45", "rtol": 1e-9, "atol": 1e-11})),
+                        integrator={"name": "rk45", "rtol": 1e-8, "atol": 1e-10})),
     "flyball_governor": (flyball_governor, {},
                          dict(type="dynamic", t_end=10.0, output_step=0.01,
                               method={"name": "projection"},
