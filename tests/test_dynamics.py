@@ -195,3 +195,17 @@ def test_results_table_columns():
                 "energy.error"):
         assert col in df.columns
     assert len(df) == 3
+
+
+def test_a_method_instance_holds_no_state_between_runs():
+    """The augmented Lagrangian's iteration count goes into the results of each run, and a
+    second run with the same method instance starts from the configured settings."""
+    from spatialmbd.dynamics.augmented_lagrangian import AugmentedLagrangian
+    model = models.slider_crank(driven=False).compile()
+    meth = AugmentedLagrangian(alpha=1e6)
+    a = simulate(model, 0.05, method=meth, output_step=0.01)
+    meth.alpha = 123.0                                # as an adaptation would leave it
+    b = simulate(model, 0.05, method=meth, output_step=0.01)
+    assert a.counters["method_iterations"] > 0
+    assert a.counters["method_iterations"] == b.counters["method_iterations"]
+    assert np.array_equal(a.q, b.q) and meth.alpha == 1e6

@@ -168,3 +168,33 @@ def test_one_model_in_two_threads_gives_identical_results():
         assert runs[key].success
         assert np.array_equal(runs[key].q, ref.q), key
         assert np.array_equal(runs[key].lam, ref.lam), key
+
+
+def test_the_model_holds_no_workspace_and_kinematics_runs_in_threads():
+    """Workspaces live in Data (one per thread unless make_data gives one explicitly): after
+    analyses in two threads, neither the Model nor its element groups carry buffers, and each
+    thread's kinematics equals the serial result."""
+    from spatialmbd.kinematics import kinematic_analysis
+    from spatialmbd.model import make_data
+    from spatialmbd.model.data import thread_data
+    model = models.slider_crank(crank_speed=6.0).compile()
+    t = np.linspace(0.0, 1.0, 41)
+    ref = kinematic_analysis(model, t)
+    out = {}
+
+    def run(k):
+        out[k] = kinematic_analysis(model, t)
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(3)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    for k in range(3):
+        assert np.array_equal(out[k].q, ref.q) and np.array_equal(out[k].vdot, ref.vdot)
+    simulate(model, 0.05, output_step=0.01)
+    derived = {"n_eq", "inertia_inverse", "equation_labels", "group_offsets"}
+    assert set(vars(model)) - {f for f in model.__dataclass_fields__} <= derived
+    for group in model.constraint_groups + model.force_groups:
+        assert not [k for k in vars(group) if k.startswith("_") and "table" in k or k == "_last"]
+    a, b = make_data(model), make_data(model)
+    assert a.assembler is not b.assembler and thread_data(model) is thread_data(model)

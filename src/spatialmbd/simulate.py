@@ -219,7 +219,7 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         messages.append(res.message)
     results = Results.from_integration(
         model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
-        message=res.message, counters=res.counters.as_dict(), wall_time=wall,
+        message=res.message, counters=_counters(res, meth), wall_time=wall,
         correction=correction, redundant_joints=redundant_joints, messages=messages,
         settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
                       method=meth.name, method_options=meth.parameters(),
@@ -229,6 +229,15 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                       for e in res.events]
     return results
+
+
+def _counters(res, meth) -> dict:
+    """The integrator's counters, and the inner iterations of an iterative method (the
+    augmented Lagrangian): per run, in the results, not on the method."""
+    counters = res.counters.as_dict()
+    if getattr(meth, "iterate", False):
+        counters["method_iterations"] = int(getattr(meth, "total_iterations", 0))
+    return counters
 
 
 def _state_events(events, nb):

@@ -16,6 +16,8 @@ law class) and reach the compiled kernels as the table column ``law`` = (f, f', 
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 
 import numpy as np
 
@@ -60,6 +62,9 @@ def kernel_coordinate(S, G, k, row, out):
     _put(out, row, value, G.law, k, quad)
 
 
+_LAST = threading.local()
+
+
 class _Driver(ConstraintType):
     rheonomic = True
     n_eq = 1
@@ -71,14 +76,19 @@ class _Driver(ConstraintType):
         self.coordinate = None if coordinate is None else np.asarray(coordinate, dtype=np.intp)
 
     def law_values(self, t: float) -> np.ndarray:
-        """(n, 3) f, f', f'' at t (the last time is remembered: analyses evaluate the
-        constraints several times at one instant)."""
-        last = self.__dict__.get("_last")
+        """(n, 3) f, f', f'' at t (read only). The last time is remembered per thread
+        (analyses evaluate the constraints several times at one instant); nothing is stored
+        on the group."""
+        registry = getattr(_LAST, "registry", None)
+        if registry is None:
+            registry = _LAST.registry = weakref.WeakKeyDictionary()
+        last = registry.get(self)
         if last is not None and last[0] == t:
             return last[1]
         out = np.empty((self.n, 3))
         out[:, 0], out[:, 1], out[:, 2] = self._lawset(t)
-        self._last = (t, out)
+        out.setflags(write=False)
+        registry[self] = (t, out)
         return out
 
 

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import threading
+import weakref
 from collections import namedtuple
 
 import numpy as np
@@ -154,11 +156,18 @@ class JointTable:
             setter(t)
 
 
+_TABLES = threading.local()
+
+
 def _table(group) -> JointTable:
-    table = group.__dict__.get("_joint_table")
+    """The group's own evaluation table, one per thread (its law buffer is written on every
+    evaluation); nothing is stored on the group."""
+    registry = getattr(_TABLES, "registry", None)
+    if registry is None:
+        registry = _TABLES.registry = weakref.WeakKeyDictionary()
+    table = registry.get(group)
     if table is None:
-        table = JointTable([group], [0])
-        group.__dict__["_joint_table"] = table
+        table = registry[group] = JointTable([group], [0])
     return table
 
 

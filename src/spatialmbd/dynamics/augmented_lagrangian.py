@@ -60,8 +60,15 @@ class AugmentedLagrangian(_PenaltyBase):
         the standard method leaves them out of its multiplier solve: along a redundant
         direction D has a tiny but non-zero singular value (round-off, or a mechanism near a
         special position), so M + alpha D^T D barely contracts there and the iteration (12.17)
-        stalls (the Bricard mechanism). Their multipliers are 0."""
+        stalls (the Bricard mechanism). Their multipliers are 0.
+
+        Every run starts from the configured settings and counters: an adaptation of alpha
+        or max_iterations in one run (see :meth:`status`) does not carry into the next."""
         super().setup(eom, redundant_rows)
+        self.alpha, self.max_iterations = self._alpha0, self._iterations0
+        self.total_iterations = 0
+        self.adaptations = []
+        self.singular_instants = 0
         self._drop = None if redundant_rows is None or not len(redundant_rows) else \
             [int(r) for r in redundant_rows]
         eom.system.drop_penalty_rows(self._drop)

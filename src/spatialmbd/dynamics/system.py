@@ -746,7 +746,8 @@ class System:
     def for_model(cls, model, keep=None) -> "System":
         """A System of the model with its own work arrays; the static part (packed model,
         patterns, symbolic factorisations) is built once per model and kept rows."""
-        cache = model.assembler.__dict__.setdefault("_systems", {})
+        from ..model.data import thread_data
+        cache = thread_data(model).systems
         key = None if keep is None else tuple(np.asarray(keep).tolist())
         proto = cache.get(key)
         if proto is None:

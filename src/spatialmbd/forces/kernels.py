@@ -16,6 +16,9 @@ groups of a model; the Python methods of a group (``evaluate``, ``potential_ener
 """
 from __future__ import annotations
 
+import threading
+import weakref
+
 import numpy as np
 
 from .. import jit
@@ -97,11 +100,17 @@ class ForceTable:
             law[sl] = g.law_values(t)
 
 
+_TABLES = threading.local()
+
+
 def evaluate_group(group, state, t: float):
     """(g (nb+1, 6), energy (n,), power (n,)) of one compiled force group at (state, t)."""
-    table = group.__dict__.get("_table")
+    registry = getattr(_TABLES, "registry", None)      # one table per group and thread
+    if registry is None:
+        registry = _TABLES.registry = weakref.WeakKeyDictionary()
+    table = registry.get(group)
     if table is None:
-        table = group.__dict__["_table"] = ForceTable([group], only_compiled=False)
+        table = registry[group] = ForceTable([group], only_compiled=False)
     table.set_time(t)
     nb1 = state.r.shape[0]
     g = np.zeros(6 * nb1)

@@ -1,5 +1,6 @@
-"""Model description: the mutable builder and the frozen compiled model."""
+"""Model description: the mutable builder, the frozen compiled model and its workspaces."""
 from .builder import ModelBuilder
+from .data import Data, make_data
 from .model import Model
 
-__all__ = ["ModelBuilder", "Model"]
+__all__ = ["ModelBuilder", "Model", "Data", "make_data"]

@@ -100,10 +100,12 @@ class Model:
         """Gruebler-Kutzbach count n_DoF = 6 n_b - m, Eq. (2.1) (drivers counted as equations)."""
         return 6 * self.nb - self.n_eq
 
-    @cached_property
+    @property
     def assembler(self):
-        from ..assembly import Assembler
-        return Assembler(self)
+        """The constraint assembler of this thread's workspace (:func:`.data.thread_data`):
+        the Model itself holds no workspace."""
+        from .data import thread_data
+        return thread_data(self).assembler
 
     def summary(self) -> str:
         lines = [f"model {self.name!r}: {self.nb} bodies, {self.n_eq} constraint equations"]
