@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """spatialmbd against its pip-installable peers, in one run, at equal accuracy.
 
-    OPENBLAS_NUM_THREADS=1 PYTHONPATH=src python bench/peers.py          # N = 1, 4, 16
+    OPENBLAS_NUM_THREADS=1 PYTHONPATH=src python bench/peers.py        # N = 1, 4, 16, 64
     python bench/peers.py --sizes 1 4                                    # fewer problems
 
 Peers (each optional: a peer that does not import is reported as missing):
@@ -74,7 +74,7 @@ MIN_SPREAD = 0.3       # s, repetitions of a timed run span at least this long
 STEPS = [0.1, 0.05, 0.04, 0.025, 0.02, 0.0125, 0.01, 0.008, 0.005, 0.004, 0.0025, 0.002,
          0.00125, 0.001, 5e-4, 2.5e-4]
 #: relative tolerances swept (absolute = 1e-2 x relative), coarse to fine: half decades
-TOLS = [10.0**(-k / 2) for k in range(8, 25)]
+TOLS = [10.0**(-k / 2) for k in range(6, 25)]
 MAX_RUN = 3.0          # s, a single run slower than this is not repeated; sweeps stop past it
 
 
@@ -115,7 +115,10 @@ def com_error(com, ref):
 def sweep(label, settings, run, ref):
     """Run coarse -> fine; stop at the first setting reaching TARGET (or past MAX_RUN)."""
     rows = []
-    for s in settings:
+    for i, s in enumerate(settings):
+        if rows and "wall" in rows[-1] and rows[-1]["wall"] * settings[i - 1] / s > 3 * MAX_RUN:
+            log(f"    {label}: {s} skipped (estimated > {3 * MAX_RUN:g} s)")
+            break
         try:
             wall, com, extra = run(s)
         except Exception as exc:              # a setting that fails (e.g. Newton) is reported
@@ -556,7 +559,7 @@ def tables(results, meta, rhs_only=None):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[1, 4, 16])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1, 4, 16, 64])
     ap.add_argument("--rhs-sizes", type=int, nargs="*", default=[64, 256],
                     help="further chain sizes for the per-RHS cost only")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "peers"))
@@ -574,7 +577,7 @@ def main(argv=None):
                 versions=", ".join(f"{k} {v}" for k, v in versions.items()))
     results = [problem(n) for n in args.sizes]
     rhs_only = {}
-    for n in args.rhs_sizes:
+    for n in (k for k in args.rhs_sizes if k not in args.sizes):
         log(f"\n== per-RHS cost, revolute chain N = {n}")
         rhs_only[n] = rhs_costs(n, models.chain(n, "revolute").compile())
     meta["machine"] += f" -> {os.getloadavg()[0]:.1f} at the end"
