@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from spatialmbd import guards
+from spatialmbd import guards, models
 from spatialmbd.budget import MAX_FIXED_STEPS, Budget
 from spatialmbd.errors import ModelError
 from spatialmbd.io import results_io
@@ -552,3 +552,11 @@ def test_the_worked_example_of_docs_reliability_runs(tmp_path, monkeypatch, caps
     assert "takes 1e+09 steps" in out and "did you mean 'alpha'" in out
     assert namespace["res"].status == "budget"
     assert (tmp_path / "run.csv").read_text().startswith("# status: budget")
+
+
+def test_output_times_before_the_start_are_a_model_error():
+    """Found by the long API fuzz run: t_eval starting before t0 reached the integrator's
+    ValueError."""
+    model = models.pendulum_ch15().compile()
+    with pytest.raises(ModelError, match="before the start time t0"):
+        simulate(model, 0.001, t0=0.02, t_eval=[0.0, 0.01])

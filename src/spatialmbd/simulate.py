@@ -55,6 +55,9 @@ def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float =
         if t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)) \
                 or np.any(np.diff(t_eval) <= 0):
             raise ModelError("t_eval must be a strictly increasing 1-D array of finite times")
+        if t_eval[0] < t0:
+            raise ModelError(f"t_eval starts at {t_eval[0]:g} s, before the start time t0 = "
+                             f"{t0:g} s; give output times from t0 on (or an earlier t0)")
         check_outputs(t_eval.size, float(t_eval[-1] - t_eval[0]), None, max_outputs,
                       n_state, n_eq)
         return t_eval
