@@ -26,6 +26,8 @@ only, < 0 falling ones, 0 both.
 """
 from __future__ import annotations
 
+import abc
+
 import math
 from dataclasses import dataclass, field
 from typing import Callable, List, Optional
@@ -64,7 +66,7 @@ class Step:
     h: Optional[float] = None
 
 
-class Stepper:
+class Stepper(abc.ABC):
     """One stepping formula. Subclasses implement ``start`` and ``step`` (and ``accept`` when
     they carry state from step to step: FSAL derivatives, a multistep history, a Jacobian).
 
@@ -77,13 +79,13 @@ class Stepper:
     self_controlled = False
     projects_state = True
 
+    @abc.abstractmethod
     def start(self, problem, t0: float, y0: np.ndarray, t_end: float, counters) -> Optional[float]:
         """Prepare from (t0, y0); return the first step size (s) or None (the controller's)."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def step(self, t: float, y: np.ndarray, t_new: Optional[float]) -> Step:
         """Attempt one step from (t, y) to t_new; return a :class:`Step` (raise on errors)."""
-        raise NotImplementedError
 
     def accept(self, step: Step, y_final: np.ndarray) -> None:
         """The driver accepted ``step``; ``y_final`` is its (projected) end state."""
