@@ -493,49 +493,10 @@ class Analysis:
     frame_rate: Optional[list] = None
 
     def run(self, model, progress=False, budget=None):
-        """Results (dynamic) or KinematicResults (kinematic) of this analysis of ``model``;
-        the result objects of spatialmbd.analyses for the engineering types. budget: a
-        :class:`spatialmbd.budget.Budget` (or dict) for dynamic runs."""
-        if self.type in ENGINEERING_TYPES:
-            return self._run_engineering(model)
-        if self.type == "kinematic":
-            from ..kinematics import kinematic_analysis
-            from ..simulate import output_times
-            from ..outputs import parse_outputs
-            requests = parse_outputs(model, self.outputs)
-            res = kinematic_analysis(model, output_times(self.t_end, self.output_step,
-                                                         self.t_eval))
-            res.output_requests = requests
-            return res
-        if self.type != "dynamic":
-            raise ModelError(f"analysis type {self.type!r} is not one of {ANALYSIS_TYPES}")
-        from ..simulate import simulate
-        return simulate(model, self.t_end, method=self.method, integrator=self.integrator,
-                        output_step=self.output_step, t_eval=self.t_eval, step=self.step,
-                        rtol=self.rtol, atol=self.atol,
-                        method_options=dict(self.method_options),
-                        integrator_options=dict(self.integrator_options),
-                        correct_initial=self.correct_initial, hold=self.hold,
-                        progress=progress, outputs=list(self.outputs), budget=budget)
-
-    def _run_engineering(self, model):
-        """inverse: InverseDynamicsResults; static: StaticResults at ``time``; quasi_static:
-        QuasiStaticResults; modal: ModalResults about the static equilibrium at ``time`` (or,
-        with ``steady``, about the model's initial state as a steady motion)."""
-        from .. import analyses
-        from ..simulate import output_times
-        if self.type == "static":
-            return analyses.static_equilibrium(model, t=self.time)
-        if self.type == "modal":
-            if self.steady:
-                return analyses.modes(model, t=self.time, steady=True,
-                                      frame_rate=self.frame_rate)
-            sol = analyses.static_equilibrium(model, t=self.time)
-            return analyses.modes(model, sol.q, np.zeros(6 * model.nb), self.time)
-        times = output_times(self.t_end, self.output_step, self.t_eval)
-        if self.type == "inverse":
-            return analyses.inverse_dynamics(model, times)
-        return analyses.quasi_static(model, times)
+        """Run this analysis of ``model`` (:func:`spatialmbd.analyses.run.run_analysis`: the
+        IO package only describes analyses; running them belongs to the analyses layer)."""
+        from ..analyses.run import run_analysis
+        return run_analysis(self, model, progress=progress, budget=budget)
 
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""
