@@ -1,0 +1,286 @@
+"""Writing model files: builder or model -> the schema's dictionary -> YAML or JSON text,
+exactly (floats with repr precision, so model -> file -> model gives bit-identical specs),
+atomically. The schema and the reader are in :mod:`.modelfile`."""
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import re
+import tempfile
+from pathlib import Path
+from typing import Optional, Union
+
+import numpy as np
+import yaml
+
+from ..errors import ModelError
+from ..model import Model, ModelBuilder
+from .modelfile import (GEOMETRY_KEYS, JSON_SUFFIXES, SCHEMA_VERSION, YAML_SUFFIXES, _FLOAT_RE,
+                        _FLOAT_TAG, Analysis, ModelFileError, _Problems, _render)
+
+# ============================================================================ builder -> file
+def _plain(value, P=None, path=()):
+    """``value`` as plain Python types (dict, list, str, float, int, bool, None)."""
+    from ..motion import MotionLaw
+    if isinstance(value, MotionLaw):
+        try:
+            value = value.to_dict()
+        except ModelError as exc:
+            if P is None:
+                raise
+            P.add(path, f"{exc}; use a law of type constant, constant_velocity, harmonic, "
+                        "smooth_step or polynomial, or add this element in Python after "
+                        "loading")
+            return None
+        return _plain(value, P, path)
+    if isinstance(value, dict):
+        return {str(k): _plain(v, P, tuple(path) + (str(k),)) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, P, tuple(path) + (k,)) for k, v in enumerate(value)]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist(), P, path)
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (str, bool, int, float)):
+        return value
+    what = "a Python callable" if callable(value) else f"a {type(value).__name__}"
+    if P is None:
+        raise ModelFileError([f"{_render(path)}: {what} cannot be written to a model file"])
+    P.add(path, f"{what} cannot be written to a model file")
+    return None
+
+
+def _floats(arr) -> list:
+    return [float(x) for x in np.asarray(arr, dtype=float).reshape(-1)]
+
+
+def _is_default(arr, default) -> bool:
+    arr = np.asarray(arr, dtype=float)
+    return bool(np.array_equal(arr, default) and not np.any(np.signbit(arr) & (arr == 0)))
+
+
+def _state(obj) -> dict:
+    if isinstance(obj, Model):
+        return obj.builder_state
+    if isinstance(obj, ModelBuilder):
+        return dict(name=obj.name, gravity=obj.gravity, bodies=obj.bodies, joints=obj.joints,
+                    drivers=obj.drivers, forces=obj.forces, ground_shapes=obj.ground_shapes)
+    raise TypeError(f"expected a Model or a ModelBuilder, not {type(obj).__name__}")
+
+
+def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None) -> dict:
+    """The model file content of a Model or ModelBuilder (and an analysis) as a plain dict.
+
+    Raises ModelFileError listing everything that cannot be written (user motion laws, user
+    forces, other Python objects).
+    """
+    s = _state(model_or_builder)
+    P = _Problems()
+    out: dict = {"spatialmbd": SCHEMA_VERSION, "name": s["name"],
+                 "gravity": _floats(s["gravity"])}
+    bodies = []
+    for spec in s["bodies"].values():
+        d: dict = {"name": spec.name, "mass": float(spec.mass)}
+        J = np.asarray(spec.inertia, dtype=float)
+        off = J - np.diag(np.diag(J))
+        d["inertia"] = _floats(np.diag(J)) if not np.any(off) else \
+            [_floats(row) for row in J]
+        d["position"] = _floats(spec.r)
+        if not _is_default(spec.p, [1.0, 0.0, 0.0, 0.0]):
+            d["orientation"] = {"euler_parameters": _floats(spec.p)}
+        if not _is_default(spec.rdot, [0.0, 0.0, 0.0]):
+            d["velocity"] = _floats(spec.rdot)
+        if not _is_default(spec.omega, [0.0, 0.0, 0.0]):
+            d["angular_velocity"] = _floats(spec.omega)
+        if spec.points:
+            d["points"] = {str(k): _floats(v) for k, v in spec.points.items()}
+        if spec.vectors:
+            d["vectors"] = {str(k): _floats(v) for k, v in spec.vectors.items()}
+        if spec.shapes:
+            d["shapes"] = _plain(list(spec.shapes), P, ("bodies", len(bodies), "shapes"))
+        if spec.color is not None:
+            d["color"] = spec.color
+        bodies.append(d)
+    out["bodies"] = bodies
+    joints = []
+    for spec in s["joints"].values():
+        d = {"name": spec.name, "type": spec.type, "body_i": spec.body_i,
+             "body_j": spec.body_j}
+        order = list(GEOMETRY_KEYS) + [k for k in spec.geometry if k not in GEOMETRY_KEYS]
+        for key in order:
+            if key in spec.geometry and spec.geometry[key] is not None:
+                val = spec.geometry[key]
+                d[key] = val if isinstance(val, str) else _floats(val)
+        for key, value in spec.params.items():
+            d[key] = float(value)
+        joints.append(d)
+    if joints:
+        out["joints"] = joints
+    drivers = []
+    for k, spec in enumerate(s["drivers"].values()):
+        d = {"name": spec.name, "kind": spec.kind}
+        for key in ("joint", "body", "coordinate"):
+            if getattr(spec, key) is not None:
+                d[key] = getattr(spec, key)
+        d["law"] = _plain(spec.law, P, ("drivers", k, "law"))
+        drivers.append(d)
+    if drivers:
+        out["drivers"] = drivers
+    from ..forces import FORCE_TYPES
+    forces = []
+    for k, spec in enumerate(s["forces"].values()):
+        if not FORCE_TYPES[spec.type].in_files:
+            P.add(("forces", k), f"force {spec.name!r} is a {spec.type} force (it holds Python "
+                                 "objects) and cannot be written to a model file; add it in "
+                                 f"Python with ModelBuilder.add_force({spec.type!r}, ...) after "
+                                 "load_builder()")
+            continue
+        d = {"name": spec.name, "type": spec.type}
+        d.update({key: _plain(val, P, ("forces", k, key))
+                  for key, val in spec.params.items() if val is not None})
+        forces.append(d)
+    if forces:
+        out["forces"] = forces
+    if s["ground_shapes"]:
+        out["ground_shapes"] = _plain(list(s["ground_shapes"]), P, ("ground_shapes",))
+    if len(P):
+        raise P.error(heading=f"model {s['name']!r} cannot be written to a model file")
+    if analysis is not None:
+        outputs = list(getattr(analysis, "outputs", None) or [])
+        if isinstance(analysis, dict):
+            analysis = Analysis.from_dict(analysis, list(s["bodies"]))
+        elif not isinstance(analysis, Analysis):
+            raise TypeError(f"analysis must be an Analysis, a dict or None, not "
+                            f"{type(analysis).__name__}")
+        else:
+            analysis = Analysis.from_dict(analysis.to_dict(), list(s["bodies"]))
+        out["analysis"] = analysis.to_dict()
+        if outputs:
+            out["outputs"] = _plain(outputs)
+    return out
+
+
+class _Dumper(yaml.SafeDumper):
+    """Indented block sequences; strings that any YAML reader could take for a number are
+    quoted (the resolvers of YAML 1.1 and of our 1.2-style loader)."""
+
+    def increase_indent(self, flow=False, indentless=False):
+        return super().increase_indent(flow, False)
+
+
+_Dumper.yaml_implicit_resolvers = {
+    ch: list(resolvers) for ch, resolvers in yaml.SafeDumper.yaml_implicit_resolvers.items()}
+_Dumper.add_implicit_resolver(_FLOAT_TAG, _FLOAT_RE, list("-+0123456789."))
+
+
+class _Block(dict):
+    """A mapping always written in block style (sections and elements, for readability)."""
+
+
+_Dumper.add_representer(_Block, lambda dumper, data: dumper.represent_mapping(
+    "tag:yaml.org,2002:map", data.items(), flow_style=False))
+
+
+def _yaml_text(data: dict, header: Optional[str] = None) -> str:
+    data = dict(data)
+    for key in ("bodies", "joints", "drivers", "forces"):
+        if key in data:
+            data[key] = [_Block(d) for d in data[key]]
+    if "analysis" in data:
+        data["analysis"] = _Block(data["analysis"])
+    text = yaml.dump(data, Dumper=_Dumper, sort_keys=False, default_flow_style=None,
+                     allow_unicode=True, width=100)
+    lines = text.splitlines()
+    out = []
+    if header:
+        out.extend(("# " + ln).rstrip() for ln in header.strip("\n").splitlines())
+    for k, ln in enumerate(lines):
+        if k and re.match(r"^[A-Za-z_][\w-]*:", ln):
+            out.append("")          # a blank line between top-level sections
+        out.append(ln)
+    return "\n".join(out) + "\n"
+
+
+def _json_value(value, indent: int) -> str:
+    pad = " " * indent
+    if isinstance(value, dict):
+        if not value:
+            return "{}"
+        if all(not isinstance(v, (dict, list)) for v in value.values()) and len(value) <= 6:
+            return "{" + ", ".join(f"{json.dumps(k)}: {json.dumps(v, allow_nan=False)}"
+                                   for k, v in value.items()) + "}"
+        rows = [f"{pad}  {json.dumps(k)}: {_json_value(v, indent + 2)}"
+                for k, v in value.items()]
+        return "{\n" + ",\n".join(rows) + "\n" + pad + "}"
+    if isinstance(value, list):
+        if all(not isinstance(v, (dict, list)) for v in value):
+            return "[" + ", ".join(json.dumps(v, allow_nan=False) for v in value) + "]"
+        rows = [f"{pad}  {_json_value(v, indent + 2)}" for v in value]
+        return "[\n" + ",\n".join(rows) + "\n" + pad + "]"
+    return json.dumps(value, allow_nan=False)
+
+
+def save_model(model_or_builder, path, analysis=None, *, header: Optional[str] = None) -> Path:
+    """Write a Model or ModelBuilder (and an analysis) to ``path``: YAML (.yaml/.yml) or JSON
+    (.json). header: a comment written at the top of YAML files (ignored for JSON).
+
+    The file is written atomically (a temporary file in the same directory, then os.replace).
+    Raises ModelFileError if the model holds Python callables (user laws, user forces).
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in YAML_SUFFIXES + JSON_SUFFIXES:
+        raise ModelFileError([f"unsupported file extension {path.suffix!r}; use .yaml, .yml "
+                              "or .json"], path)
+    data = model_to_dict(model_or_builder, analysis)
+    try:
+        text = _yaml_text(data, header) if suffix in YAML_SUFFIXES else \
+            _json_value(data, 0) + "\n"
+    except ValueError as exc:       # NaN / inf in JSON
+        raise ModelFileError([str(exc)], path,
+                             heading=f"cannot write {str(path)!r}") from None
+    directory = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        try:
+            mode = os.stat(path).st_mode & 0o777 if path.exists() else 0o644
+            os.chmod(tmp, mode)
+        except OSError:
+            pass
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+# ============================================================================ examples
+def write_examples(directory) -> list:
+    """Write examples/<name>.yaml for every entry of spatialmbd.models.EXAMPLES."""
+    import textwrap
+
+    from .. import models
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, (function, kwargs, analysis) in models.EXAMPLES.items():
+        doc = (inspect.getdoc(function) or name).split("\n\n")[0].replace("\n", " ")
+        call = f"spatialmbd.models.{function.__name__}(" + ", ".join(
+            f"{k}={v!r}" for k, v in kwargs.items()) + ")"
+        header = "\n".join(textwrap.wrap(f"{name}: {doc}", 94)) + (
+            f"\nWritten by spatialmbd.io.write_examples() from {call}\n"
+            "with the analysis suggested in models.EXAMPLES. SI units; schema: "
+            "docs/model-file.md.\n"
+            f"Run:  model, analysis = spatialmbd.io.load_model(\"examples/{name}.yaml\")\n"
+            "      results = analysis.run(model)")
+        written.append(save_model(function(**kwargs), directory / f"{name}.yaml", analysis,
+                                  header=header))
+    return written
