@@ -46,9 +46,13 @@ def _angular_momentum(res, point=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 
 def _energy_checks(case, res, what="energy balance (T + V - W_nc)(t) - (T + V)(0)"):
+    """Energy balance within the integration bound. Its scale s is the first-order size of the
+    energy error a relative state error rtol causes: T and the elastic energy are quadratic in
+    the state (dT = 2 T dv/v), the gravitational energy and the work integral linear, so
+    s = 2 max T + max |V_g| + 2 max V_e + max |W_nc|."""
     en = res.energy()
-    scale = float(np.abs(en["kinetic"]).max() + np.abs(en["gravitational"]).max()
-                  + np.abs(en["elastic"]).max() + np.abs(en["work_nonconservative"]).max())
+    scale = float(2 * np.abs(en["kinetic"]).max() + np.abs(en["gravitational"]).max()
+                  + 2 * np.abs(en["elastic"]).max() + np.abs(en["work_nonconservative"]).max())
     return compare_history(case, what, en["error"], np.zeros_like(en["error"]),
                            integration_bound(res, scale), bound_basis(res, scale, "J"), "J",
                            t=res.t)
