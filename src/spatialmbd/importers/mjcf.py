@@ -146,7 +146,17 @@ def _geom_shapes(mujoco, m, d, g, R, c) -> list:
     if kind == G.mjGEOM_BOX or kind == G.mjGEOM_ELLIPSOID:
         return [dict(type="box", size=(2 * size[:3]).tolist(), center=_clean(center),
                      p=_clean(p_from_A(Rg)), **extra)]
-    # meshes, hfields, sdf: their bounding box in the geom frame
+    if kind == G.mjGEOM_MESH and int(m.geom_dataid[g]) >= 0:
+        # the compiled mesh, in the geom frame (MuJoCo re-centres it on the geom's pos/quat)
+        k = int(m.geom_dataid[g])
+        v0, nv = int(m.mesh_vertadr[k]), int(m.mesh_vertnum[k])
+        f0, nf = int(m.mesh_faceadr[k]), int(m.mesh_facenum[k])
+        vertices = np.asarray(m.mesh_vert[v0:v0 + nv], dtype=float)
+        faces = np.asarray(m.mesh_face[f0:f0 + nf], dtype=np.int64)
+        return [dict(type="mesh", vertices=[_clean(v) for v in vertices],
+                     faces=faces.tolist(), center=_clean(center), p=_clean(p_from_A(Rg)),
+                     **extra)]
+    # hfields, sdf: their bounding box in the geom frame
     aabb = np.asarray(m.geom_aabb[g], dtype=float)
     half = np.maximum(aabb[3:], 1e-6)
     return [dict(type="box", size=(2 * half).tolist(), center=_clean(center + Rg @ aabb[:3]),

@@ -14,6 +14,7 @@ bit-identical specs, initial state and constraint values.
 """
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import difflib
 import inspect
@@ -69,9 +70,12 @@ DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
 SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
               "cylinder": ("type", "radius", "length", "center", "axis", "color"),
               "sphere": ("type", "radius", "center", "color"),
-              "capsule": ("type", "radius", "length", "center", "axis", "color")}
+              "capsule": ("type", "radius", "length", "center", "axis", "color"),
+              "mesh": ("type", "file", "vertices", "faces", "scale", "center", "p", "color")}
 SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",),
-                  "capsule": ("radius", "length")}
+                  "capsule": ("radius", "length"), "mesh": ()}
+#: the directory of the model file being read: mesh files are relative to it
+_BASE_DIR: contextvars.ContextVar = contextvars.ContextVar("model_file_dir", default=None)
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
                  "correct_initial", "hold", "steady", "time", "frame_rate")
 DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
@@ -373,7 +377,27 @@ def _shape(P, path, value) -> bool:
                 P.add(tuple(path) + (key,), "zero-length vector; give a direction")
     if "color" in value:
         _color(P, tuple(path) + ("color",), value["color"])
+    if kind == "mesh" and len(P) == n0:
+        _mesh(P, tuple(path), value)
     return len(P) == n0
+
+
+def _mesh(P, path, value) -> None:
+    """A mesh shape: its file (relative to the model file) found and read, or its inline
+    vertices and faces checked (spatialmbd.meshes); the file becomes an absolute path."""
+    from ..meshes import mesh_arrays, resolve_file
+    try:
+        if isinstance(value.get("file"), str):
+            value["file"] = resolve_file(value["file"], _BASE_DIR.get())
+        elif "file" in value:
+            P.add(path + ("file",), f"expected a file name, got {_describe(value['file'])}")
+            return
+        mesh_arrays(value, _render(path))
+    except ModelError as exc:
+        message = str(exc)
+        prefix = _render(path)
+        P.add(path, message[len(prefix):].lstrip(".: ") if message.startswith(prefix)
+              else message)
 
 
 def _density_body(P, path, d: dict) -> dict:
@@ -1470,7 +1494,11 @@ def load_builder(path_or_dict) -> tuple[ModelBuilder, Analysis]:
     for where, line in duplicates:
         P.add(where, f"duplicate key {where[-1]!r} (each key may appear once per mapping)",
               line)
-    builder, analysis = _parse(P, data, default_name)
+    token = _BASE_DIR.set(None if source is None else str(Path(source).resolve().parent))
+    try:
+        builder, analysis = _parse(P, data, default_name)
+    finally:
+        _BASE_DIR.reset(token)
     if len(P):
         raise P.error(source)
     return builder, analysis
