@@ -1,7 +1,16 @@
 """Session set-up: the numerical kernels are compiled (or loaded from the cache) once, before
 the first test, so that ``pytest --durations`` shows what each test costs rather than which
-test happened to compile a kernel first."""
+test happened to compile a kernel first.
+
+The tests mirror the package: tests/<subpackage>/ holds the tests of spatialmbd.<subpackage>,
+tests/ itself those of the top-level modules and of the whole (docs, examples, CLI). Shared test
+helpers (fd_check, fuzz_cases) live in tests/ and are importable from every directory."""
+import os
+import sys
+
 import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
 @pytest.fixture(scope="session", autouse=True)

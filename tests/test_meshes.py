@@ -1,6 +1,6 @@
 """Mesh shapes (spatialmbd.meshes): model files (relative files, inline triangles, errors),
 mass properties of a closed mesh against the closed form, MJCF meshes imported as meshes, and
-both renderers drawing a mesh (headless Chromium: tests/test_viewer.py)."""
+both renderers drawing a mesh (headless Chromium: tests/viewer/test_viewer.py)."""
 from __future__ import annotations
 
 import numpy as np

@@ -20,7 +20,7 @@ from spatialmbd.motion import (Constant, ConstantVelocity, Harmonic, MotionLaw, 
                                SmoothStep, UserFunction)
 from spatialmbd.results import Results
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES_DIR = ROOT / "examples"
 FORMATS = ("yaml", "json")
 

@@ -30,7 +30,7 @@ from spatialmbd.importers.mjcf import MJCFImportWarning  # noqa: E402
 from spatialmbd.io.modelfile import load_builder, model_to_dict, save_model  # noqa: E402
 from spatialmbd.simulate import simulate  # noqa: E402
 
-EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples" / "mjcf"
+EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples" / "mjcf"
 H_MUJOCO = 1e-4
 
 

@@ -136,7 +136,7 @@ def test_docs_worked_example_runs():
     import contextlib
     import io
     from pathlib import Path
-    text = (Path(__file__).resolve().parents[1] / "docs" / "integrators.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "integrators.md").read_text()
     code = text.split("```python\n", 1)[1].split("```", 1)[0]
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
