@@ -1006,9 +1006,19 @@ def _parse(P, data, default_name="model"):
         params = {}
         if isinstance(d.get("type"), str) and d["type"] in JOINT_TYPES:
             for par in JOINT_TYPES[d["type"]].parameters:
-                if par.name in d and _number(P, path + (par.name,), d[par.name],
-                                             positive=par.positive):
-                    params[par.name] = d[par.name]
+                if par.name not in d:
+                    continue
+                value = d[par.name]
+                if par.size > 1:                 # a list of 1 to size numbers
+                    if not isinstance(value, list) or not 1 <= len(value) <= par.size:
+                        P.add(path + (par.name,), f"expected a list of 1 to {par.size} "
+                                                  f"numbers ({par.unit}), got "
+                                                  f"{_describe(value)}")
+                    elif all([_number(P, path + (par.name, k), x, positive=par.positive)
+                              for k, x in enumerate(value)]):
+                        params[par.name] = value
+                elif _number(P, path + (par.name,), value, positive=par.positive):
+                    params[par.name] = value
         if len(P) != n0 or P.flagged(path) or not complete or \
                 not {d["body_i"], d["body_j"]} <= ok_bodies | {GROUND}:
             continue        # problems here, or in a body it joins (reported there)

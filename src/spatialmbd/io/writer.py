@@ -112,8 +112,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
             if key in spec.geometry and spec.geometry[key] is not None:
                 val = spec.geometry[key]
                 d[key] = val if isinstance(val, str) else _floats(val)
-        for key, value in spec.params.items():
-            d[key] = float(value)
+        for key, value in spec.params.items():              # a number, or a list of them
+            d[key] = _floats(value) if np.ndim(value) else float(value)
         joints.append(d)
     if joints:
         out["joints"] = joints
