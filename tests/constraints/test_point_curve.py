@@ -180,3 +180,105 @@ def test_builder_rejects_bad_lists():
     with pytest.raises(ModelError, match="1 to 64 numbers"):
         b.add_joint("point_on_cam", "c", "ground", "a", point=(0, 0, 0), axis=(0, 0, 1),
                     point2=(0.1, 0, 0), radii=[0.1] * 65)
+
+
+# ------------------------------------------------------------------------------ surfaces
+def _surface_group(rng):
+    cls = JOINT_TYPES["point_on_surface"]
+    geom = random_geometry(rng, len(PAIRS), 1)
+    params = []
+    for _ in PAIRS:
+        nx, ny = int(rng.integers(2, 6)), int(rng.integers(2, 6))
+        given = dict(x_start=rng.uniform(-2, 0), x_step=rng.uniform(0.3, 0.8),
+                     y_start=rng.uniform(-2, 0), y_step=rng.uniform(0.3, 0.8), nx=nx,
+                     heights=list(rng.normal(size=nx * ny)))
+        params.append(cls.resolve_parameters(given, None, None, "j"))
+    geom = JointGeometry(geom.s_i, geom.s_j, geom.R_i, geom.R_j, np.array(params))
+    return cls([f"s{k}" for k in range(len(PAIRS))], PAIRS[:, 0], PAIRS[:, 1], geom)
+
+
+def test_surface_kernel_matches_finite_differences():
+    rng = np.random.default_rng(zlib.crc32(b"point_on_surface"))
+    for _ in range(15):
+        group = _surface_group(rng)
+        q0, v = random_state(rng, 3)
+        e1, e2, scale = derivative_errors(group, q0, v, t0=0.0, h=1e-4)
+        assert e1 < 1e-8 * scale and e2 < 1e-6 * scale, (e1, e2, scale)
+
+
+def test_surface_spline_equals_scipy_tensor_product():
+    """The natural bicubic spline in moment form against nested SciPy natural splines (rows
+    along x, then along y), inside the grid and beyond its edges, with derivatives."""
+    from spatialmbd.constraints.point_curve import PointOnSurface, surface_eval
+    rng = np.random.default_rng(3)
+    nx, ny = 5, 4
+    xs, ys = -0.5 + 0.4 * np.arange(nx), 0.2 + 0.3 * np.arange(ny)
+    Z = rng.normal(size=(ny, nx))
+    P = PointOnSurface.resolve_parameters(dict(x_start=-0.5, x_step=0.4, y_start=0.2,
+                                               y_step=0.3, nx=nx, heights=list(Z.ravel())),
+                                          None, None, "s")
+    for x, y in rng.uniform([-0.8, 0.0], [1.5, 1.3], size=(25, 2)):
+        def along_y(order_x):
+            vals = [CubicSpline(xs, Z[j], bc_type="natural")(x, order_x)
+                    if xs[0] <= x <= xs[-1] else _linear(xs, Z[j], x, order_x)
+                    for j in range(ny)]
+            return vals
+        ref = {}
+        for ox in (0, 1, 2):
+            vals = along_y(ox)
+            for oy in (0, 1, 2):
+                if ox + oy <= 2:
+                    ref[ox, oy] = (CubicSpline(ys, vals, bc_type="natural")(y, oy)
+                                   if ys[0] <= y <= ys[-1] else _linear(ys, vals, y, oy))
+        h, hx, hy, hxx, hxy, hyy = surface_eval(P, x, y)
+        got = {(0, 0): h, (1, 0): hx, (0, 1): hy, (2, 0): hxx, (1, 1): hxy, (0, 2): hyy}
+        for key, value in got.items():
+            assert value == pytest.approx(ref[key], abs=1e-12), (x, y, key)
+
+
+def _linear(xs, vals, x, order):
+    """A natural spline beyond its ends: the end value and slope continued (order 0, 1, 2)."""
+    s = CubicSpline(xs, vals, bc_type="natural")
+    end = xs[0] if x < xs[0] else xs[-1]
+    return [s(end) + s(end, 1) * (x - end), s(end, 1), 0.0][order]
+
+
+def test_ball_in_a_bowl_oscillates_at_sqrt_g_h_xx():
+    """A particle on z = h(x, y) (h: x^2/2 + y^2 on a 7 x 7 grid) released at rest at
+    (0.02, 0): energy conserved, y stays 0 by symmetry, and x oscillates at omega^2 = g h_xx(0,
+    0) (the spline's own curvature, checked above against SciPy)."""
+    from spatialmbd.constraints.point_curve import PointOnSurface, surface_eval
+    g = 9.81
+    xs = np.linspace(-1, 1, 7)
+    X, Y = np.meshgrid(xs, xs)                         # rows at increasing y
+    heights = list((0.5 * X ** 2 + Y ** 2).ravel())
+    params = dict(x_start=-1.0, x_step=1 / 3, y_start=-1.0, y_step=1 / 3, nx=7, heights=heights)
+    P = PointOnSurface.resolve_parameters(params, None, None, "bowl")
+    x0 = 0.02
+    z0 = surface_eval(P, x0, 0.0)[0]
+    b = ModelBuilder("bowl", gravity=(0, 0, -g))
+    b.add_body("ball", 0.1, (1e-5, 1e-5, 1e-5), r=(x0, 0.0, z0))
+    b.add_joint("point_on_surface", "bowl", "ground", "ball", point=(0, 0, 0), axis=(0, 0, 1),
+                reference=(1, 0, 0), point2=(x0, 0.0, z0), **params)
+    res = simulate(b.compile(), 3.0, method="projection", rtol=1e-10, atol=1e-12,
+                   output_step=0.001)
+    assert res.success, res.message
+    assert np.abs(res.energy()["error"]).max() < 1e-9
+    assert np.abs(res.q[:, 0, 1]).max() < 1e-9
+    x = res.q[:, 0, 0]
+    cross = np.flatnonzero(np.sign(x[:-1]) != np.sign(x[1:]))     # every half period
+    tc = res.t[cross] - x[cross] * (res.t[cross + 1] - res.t[cross]) / (x[cross + 1] - x[cross])
+    assert len(tc) >= 3
+    hxx = surface_eval(P, 0.0, 0.0)[3]
+    assert 2 * np.diff(tc).mean() == pytest.approx(2 * np.pi / np.sqrt(g * hxx), rel=5e-3)
+
+
+def test_surface_grid_errors():
+    b = ModelBuilder("x")
+    b.add_body("a", 1.0, (1, 1, 1))
+    for nx, match in [(4, "do not make a grid"), (2.5, "do not make a grid"),
+                      (6, "at least 2 rows")]:
+        with pytest.raises(ModelError, match=match):
+            b.add_joint("point_on_surface", f"s{int(10 * nx)}", "ground", "a", point=(0, 0, 0),
+                        axis=(0, 0, 1), point2=(0, 0, 0), x_step=0.1, y_step=0.1, nx=nx,
+                        heights=[0.0] * 6)

@@ -1,4 +1,5 @@
-"""Point on a planar curve of another body: a follower on a cam profile, a bead on a wire.
+"""Point on a curve or a surface of another body: a follower on a cam, a bead on a wire, a
+ball on a height field.
 
 The text's ch. 7 names the "sliding joint", a point of body j moving along a curve (or surface)
 of body i, which brings the curve coordinate as an extra unknown (Adams' PTCV). Here the curve
@@ -35,6 +36,15 @@ block):
       H_yy = x^2 / rho^3 - r'' x^2 / rho^4 + 2 r' x y / rho^4,
       H_xy = -x y / rho^3 + r'' x y / rho^4 - r' (y^2 - x^2) / rho^4.
   One radius is a circle. The point must stay away from the profile's centre (rho > 0).
+
+The same construction gives a point on a surface, ``point_on_surface`` (Adams' PTSF), with one
+equation Phi = z - h(x, y), h a natural bicubic spline through ``heights`` on a regular grid
+(``nx`` values per row, rows at increasing y), in its moment form: the splines of the rows
+along x (of the heights and of their second derivatives in y), then along y. With the gradient
+(-h_x, -h_y, 1) and the Hessian -[h_ab]:
+
+    D = D_z - h_x D_x - h_y D_y,
+    gamma = -(z''_quad - h_x x''_quad - h_y y''_quad - [x' y'] [h_ab] [x' y']^T).
 
 ``point_on_curve`` has both equations (a bead on a wire). ``point_on_cam`` has only Phi_0: the
 point lies on the cam's flank, the profile swept along u (a point on that surface), because
@@ -103,21 +113,42 @@ def _piece(P, v0, m0, k0, k1, t, h):
 
 
 @njit
+def spline_eval(vals, moms, x0, h, x):
+    """Value, first and second derivative at x of the natural cubic spline with values
+    ``vals`` and second derivatives ``moms`` (1-D arrays of n >= 2) at x0 + k h, continued along
+    its end tangents outside [x0, x0 + (n - 1) h]."""
+    n = vals.size
+    u = (x - x0) / h
+    if u <= 0.0 or u >= n - 1:
+        k = 0 if u <= 0.0 else n - 2
+        t = 0.0 if u <= 0.0 else h
+        val, d1, d2 = _cubic(vals[k], vals[k + 1], moms[k], moms[k + 1], t, h)
+        end = x0 + (0.0 if u <= 0.0 else (n - 1) * h)
+        # beyond the ends: value and slope continued; the curvature term of the moment there
+        # (zero for a natural spline's values, not for derived arrays) is kept as well
+        dx = x - end
+        return val + d1 * dx + 0.5 * d2 * dx * dx, d1 + d2 * dx, d2
+    k = min(int(u), n - 2)
+    return _cubic(vals[k], vals[k + 1], moms[k], moms[k + 1], x - x0 - k * h, h)
+
+
+@njit
+def _cubic(y0, y1, M0, M1, t, h):
+    s = h - t
+    val = (M0 * s**3 + M1 * t**3) / (6.0 * h) + (y0 / h - M0 * h / 6.0) * s \
+        + (y1 / h - M1 * h / 6.0) * t
+    d1 = (-M0 * s * s + M1 * t * t) / (2.0 * h) - (y0 / h - M0 * h / 6.0) \
+        + (y1 / h - M1 * h / 6.0)
+    d2 = (M0 * s + M1 * t) / h
+    return val, d1, d2
+
+
+@njit
 def graph_eval(P, x):
     """h(x), h'(x), h''(x) of the point_on_curve spline (P: the parameter row)."""
-    x0, h, n = P[0], P[1], int(P[2])
+    n = int(P[2])
     v0, m0 = 3, 3 + MAX_KNOTS
-    if n == 1:
-        return P[v0], 0.0, 0.0
-    u = (x - x0) / h
-    if u <= 0.0:                                  # continued along the end tangents
-        val, d1, _ = _piece(P, v0, m0, 0, 1, 0.0, h)
-        return val + d1 * (x - x0), d1, 0.0
-    if u >= n - 1:
-        val, d1, _ = _piece(P, v0, m0, n - 2, n - 1, h, h)
-        return val + d1 * (x - x0 - (n - 1) * h), d1, 0.0
-    k = min(int(u), n - 2)
-    return _piece(P, v0, m0, k, k + 1, x - x0 - k * h, h)
+    return spline_eval(P[v0:v0 + n], P[m0:m0 + n], P[0], P[1], x)
 
 
 @njit
@@ -185,6 +216,47 @@ def cam_kernel(S, G, k, row, out):
     _curve_row(d, a, b, rho - r, fx, fy, hxx, hxy, hyy, row, out)
 
 
+@njit
+def surface_eval(P, x, y):
+    """h, h_x, h_y, h_xx, h_xy, h_yy of the point_on_surface bicubic spline at (x, y): splines
+    along x of every row (values and their y-moments), then along y (the tensor-product natural
+    spline in its moment form)."""
+    x0, hx, y0, hy, nx = P[0], P[1], P[2], P[3], int(P[4])
+    n = int(P[5])
+    ny = n // nx
+    v0 = 6
+    mx0, my0, mxy0 = v0 + MAX_KNOTS, v0 + 2 * MAX_KNOTS, v0 + 3 * MAX_KNOTS
+    G, G1, G2 = np.empty(ny), np.empty(ny), np.empty(ny)
+    H, H1, H2 = np.empty(ny), np.empty(ny), np.empty(ny)
+    for j in range(ny):
+        a, b = j * nx, (j + 1) * nx
+        G[j], G1[j], G2[j] = spline_eval(P[v0 + a:v0 + b], P[mx0 + a:mx0 + b], x0, hx, x)
+        H[j], H1[j], H2[j] = spline_eval(P[my0 + a:my0 + b], P[mxy0 + a:mxy0 + b], x0, hx, x)
+    h, hy_, hyy = spline_eval(G, H, y0, hy, y)
+    hx_, hxy, _ = spline_eval(G1, H1, y0, hy, y)
+    hxx, _, _ = spline_eval(G2, H2, y0, hy, y)
+    return h, hx_, hy_, hxx, hxy, hyy
+
+
+@njit
+def surface_kernel(S, G, k, row, out):
+    """Phi = z - h(x, y): D = D_z - h_x D_x - h_y D_y, gamma with the Hessian -[h_ab]."""
+    phi, D, nu, gamma = out
+    d, u, a, b = _plane_coordinates(S, G, k)
+    x, y, z = dot_value(a, d), dot_value(b, d), dot_value(u, d)
+    h, hx, hy, hxx, hxy, hyy = surface_eval(G.param[k], x, y)
+    xd, yd = dot_rate(a, d), dot_rate(b, d)
+    qx, qy, qz = -dot_gamma(a, d), -dot_gamma(b, d), -dot_gamma(u, d)
+    phi[row] = z - h
+    clear_row(D, row)
+    add_dot_row(u, d, 1.0, D, row)
+    add_dot_row(a, d, -hx, D, row)
+    add_dot_row(b, d, -hy, D, row)
+    nu[row] = 0.0
+    gamma[row] = -(qz - hx * qx - hy * qy
+                   - (hxx * xd * xd + 2.0 * hxy * xd * yd + hyy * yd * yd))
+
+
 # ------------------------------------------------------------------------------ types
 class _PlanarCurve(ConstraintType):
     n_eq = 2
@@ -242,6 +314,52 @@ class PointOnCam(_PlanarCurve):
         n = int(out[0])
         m0 = 1 + MAX_KNOTS
         out[m0:m0 + n] = periodic_spline_moments(out[1:1 + n], 2.0 * math.pi / n)
+        return out
+
+
+@register
+class PointOnSurface(ConstraintType):
+    """Point of body j on a surface z = h(x, y) of body i (a bicubic spline through heights on
+    a regular grid), in the axes of body i's joint triad (x along the reference, z along the
+    axis)."""
+
+    name = "point_on_surface"
+    aliases = ("ptsf", "point_surface")
+    n_eq = 1
+    eq_labels = ("surface",)
+    inputs = frozenset({"point", "axis", "point2"})
+    parameters = (Param("x_start", "m", "x of the first grid column", 0.0),
+                  Param("x_step", "m", "grid step along x", positive=True),
+                  Param("y_start", "m", "y of the first grid row", 0.0),
+                  Param("y_step", "m", "grid step along y", positive=True),
+                  Param("nx", "-", "grid points along x (the heights are given row by row, nx "
+                        "per row, rows at increasing y; at least 2 rows and columns)",
+                        positive=True),
+                  Param("heights", "m", f"heights z on the grid, row by row (at most "
+                        f"{MAX_KNOTS} values: a natural bicubic spline, continued along its "
+                        "edge tangent planes outside)", size=MAX_KNOTS))
+    kernel = staticmethod(surface_kernel)
+
+    @classmethod
+    def param_columns(cls) -> int:
+        return super().param_columns() + 3 * MAX_KNOTS   # moments in x, y and xy
+
+    @classmethod
+    def resolve_parameters(cls, given, P_i, P_j, what):
+        out = super().resolve_parameters(given, P_i, P_j, what)
+        nx, n = out[4], int(out[5])
+        if nx != int(nx) or nx < 2 or n % int(nx) or n // int(nx) < 2:
+            raise ModelError(f"{what}: {n} heights do not make a grid of nx = {nx:g} columns "
+                             "and at least 2 rows; give nx (an integer >= 2) dividing the "
+                             "number of heights")
+        nx = int(nx)
+        Z = out[6:6 + n].reshape(-1, nx)
+        Mx = np.array([natural_spline_moments(row, out[1]) for row in Z])
+        My = np.array([natural_spline_moments(col, out[3]) for col in Z.T]).T
+        Mxy = np.array([natural_spline_moments(row, out[1]) for row in My])
+        for k, M in enumerate((Mx, My, Mxy)):
+            start = 6 + (k + 1) * MAX_KNOTS
+            out[start:start + n] = M.ravel()
         return out
 
 
