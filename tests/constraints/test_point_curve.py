@@ -282,3 +282,17 @@ def test_surface_grid_errors():
             b.add_joint("point_on_surface", f"s{int(10 * nx)}", "ground", "a", point=(0, 0, 0),
                         axis=(0, 0, 1), point2=(0, 0, 0), x_step=0.1, y_step=0.1, nx=nx,
                         heights=[0.0] * 6)
+
+
+def test_normal_force_on_a_surface_carries_the_weight_at_rest():
+    """A particle resting at the bottom of a bowl: the surface pushes up with m g."""
+    xs = np.linspace(-1, 1, 5)
+    X, Y = np.meshgrid(xs, xs)
+    params = dict(x_start=-1.0, x_step=0.5, y_start=-1.0, y_step=0.5, nx=5,
+                  heights=list((X ** 2 + Y ** 2).ravel()))
+    b = ModelBuilder("rest", gravity=(0, 0, -9.81))
+    b.add_body("ball", 0.3, (1e-5, 1e-5, 1e-5), r=(0.0, 0.0, 0.0))
+    b.add_joint("point_on_surface", "bowl", "ground", "ball", point=(0, 0, 0), axis=(0, 0, 1),
+                reference=(1, 0, 0), point2=(0, 0, 0), **params)
+    res = simulate(b.compile(), 0.2, rtol=1e-10, atol=1e-12, output_step=0.05)
+    assert np.allclose(normal_force(res, "bowl"), 0.3 * 9.81, rtol=1e-9)

@@ -364,17 +364,19 @@ class PointOnSurface(ConstraintType):
 
 
 def curve_normal(group_or_model, joint: str, q: np.ndarray):
-    """Unit normal (global axes) of the curve of a point_on_curve / point_on_cam joint at the
-    follower point, for the state q (nb, 7) of a compiled model: the direction in which a
-    positive normal force pushes body j away from the curve's inside (f > 0 side)."""
+    """Unit normal (global axes) of the curve (or surface) of a point_on_curve / point_on_cam /
+    point_on_surface joint at the follower point, for the state q (nb, 7) of a compiled model:
+    the direction in which a positive normal force pushes body j away from the curve's inside
+    (the side f > 0: above the graph or the height field, outside the cam)."""
     from ..rotations import A_from_p
     model = group_or_model
+    kinds = ("point_on_curve", "point_on_cam", "point_on_surface")
     for g in model.constraint_groups:
-        if joint in getattr(g, "names", ()) and g.name in ("point_on_curve", "point_on_cam"):
+        if joint in getattr(g, "names", ()) and g.name in kinds:
             k = g.names.index(joint)
             break
     else:
-        raise ModelError(f"curve_normal: no point_on_curve / point_on_cam joint named {joint!r}")
+        raise ModelError(f"curve_normal: no {', '.join(kinds)} joint named {joint!r}")
     nb = model.nb
     bi, bj = int(g.body_i[k]), int(g.body_j[k])
     geo = g.geometry
@@ -386,6 +388,10 @@ def curve_normal(group_or_model, joint: str, q: np.ndarray):
     T = A_i @ geo.R_i[k]                          # columns u, a, b in global axes
     x, y = T[:, 1] @ d, T[:, 2] @ d
     P = geo.param[k]
+    if g.name == "point_on_surface":              # grad (z - h) = (-h_x, -h_y, 1)
+        _, hx, hy, _, _, _ = surface_eval(P, x, y)
+        n = T[:, 0] - hx * T[:, 1] - hy * T[:, 2]
+        return n / np.linalg.norm(n)
     if g.name == "point_on_curve":
         _, h1, _ = graph_eval(P, x)
         fx, fy = -h1, 1.0
@@ -399,7 +405,8 @@ def curve_normal(group_or_model, joint: str, q: np.ndarray):
 
 
 def normal_force(results, joint: str) -> np.ndarray:
-    """(nt,) force (N) the curve of a point_on_curve / point_on_cam joint exerts on the
+    """(nt,) force (N) the curve of a point_on_curve / point_on_cam / point_on_surface joint
+    exerts on the
     follower point along the curve's outward normal (:func:`curve_normal`): positive pushes the
     follower out of the profile (a contact can do that), negative pulls it in (a real follower
     would lift off there). ``results``: the Results of a run of the model."""
