@@ -191,13 +191,17 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if limits.active:
         callback = BudgetGuard(limits, callback)
         rhs, stages = _guarded(rhs, stages, callback)
+    integ_events = _state_events(events, nb)
+    contact_memory = _contact_memory(model, eom, compiled, t0, y0)
+    if contact_memory is not None:
+        integ_events = (integ_events or []) + contact_memory.events()
     start = time.perf_counter()
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
         problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
                              stages=stages, n_quadrature=1)   # W does not enter the rhs
         res = integ.integrate(problem, t0, y0, t_out, progress=callback,
-                              events=_state_events(events, nb), event_tol=event_tol)
+                              events=integ_events, event_tol=event_tol)
     finally:
         if hasattr(callback, "close"):
             callback.close()
@@ -231,7 +235,28 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     results.output_requests = requests
     results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                       for e in res.events]
+    results.contact_log = contact_memory.log if contact_memory is not None else []
     return results
+
+
+def _contact_memory(model, eom, compiled, t0, y0):
+    """The impact-velocity memory of the contact elements for this run (None without
+    contacts): restart events at every first touch (:mod:`.forces.contact.memory`)."""
+    from .forces.contact.memory import ContactMemory, contact_groups
+    if not contact_groups(model):
+        return None
+    if not compiled:
+        from .forces.contact.laws import C_LAW, HERTZ
+        hyst = [g.element[k] for g in contact_groups(model) for k in range(g.n)
+                if g.param[k, C_LAW] > HERTZ]
+        if hyst:
+            raise ModelError(f"forces[{hyst[0]!r}]: a hysteresis contact law needs the impact "
+                             "velocity, which only the compiled right-hand sides record; use a "
+                             "built-in method without solver='kkt'")
+        return None
+    memory = ContactMemory(model, eom.system)
+    memory.start(t0, y0)
+    return memory
 
 
 def _counters(res, meth) -> dict:
