@@ -325,6 +325,9 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                     progress(t_stop)
                 return
             if restart is not None:
+                if not selfc and t < restart.t < t_new:
+                    restart = _restep(stepper, problem, t, y, restart, t_end, counters,
+                                      project if project_steps else None)
                 evs[restart.index].restart(restart.t, restart.y)
                 # the step ends there; the controller's next step size still comes from the
                 # error of the whole step
@@ -351,6 +354,22 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             except AttributeError:
                 pass
         raise
+
+
+def _restep(stepper, problem, t, y, rec, t_end, counters, project):
+    """The state at a restart event by a step of the stepper from (t, y) to rec.t (shorter than
+    the accepted one, so at least as accurate): the dense output can be an order less accurate
+    than the step, and the run continues from this state. rec itself if the step fails."""
+    stepper.start(problem, t, y, t_end, counters)
+    st = stepper.step(t, y, rec.t)
+    if st.failed is not None or st.y_new is None or st.t_new != rec.t:
+        return rec
+    y_new = project(rec.t, st.y_new) if project is not None else st.y_new
+    if not np.all(np.isfinite(y_new)):
+        return rec
+    stepper.accept(st, y_new)
+    counters.steps += st.n_steps
+    return EventRecord(rec.t, y_new, rec.index, rec.name, rec.terminal)
 
 
 def _far_side(event, dense, te, t_new, g_old, xtol):
