@@ -236,3 +236,26 @@ def test_deep_interpenetration_at_start():
     with pytest.raises(ModelError, match=r"forces\['bad'\].*interpenetrate"):
         b.compile()
     add(builder(z=0.099)).compile()                   # shallow: fine
+
+
+def test_contact_outputs_and_columns(tmp_path):
+    """res.contacts() and the output columns (CSV through the outputs machinery) agree; the
+    impact velocity and the active flag follow the bounces."""
+    from spatialmbd.outputs import compute_outputs
+    model = ball(z0=0.2, law="hunt_crossley", stiffness=1e7, restitution=0.9)
+    res = simulate(model, 0.4, output_step=0.001, rtol=1e-9, atol=1e-11, outputs="forces")
+    c = res.contacts()
+    cols = compute_outputs(res)
+    assert np.array_equal(cols["c.normal_force"], c["c"]["normal_force"])
+    assert np.array_equal(cols["c.active"] > 0.5, c["c"]["active"])
+    assert np.array_equal(c["n_active"], c["c"]["active"].astype(int))
+    v0 = math.sqrt(2 * G * 0.1)
+    assert res.contact_log[0][2] == pytest.approx(v0, rel=1e-7)
+    after = res.t > res.contact_log[0][0]
+    assert np.allclose(c["c"]["impact_velocity"][after][:5], res.contact_log[0][2])
+    active = c["c"]["active"]
+    assert np.all(c["c"]["normal_force"][~active] == 0) and np.all(
+        c["c"]["normal_force"][active] >= 0)
+    assert np.allclose(c["c"]["penetration"][active], -c["c"]["gap"][active])
+    df = res.to_dataframe()
+    assert "c.normal_force" in df.columns
