@@ -194,7 +194,10 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     integ_events = _state_events(events, nb)
     contact_memory = _contact_memory(model, eom, compiled, t0, y0)
     if contact_memory is not None:
-        integ_events = (integ_events or []) + contact_memory.events()
+        from .integrators import Event
+        integ_events = (integ_events or []) + [
+            Event(gap, direction=-1.0, name=name, restart=touch, record=False)
+            for name, gap, touch in contact_memory.triggers()]
     start = time.perf_counter()
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it

@@ -300,9 +300,7 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                         restart = rec
                         t_stop = te
                         break
-                g_old = g_new
-                if restart is not None:   # later crossings are found again from there
-                    g_old = [float(e.function(restart.t, restart.y)) for e in evs]
+                g_at_t, g_old = g_old, g_new
             # ---------------------------------------------------------- outputs in (t, t_stop]
             while k_out < n_out and touts[k_out] <= t_stop:
                 to = touts[k_out]
@@ -327,8 +325,13 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             if restart is not None:
                 if not selfc and t < restart.t < t_new:
                     restart = _restep(stepper, problem, t, y, restart, t_end, counters,
-                                      project if project_steps else None)
+                                      project if project_steps else None, evs[restart.index],
+                                      g_at_t[restart.index], t_new, event_tol)
+                    if evs[restart.index].record:
+                        state.events[-1] = restart
                 evs[restart.index].restart(restart.t, restart.y)
+                # later crossings are found again from there
+                g_old = [float(e.function(restart.t, restart.y)) for e in evs]
                 # the step ends there; the controller's next step size still comes from the
                 # error of the whole step
                 t_new, y_new = restart.t, restart.y
@@ -356,20 +359,31 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
         raise
 
 
-def _restep(stepper, problem, t, y, rec, t_end, counters, project):
-    """The state at a restart event by a step of the stepper from (t, y) to rec.t (shorter than
-    the accepted one, so at least as accurate): the dense output can be an order less accurate
-    than the step, and the run continues from this state. rec itself if the step fails."""
-    stepper.start(problem, t, y, t_end, counters)
-    st = stepper.step(t, y, rec.t)
-    if st.failed is not None or st.y_new is None or st.t_new != rec.t:
-        return rec
-    y_new = project(rec.t, st.y_new) if project is not None else st.y_new
-    if not np.all(np.isfinite(y_new)):
-        return rec
-    stepper.accept(st, y_new)
-    counters.steps += st.n_steps
-    return EventRecord(rec.t, y_new, rec.index, rec.name, rec.terminal)
+def _restep(stepper, problem, t, y, rec, t_end, counters, project, event, g_old, t_new, xtol):
+    """The state at a restart event by a step of the stepper from (t, y) to the event time
+    (shorter than the accepted step, so at least as accurate): the dense output can be an
+    order less accurate than the step, and the run continues from this state. The time moves
+    on by xtol, 2 xtol, ... until the stepped state has crossed (so the event does not fire
+    again from there). rec itself (the dense output's state) if that fails."""
+    te, step = rec.t, max(xtol, 4.0 * EPS * abs(rec.t))
+    for _ in range(60):
+        stepper.start(problem, t, y, t_end, counters)
+        st = stepper.step(t, y, te)
+        if st.failed is not None or st.y_new is None or st.t_new != te:
+            break
+        y_new = project(te, st.y_new) if project is not None else st.y_new
+        if not np.all(np.isfinite(y_new)):
+            break
+        if _crossed(g_old, float(event.function(te, y_new)), event.direction):
+            stepper.accept(st, y_new)
+            counters.steps += st.n_steps
+            return EventRecord(te, y_new, rec.index, rec.name, rec.terminal)
+        te = min(te + step, t_new)
+        step *= 2.0
+        if te >= t_new:
+            break
+    stepper.start(problem, rec.t, rec.y, t_end, counters)
+    return rec
 
 
 def _far_side(event, dense, te, t_new, g_old, xtol):

@@ -65,8 +65,9 @@ class ContactMemory:
         self.flaw[row, 0] = v0
         self.log.append((float(t), int(row), float(v0)))
 
-    def events(self) -> list:
-        from ...integrators.driver import Event
+    def triggers(self) -> list:
+        """(name, gap (t, y) -> float, touch action (t, y)) of every contact instance: the
+        caller makes them restart events on the gap falling through 0."""
         out = []
         for n_slot, (g, s) in enumerate(self.slots):
             for k in range(g.n):
@@ -78,8 +79,7 @@ class ContactMemory:
                     d = self._all(t, np.array(y))[n_slot]
                     self._record(t, row, max(-d[k, 1], 0.0))
                     self._key = None
-                out.append(Event(gap, direction=-1.0, name=f"touch:{g.names[k]}",
-                                 restart=touch, record=False))
+                out.append((f"touch:{g.names[k]}", gap, touch))
         return out
 
 
