@@ -259,3 +259,60 @@ def test_contact_outputs_and_columns(tmp_path):
     assert np.allclose(c["c"]["penetration"][active], -c["c"]["gap"][active])
     df = res.to_dataframe()
     assert "c.normal_force" in df.columns
+
+
+def test_viscous_friction_decays_exponentially():
+    """Viscous friction only, c_v at each of the 4 closed vertex contacts:
+    m v' = -4 c_v v, v = v0 exp(-4 c_v t / m)."""
+    model = block(vx=1.0, friction="viscous", viscous=3.0)
+    res = simulate(model, 0.5, output_step=0.05, rtol=1e-10, atol=1e-12)
+    # (the friction acts hz below the centre of mass and tilts the block on its compliant
+    # contacts by ~1e-6 rad, a few 1e-6 of the velocity: the rigid closed form holds to that)
+    assert np.allclose(res.v[:, 0, 0], np.exp(-4 * 3.0 * res.t / 2.0), rtol=2e-5, atol=1e-8)
+
+
+def test_stribeck_static_holds_dynamic_does_not():
+    """tan(theta) between mu_dynamic and mu_static: from rest the block stays (creeps); launched
+    faster than the Stribeck velocity it slides on with g (sin - mu_d cos) (mu(s) -> mu_d)."""
+    th = math.radians(20.0)
+    gravity = (G * math.sin(th), 0, -G * math.cos(th))
+    fr = dict(friction="stribeck", mu_static=1.3 * math.tan(th), mu_dynamic=0.8 * math.tan(th),
+              stribeck_velocity=0.01, creep_velocity=1e-4)
+    rest = simulate(block(gravity=gravity, **fr), 0.5, output_step=0.05, rtol=1e-9, atol=1e-11)
+    assert abs(rest.q[-1, 0, 0]) < 1e-4
+    moving = simulate(block(gravity=gravity, vx=0.5, **fr), 0.5, output_step=0.05, rtol=1e-9,
+                      atol=1e-11)
+    a = G * (math.sin(th) - 0.8 * math.tan(th) * math.cos(th))
+    assert moving.v[-1, 0, 0] == pytest.approx(0.5 + a * 0.5, rel=1e-6)
+
+
+def test_model_file_contacts_section(tmp_path):
+    from spatialmbd.io.modelfile import load_model
+    text = """spatialmbd: 1
+name: drop
+gravity: [0, 0, -9.81]
+bodies:
+  - name: ball
+    mass: 1.0
+    inertia: [0.004, 0.004, 0.004]
+    position: [0, 0, 0.3]
+contacts:
+  - name: floor
+    body_i: ground
+    body_j: ball
+    shape_i: {type: plane, normal: [0, 0, 1]}
+    shape_j: {type: sphere, radius: 0.1}
+    law: gonthier
+    restitution: RESTITUTION
+    stiffness: 1.0e+7
+"""
+    path = tmp_path / "drop.yaml"
+    path.write_text(text.replace("RESTITUTION", "0.7"))
+    model, _ = load_model(path)
+    assert model.force_groups[0].names == ("floor",)
+    path.write_text(text.replace("RESTITUTION", "1.5"))
+    with pytest.raises(ModelError, match=r"contacts\[0\]\.restitution: must be in \(0, 1\].*line 16"):
+        load_model(path)
+    path.write_text(text.replace("RESTITUTION", "0.7").replace("body_j: ball", "body_j: bal"))
+    with pytest.raises(ModelError, match=r"contacts\[0\]\.body_j.*bal"):
+        load_model(path)
