@@ -94,6 +94,12 @@ def test_rebound_ratio_range(law):
         assert rebound_ratio(law, e) == pytest.approx(produced(CHI[law](e)), abs=2e-6)
 
 
+@pytest.mark.parametrize("e", [0.1, 0.5, 0.9])
+def test_carvalho_martins_produces_the_prescribed_restitution(e):
+    """Its chi is the exact inverse of the relation above: the rebound ratio is e itself."""
+    assert rebound_ratio("carvalho_martins", e) == pytest.approx(e, abs=2e-6)
+
+
 def test_elastic_bounces_conserve_energy():
     """100 Hertz bounces from 2 cm: the apex stays at 2 cm, total energy constant."""
     h = 0.02

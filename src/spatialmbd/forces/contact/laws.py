@@ -11,6 +11,7 @@ Normal laws (``law``; the hysteresis factor chi of each is a function of the res
 * ``lankarani_nikravesh`` (1990):                    same form,  chi = 3 (1 - e^2) / 4
 * ``flores`` (Flores et al. 2011):                   same form,  chi = 8 (1 - e) / (5 e)
 * ``gonthier`` (Gonthier et al. 2004):               same form,  chi = (1 - e^2) / e
+* ``carvalho_martins`` (2019):  same form, chi the exact root below for e_p = e
 
 The restitution such a law *produces* is the root e_p of
 (1 - chi e_p) = (1 + chi) exp(-chi (1 + e_p)) (:func:`produced_restitution`, derived in
@@ -33,9 +34,10 @@ import math
 from ...jit import njit
 
 NORMAL_LAWS = ("linear", "hertz", "hunt_crossley", "lankarani_nikravesh", "flores",
-               "gonthier")
+               "gonthier", "carvalho_martins")
 LINEAR, HERTZ = 0, 1
-HYSTERESIS = ("hunt_crossley", "lankarani_nikravesh", "flores", "gonthier")
+HYSTERESIS = ("hunt_crossley", "lankarani_nikravesh", "flores", "gonthier",
+              "carvalho_martins")
 FRICTION_LAWS = ("none", "coulomb", "stribeck", "viscous")
 
 
@@ -59,8 +61,22 @@ def chi_gonthier(e: float) -> float:
     return (1.0 - e * e) / e
 
 
+def chi_carvalho_martins(e: float) -> float:
+    """Carvalho & Martins (2019), exact restitution: the chi whose produced restitution is e,
+    the nonzero root of (1 - chi e) = (1 + chi) exp(-chi (1 + e)) in (0, 1/e)."""
+    if e >= 1.0:
+        return 0.0
+    from scipy.optimize import brentq
+    h = lambda c: math.log1p(c) - c * (1.0 + e) - math.log1p(-c * e)  # noqa: E731
+    lo, hi = 1e-3 * (1.0 - e), (1.0 - 1e-13) / e
+    while h(lo) >= 0.0 and lo > 1e-300:
+        lo *= 0.1
+    return float(brentq(h, lo, hi, xtol=1e-15, rtol=1e-15))
+
+
 CHI = {"hunt_crossley": chi_hunt_crossley, "lankarani_nikravesh": chi_lankarani_nikravesh,
-       "flores": chi_flores, "gonthier": chi_gonthier}
+       "flores": chi_flores, "gonthier": chi_gonthier,
+       "carvalho_martins": chi_carvalho_martins}
 
 
 def produced_restitution(chi: float) -> float:
