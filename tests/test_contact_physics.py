@@ -63,7 +63,8 @@ def produced(chi):
     return brentq(f, 0.0, min(1.0, (1 - 1e-14) / chi), xtol=1e-15)
 
 
-CHI = {"hunt_crossley": lambda e: 1.5 * (1 - e), "lankarani_nikravesh": lambda e: 0.75 * (1 - e * e),
+CHI = {"hunt_crossley": lambda e: 1.5 * (1 - e),
+       "lankarani_nikravesh": lambda e: 0.75 * (1 - e * e),
        "flores": lambda e: 1.6 * (1 - e) / e, "gonthier": lambda e: (1 - e * e) / e}
 
 
@@ -228,9 +229,8 @@ def builder(z=0.5):
     (dict(friction="coulomb", mu=-0.1), "mu"),
     (dict(law="sticky"), "law"),
     (dict(shape_j={"type": "cone"}), "shape_j.type"),
-    (dict(shape_j={"type": "box", "half_extents": (1, 1, 1)}, shape_i={"type": "box",
-                                                                         "half_extents": (1, 1, 1)}),
-     "no contact geometry"),
+    (dict(shape_j={"type": "box", "half_extents": (1, 1, 1)},
+          shape_i={"type": "box", "half_extents": (1, 1, 1)}), "no contact geometry"),
 ])
 def test_bad_parameters_name_the_element(kw, words):
     with pytest.raises(ModelError, match=r"forces\['bad'\].*" + words.split(".")[0]):
@@ -265,6 +265,8 @@ def test_contact_outputs_and_columns(tmp_path):
     assert np.allclose(c["c"]["penetration"][active], -c["c"]["gap"][active])
     df = res.to_dataframe()
     assert "c.normal_force" in df.columns
+    res.contact_log = None          # e.g. results read back from a file: no impact records
+    assert np.all(np.isnan(res.contacts()["c"]["normal_force"]))
 
 
 def test_viscous_friction_decays_exponentially():
@@ -317,8 +319,21 @@ contacts:
     model, _ = load_model(path)
     assert model.force_groups[0].names == ("floor",)
     path.write_text(text.replace("RESTITUTION", "1.5"))
-    with pytest.raises(ModelError, match=r"contacts\[0\]\.restitution: must be in \(0, 1\].*line 16"):
+    with pytest.raises(ModelError,
+                       match=r"contacts\[0\]\.restitution: must be in \(0, 1\].*line 16"):
         load_model(path)
     path.write_text(text.replace("RESTITUTION", "0.7").replace("body_j: ball", "body_j: bal"))
     with pytest.raises(ModelError, match=r"contacts\[0\]\.body_j.*bal"):
         load_model(path)
+
+
+def test_round_trip_and_methods_without_compiled_kernels(tmp_path):
+    """A model with contacts writes (as a contact force element) and reads back; a hysteresis
+    law on a right-hand side without compiled kernels (solver="kkt") is refused by name."""
+    from spatialmbd.io.modelfile import load_model, save_model
+    model = ball(law="flores", stiffness=1e7, restitution=0.6, friction="coulomb", mu=0.4)
+    save_model(model, tmp_path / "m.yaml")
+    again, _ = load_model(tmp_path / "m.yaml")
+    assert np.array_equal(again.force_groups[0].param, model.force_groups[0].param)
+    with pytest.raises(ModelError, match=r"forces\['c'\].*hysteresis.*kkt"):
+        simulate(model, 0.1, method_options={"solver": "kkt"}, method="standard")

@@ -87,12 +87,16 @@ def contact_table(results) -> dict:
     """Per contact instance, at every output time of ``results``: the
     :data:`.element.DETAIL_COLUMNS` (gap m, gap rate m/s, impact velocity m/s, normal force N,
     friction force N (3), slip velocity m/s (3), contact point m (3), normal (3), active 0/1),
-    as a dict name -> dict column -> (nt,) or (nt, 3) array; plus "n_active" (nt,)."""
+    as a dict name -> dict column -> (nt,) or (nt, 3) array; plus "n_active" (nt,).
+    Results without ``contact_log`` (not from :func:`~spatialmbd.simulate.simulate`) give NaN
+    impact velocities and forces for the hysteresis laws (they depend on the records)."""
     from ...state import BodyState
     from .element import DETAIL_COLUMNS
     model = results.model
     groups = contact_groups(model)
-    log = sorted(getattr(results, "contact_log", []) or [])
+    log = getattr(results, "contact_log", None)
+    known = log is not None               # results not made by simulate() have no records
+    log = sorted(log or [])
     rows = {}
     start = 0
     from ..kernels import ForceTable
@@ -128,4 +132,11 @@ def contact_table(results) -> dict:
                              active=col[:, 16] > 0.5)
             n_active += col[:, 16] > 0.5
     out["n_active"] = n_active
+    if not known:       # the hysteresis laws' forces depend on impact velocities not recorded
+        from .laws import C_LAW, HERTZ
+        for g in groups:
+            for k, name in enumerate(g.names):
+                if g.param[k, C_LAW] > HERTZ:
+                    for key in ("impact_velocity", "normal_force", "friction"):
+                        out[name][key] = np.full_like(out[name][key], np.nan)
     return out
