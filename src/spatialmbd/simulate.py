@@ -228,7 +228,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if res.status not in ("success", "event"):
         messages.append(res.message)
     results = Results.from_integration(
-        model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
+        model=model, eom=eom if contact_memory is None else _AtTime(eom, contact_memory),
+        method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
         message=res.message, counters=_counters(res, meth), wall_time=wall,
         correction=correction, redundant_joints=redundant_joints, messages=messages,
         settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
@@ -240,6 +241,21 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                       for e in res.events]
     results.contact_log = contact_memory.log if contact_memory is not None else []
     return results
+
+
+class _AtTime:
+    """The equations of motion with the contacts' impact-velocity memory set to what it was
+    at each evaluation time (the accelerations at the output times, after the run)."""
+
+    def __init__(self, eom, memory):
+        self._eom, self._memory = eom, memory
+
+    def evaluate(self, t, q, v):
+        self._memory.restore(t)
+        return self._eom.evaluate(t, q, v)
+
+    def __getattr__(self, name):
+        return getattr(self._eom, name)
 
 
 def _contact_memory(model, eom, compiled, t0, y0):

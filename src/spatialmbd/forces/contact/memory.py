@@ -61,6 +61,14 @@ class ContactMemory:
             for k in np.flatnonzero(d[:, 0] < 0.0):
                 self._record(t0, s + k, max(-d[k, 1], 0.0))
 
+    def restore(self, t) -> None:
+        """Set the memory to what it was at time t (the last records at or before t), e.g. to
+        re-evaluate the accelerations at an output time after the run."""
+        self.flaw[:, 0] = 0.0
+        for tr, row, v0 in self.log:
+            if tr <= t:
+                self.flaw[row, 0] = v0
+
     def _record(self, t, row, v0):
         self.flaw[row, 0] = v0
         self.log.append((float(t), int(row), float(v0)))
