@@ -341,3 +341,49 @@ def test_round_trip_and_methods_without_compiled_kernels(tmp_path):
     assert np.array_equal(again.force_groups[0].param, model.force_groups[0].param)
     with pytest.raises(ModelError, match=r"forces\['c'\].*hysteresis.*kkt"):
         simulate(model, 0.1, method_options={"solver": "kkt"}, method="standard")
+
+
+def test_equal_spheres_exchange_velocities():
+    """Central elastic impact of equal free spheres (Hertz, no gravity): the moving one stops,
+    the other leaves at its speed (momentum and energy conservation); then the Newton's-cradle
+    pair of a Hunt-Crossley contact: the relative rebound is the produced restitution."""
+    for law, e_rel in ((dict(law="hertz"), 1.0),
+                       (dict(law="hunt_crossley", restitution=0.7), produced(1.5 * 0.3))):
+        b = ModelBuilder(gravity=(0, 0, 0))
+        for name, x, vx in (("a", 0.0, 1.0), ("b", 0.21, 0.0)):
+            b.add_body(name, 1.0, (0.004,) * 3, r=(x, 0, 0), rdot=(vx, 0, 0))
+        b.add_force("contact", "ab", body_i="a", body_j="b", shape_i={"type": "sphere",
+                    "radius": 0.1}, shape_j={"type": "sphere", "radius": 0.1},
+                    stiffness=1e7, **law)
+        res = simulate(b.compile(), 0.05, output_step=0.01, rtol=1e-10, atol=1e-12)
+        va, vb = res.v[-1, 0, 0], res.v[-1, 1, 0]
+        assert va + vb == pytest.approx(1.0, abs=1e-9)                    # momentum
+        assert vb - va == pytest.approx(e_rel, abs=2e-6)                  # restitution
+
+
+def test_clearance_joints_conserve_energy_when_elastic():
+    """A pendulum on a radial-clearance revolute joint (journal in bearing + planar joint) and
+    a ball-in-socket pendulum, elastic Hertz contacts without friction: rattling in the
+    clearance, total energy constant."""
+    import math as m_
+    th = m_.radians(30)
+    for pair in ("bearing", "socket"):
+        b = ModelBuilder(gravity=(0, 0, -G))
+        b.add_body("rod", 1.0, (0.02, 0.02, 1e-4), r=(-0.25 * m_.sin(th), 0, -0.25 * m_.cos(th)),
+                   p=(m_.cos(th / 2), 0, m_.sin(th / 2), 0))
+        if pair == "bearing":
+            b.add_joint("planar", "plane", body_i="ground", body_j="rod", point=(0, 0, 0),
+                        axis=(0, 1, 0))
+            shape_i = {"type": "bearing", "radius": 0.01, "axis": (0, 1, 0)}
+            shape_j = {"type": "journal", "radius": 0.0095, "center": (0, 0, 0.25)}
+        else:
+            shape_i = {"type": "socket", "radius": 0.01}
+            shape_j = {"type": "sphere", "radius": 0.0095, "center": (0, 0, 0.25)}
+        b.add_force("contact", "gap", body_i="ground", body_j="rod", shape_i=shape_i,
+                    shape_j=shape_j, law="hertz", stiffness=1e8)
+        res = simulate(b.compile(), 0.3, output_step=0.01, rtol=1e-9, atol=1e-12)
+        assert res.status == "success"
+        en = res.energy()
+        assert len(res.contact_log) >= 1
+        assert abs(en["error"]).max() < 1e-6 * abs(en["gravitational"][0])
+        assert res.contacts()["gap"]["active"].any()
