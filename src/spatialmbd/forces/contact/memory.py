@@ -40,6 +40,7 @@ class ContactMemory:
         self._key = None
         self._details = None
         self.groups = groups
+        self._tables = [g.table() for g, _ in self.slots]      # built once per run
 
     def _state(self, t, y):
         from ...state import BodyState
@@ -50,8 +51,15 @@ class ContactMemory:
 
     def _all(self, t, y):
         if self._key is None or self._key[0] != t or not np.array_equal(self._key[1], y):
-            state = self._state(t, y)
-            self._details = [g.details(state, self.flaw[s:s + g.n, 0]) for g, s in self.slots]
+            from .element import DETAIL_COLUMNS, details
+            S = self._state(t, y).arrays()
+            out = []
+            for (g, s), table in zip(self.slots, self._tables):
+                table.law[:, 0] = self.flaw[s:s + g.n, 0]
+                d = np.empty((g.n, len(DETAIL_COLUMNS)))
+                details(S, table.G, d)
+                out.append(d)
+            self._details = out
             self._key = (t, np.array(y, copy=True))
         return self._details
 
