@@ -176,6 +176,15 @@ class Results:
             vel[k] = float(np.linalg.norm(cv.D @ self.v[k].reshape(-1) - cv.nu))
         return dict(position=pos, phi_squared=sq, velocity=vel)
 
+    # ---------------------------------------------------------------------------- contacts
+    def contacts(self) -> dict:
+        """Per contact instance (spatialmbd.forces.contact), at every output time: gap,
+        penetration (m), gap_rate (m/s), impact_velocity (m/s), normal_force (N), friction
+        (nt, 3) N, slip (nt, 3) and slip_speed m/s, point (nt, 3) m, normal (nt, 3), active;
+        and "n_active" (nt,), the number of closed contacts."""
+        from .forces.contact.memory import contact_table
+        return contact_table(self)
+
     # ---------------------------------------------------------------------------- energy
     def energy(self) -> dict:
         """Kinetic, gravitational and elastic energy, work of non-conservative forces and

@@ -43,7 +43,7 @@ YAML_SUFFIXES = (".yaml", ".yml")
 JSON_SUFFIXES = (".json",)
 
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
-            "ground_shapes", "analysis", "outputs")
+            "ground_shapes", "analysis", "outputs", "contacts")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
              "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color",
              "density")
@@ -1143,6 +1143,48 @@ def _parse(P, data, default_name="model"):
             continue
         try:
             b.add_force(ftype, d["name"], **params)
+        except _BUILD_ERRORS as exc:
+            _relabel(P, path, f"forces[{d['name']!r}]", str(exc))
+
+    # ------------------------------------------------------------------ contacts
+    # contact elements (spatialmbd.forces.contact): {name, body_i, body_j, shape_i, shape_j,
+    # law, ...}, the parameters of the "contact" force type
+    contacts = _section(data, "contacts")
+    if not _list(P, ("contacts",), contacts, "contact elements"):
+        contacts = []
+    ctype = FORCE_TYPES["contact"]
+    for i, d in enumerate(contacts):
+        path = ("contacts", i)
+        if not isinstance(d, dict):
+            P.add(path, f"expected a mapping {{name, body_i, body_j, shape_i, shape_j, ...}}, "
+                        f"got {_describe(d)}")
+            continue
+        allowed = ("name",) + ctype.allowed()
+        required = ("name",) + tuple(ctype.required)
+        _mapping(P, path, d, allowed, required)
+        n0 = len(P)
+        if "name" in d:
+            _string(P, path + ("name",), d["name"], "a contact name (string)")
+        params, refs_ok = {}, True
+        for key, val in d.items():
+            if key == "name" or key not in allowed:
+                continue
+            kind = ctype.parameters.get(key, "any")
+            where = path + (key,)
+            if kind == "body":
+                if _reference(P, where, val, declared_bodies, "body", (GROUND,)):
+                    refs_ok = refs_ok and (val in ok_bodies or val == GROUND)
+            elif kind == "string":
+                _string(P, where, val)
+            elif kind == "number":
+                _number(P, where, val)
+            elif not isinstance(val, dict):
+                P.add(where, f"expected a shape mapping {{type, ...}}, got {_describe(val)}")
+            params[key] = val
+        if len(P) != n0 or P.flagged(path) or not all(k in d for k in required) or not refs_ok:
+            continue
+        try:
+            b.add_force("contact", d["name"], **params)
         except _BUILD_ERRORS as exc:
             _relabel(P, path, f"forces[{d['name']!r}]", str(exc))
 
