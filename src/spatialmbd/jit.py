@@ -42,16 +42,25 @@ HOT_PATH = ("jit.py", "rotations.py", "state.py", "broadphase.py", "constraints"
             "dynamics", "integrators", "sweep/batch.py")
 
 
-def _source_hash() -> str:
-    h = hashlib.sha256(getattr(_numba, "__version__", "").encode())
+def hot_path_files() -> list:
+    """Every source file of the hot path: the listed modules, and every module of the listed
+    packages and of their subpackages (forces/contact, ...), relative to the package."""
+    out = []
     for entry in HOT_PATH:
         path = os.path.join(_PKG, entry)
         files = [path] if path.endswith(".py") else sorted(
-            os.path.join(path, f) for f in os.listdir(path) if f.endswith(".py"))
-        for f in files:
-            h.update(os.path.relpath(f, _PKG).encode())
-            with open(f, "rb") as fh:
-                h.update(fh.read())
+            os.path.join(root, f) for root, _, names in os.walk(path) for f in names
+            if f.endswith(".py"))
+        out += [os.path.relpath(f, _PKG) for f in files]
+    return out
+
+
+def _source_hash() -> str:
+    h = hashlib.sha256(getattr(_numba, "__version__", "").encode())
+    for rel in hot_path_files():
+        h.update(rel.encode())
+        with open(os.path.join(_PKG, rel), "rb") as fh:
+            h.update(fh.read())
     return h.hexdigest()[:16]
 
 

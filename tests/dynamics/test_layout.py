@@ -26,3 +26,19 @@ def test_every_compiled_view_is_its_declared_field():
             seen.add((fname, name))
     assert len(seen) == len(layout.FIELDS) + len(layout.KFIELDS)
     assert layout.field_view(layout.FIELDS, F, I, W, "fkind").size == 2     # two springs
+
+
+def test_the_compile_cache_key_covers_subpackages():
+    """The cache directory is named after a hash of every hot-path source, subpackages
+    included: an edit to forces/contact/ must compile afresh, not load stale machine code."""
+    import os
+    from spatialmbd import jit
+    files = set(jit.hot_path_files())
+    assert os.path.join("forces", "contact", "element.py") in files
+    assert os.path.join("constraints", "point_curve.py") in files
+    pkg = os.path.dirname(jit.__file__)
+    for entry in ("constraints", "forces", "dynamics", "integrators"):
+        for root, _, names in os.walk(os.path.join(pkg, entry)):
+            for f in names:
+                if f.endswith(".py"):
+                    assert os.path.relpath(os.path.join(root, f), pkg) in files
