@@ -1,6 +1,6 @@
 """Writing model files: builder or model -> the schema's dictionary -> YAML or JSON text,
 exactly (floats with repr precision, so model -> file -> model gives bit-identical specs),
-atomically. The schema and the reader are in :mod:`.modelfile`."""
+atomically. The schema is in :mod:`.schema`, the reader in :mod:`.reader`."""
 from __future__ import annotations
 
 import inspect
@@ -14,43 +14,14 @@ from typing import Optional, Union
 import numpy as np
 import yaml
 
-from ..errors import ModelError
 from ..model import Model, ModelBuilder
-from .modelfile import (GEOMETRY_KEYS, JSON_SUFFIXES, SCHEMA_VERSION, YAML_SUFFIXES, _FLOAT_RE,
-                        _FLOAT_TAG, Analysis, ModelFileError, _Problems, _render)
+from .analysis import Analysis
+from .schema import (GEOMETRY_KEYS, JSON_SUFFIXES, SCHEMA_VERSION, YAML_SUFFIXES, ModelFileError,
+                     _plain, _Problems)
+from .source import _FLOAT_RE, _FLOAT_TAG
+
 
 # ============================================================================ builder -> file
-def _plain(value, P=None, path=()):
-    """``value`` as plain Python types (dict, list, str, float, int, bool, None)."""
-    from ..motion import MotionLaw
-    if isinstance(value, MotionLaw):
-        try:
-            value = value.to_dict()
-        except ModelError as exc:
-            if P is None:
-                raise
-            P.add(path, f"{exc}; use a law of type constant, constant_velocity, harmonic, "
-                        "smooth_step or polynomial, or add this element in Python after "
-                        "loading")
-            return None
-        return _plain(value, P, path)
-    if isinstance(value, dict):
-        return {str(k): _plain(v, P, tuple(path) + (str(k),)) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v, P, tuple(path) + (k,)) for k, v in enumerate(value)]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist(), P, path)
-    if isinstance(value, np.generic):
-        return value.item()
-    if value is None or isinstance(value, (str, bool, int, float)):
-        return value
-    what = "a Python callable" if callable(value) else f"a {type(value).__name__}"
-    if P is None:
-        raise ModelFileError([f"{_render(path)}: {what} cannot be written to a model file"])
-    P.add(path, f"{what} cannot be written to a model file")
-    return None
-
-
 def _floats(arr) -> list:
     return [float(x) for x in np.asarray(arr, dtype=float).reshape(-1)]
 
