@@ -61,6 +61,8 @@ class Results:
     output_requests: list = field(default_factory=list)
     #: located events of simulate(..., events=...): dicts with t (s), name, index, terminal
     events: list = field(default_factory=list)
+    #: the state at each located event: (q (nb, 7), v (nb, 6)), in the order of ``events``
+    event_states: list = field(default_factory=list)
 
     # ----------------------------------------------------------------------------------------
     @classmethod

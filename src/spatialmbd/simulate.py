@@ -111,7 +111,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         (state: a :class:`.state.BodyState` of the bodies, ground last) or an object with
         ``function`` and optional ``terminal`` (stop the run there), ``direction`` (> 0 rising
         only, < 0 falling only), ``name``; located to ``event_tol`` (s) on the dense output;
-        listed in ``results.events`` (t, name, index, terminal).
+        listed in ``results.events`` (t, name, index, terminal), the state at each in
+        ``results.event_states`` ((q (nb, 7), v (nb, 6)) per event, located, not sampled).
 
     Returns Results: status "success"; "event" (a terminal event stopped the run; its state is
     the last output); "failed" (with the cause, and a diagnosis at a singular
@@ -239,6 +240,9 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     results.output_requests = requests
     results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                       for e in res.events]
+    results.event_states = [(np.asarray(e.y[:7 * nb], dtype=float).reshape(nb, 7),
+                             np.asarray(e.y[7 * nb:13 * nb], dtype=float).reshape(nb, 6))
+                            for e in res.events]
     results.contact_log = contact_memory.log if contact_memory is not None else []
     return results
 
