@@ -11,7 +11,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
-RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md")
+RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
+             "couplers.md", "sliding-joints.md")
 
 
 def _mkdocs(config: Path, site: Path):

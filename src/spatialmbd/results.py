@@ -171,7 +171,10 @@ class Results:
         asm = self.model.assembler
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
+        asm.reset_couplers()                  # gear angles unwrapped along the outputs
         for k in range(nt):
+            if k:
+                asm.advance_couplers(self.q[k - 1])
             cv = asm.evaluate(self.q[k], self.v[k], self.t[k])
             sq[k] = float(cv.phi @ cv.phi)
             pos[k] = np.sqrt(sq[k])

@@ -26,6 +26,7 @@ from . import guards
 from .assembly import SPARSE_THRESHOLD
 from .budget import Budget, BudgetGuard, check_fixed_steps, check_outputs
 from .dynamics import EquationsOfMotion, get_method
+from .assembly import advance_couplers, coupler_slices, reset_couplers
 from .dynamics import system as cs
 from .dynamics.correction import correct_initial_conditions, hold_mask
 from .errors import ModelError, SpatialMBDError
@@ -172,15 +173,20 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if rhs is None:
         rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
 
+    couplers = coupler_slices(model.constraint_groups)
+    reset_couplers(couplers, eom.system.law)       # gear angles from the assembled zero
+
     def project(t, y):
         y = y.copy()
         cs.normalize_y(y, nb)
         if meth.projects and hasattr(meth, "project_y"):
-            return meth.project_y(eom.system, t, y)
-        if meth.projects:
+            y = meth.project_y(eom.system, t, y)
+        elif meth.projects:
             qq, vv = meth.project(eom, t, y[:n_q].reshape(nb, 7), y[n_q:n_q + n_v])
             y[n_q:n_q + n_v] = vv
             y[:n_q] = np.asarray(qq).reshape(-1)
+        if couplers:             # every accepted step: the couplers' angles, unwrapped
+            advance_couplers(couplers, eom.system.law, y[:n_q], nb)
         return y
 
     y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])

@@ -190,7 +190,7 @@ BAD = """<mujoco><worldbody>
   </worldbody>
   <tendon><spatial name="cable" stiffness="10"><site site="sa"/><site site="sb"/></spatial></tendon>
   <actuator><motor name="motor_a" joint="ja"/></actuator>
-  <equality><joint name="couple" joint1="ja" joint2="jb"/></equality>
+  <equality><joint name="couple" joint1="ja" joint2="jb" polycoef="0 1 0.5 0 0"/></equality>
   <contact><pair name="touch" geom1="ga" geom2="gb"/></contact>
 </mujoco>"""
 

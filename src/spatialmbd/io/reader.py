@@ -282,6 +282,39 @@ def _parse(P, data, default_name="model"):
         except _BUILD_ERRORS as exc:
             _relabel(P, path, f"drivers[{d['name']!r}]", str(exc))
 
+    # ------------------------------------------------------------------ couplers
+    from ..constraints.couplers import COUPLER_TYPES
+    couplers = _section(data, "couplers")
+    if not _list(P, ("couplers",), couplers, "couplers"):
+        couplers = []
+    for i, d in enumerate(couplers):
+        path = ("couplers", i)
+        ctype = d.get("type") if isinstance(d, dict) else None
+        params = [p.name for p in COUPLER_TYPES[ctype].parameters] \
+            if _member(ctype, COUPLER_TYPES) else ["ratio", "radius", "c1", "c2", "c0"]
+        if not _mapping(P, path, d, ("name", "type", "joint1", "joint2") + tuple(params),
+                        ("name", "type", "joint1", "joint2")):
+            continue
+        n0 = len(P)
+        _string(P, path + ("name",), d["name"], "a coupler name (string)")
+        if not _member(ctype, COUPLER_TYPES):
+            P.add(path + ("type",), f"unknown coupler type {_name(ctype)}"
+                                    f"{_suggest(ctype, COUPLER_TYPES)}; valid: "
+                                    + ", ".join(COUPLER_TYPES))
+        for key in ("joint1", "joint2"):
+            _reference(P, path + (key,), d[key], declared_joints, "joint")
+        for key in params:
+            if key in d:
+                _number(P, path + (key,), d[key])
+        if len(P) != n0 or P.flagged(path) or d["joint1"] not in ok_joints or \
+                d["joint2"] not in ok_joints:
+            continue
+        try:
+            b.add_coupler(ctype, d["name"], d["joint1"], d["joint2"],
+                          **{k: d[k] for k in params if k in d})
+        except _BUILD_ERRORS as exc:
+            _relabel(P, path, f"couplers[{d['name']!r}]", str(exc))
+
     # ------------------------------------------------------------------ forces
     forces = _section(data, "forces")
     if not _list(P, ("forces",), forces, "force elements"):

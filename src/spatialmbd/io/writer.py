@@ -36,7 +36,8 @@ def _state(obj) -> dict:
         return obj.builder_state
     if isinstance(obj, ModelBuilder):
         return dict(name=obj.name, gravity=obj.gravity, bodies=obj.bodies, joints=obj.joints,
-                    drivers=obj.drivers, forces=obj.forces, ground_shapes=obj.ground_shapes)
+                    drivers=obj.drivers, forces=obj.forces, ground_shapes=obj.ground_shapes,
+                    couplers=obj.couplers)
     raise TypeError(f"expected a Model or a ModelBuilder, not {type(obj).__name__}")
 
 
@@ -98,6 +99,11 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         drivers.append(d)
     if drivers:
         out["drivers"] = drivers
+    couplers = [dict(name=c.name, type=c.type, joint1=c.joint1, joint2=c.joint2,
+                     **{k: float(v) for k, v in c.params.items()})
+                for c in (s.get("couplers") or {}).values()]
+    if couplers:
+        out["couplers"] = couplers
     from ..forces import FORCE_TYPES
     forces = []
     for k, spec in enumerate(s["forces"].values()):
@@ -155,7 +161,7 @@ _Dumper.add_representer(_Block, lambda dumper, data: dumper.represent_mapping(
 
 def _yaml_text(data: dict, header: Optional[str] = None) -> str:
     data = dict(data)
-    for key in ("bodies", "joints", "drivers", "forces"):
+    for key in ("bodies", "joints", "drivers", "couplers", "forces"):
         if key in data:
             data[key] = [_Block(d) for d in data[key]]
     if "analysis" in data:
