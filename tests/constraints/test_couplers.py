@@ -174,3 +174,9 @@ def test_mjcf_joint_equality_becomes_an_exact_coupler():
     assert np.abs(ours_a - np.array(qa)).max() < 5e-3                 # MuJoCo's is soft
     assert np.abs(ours_b - np.array(qb)).max() < 5e-3
     assert ours_a[-1] > 0.3                                          # it did swing
+
+
+def test_batch_integration_refuses_couplers():
+    from spatialmbd.sweep.batch import BatchSetup
+    with pytest.raises(ModelError, match="couplers \\(mesh\\)"):
+        BatchSetup(gears().compile(), "standard", {})

@@ -407,6 +407,12 @@ class BatchSetup:
         if any(g.rheonomic for g in model.constraint_groups):
             raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
                              "motion laws); use engine='simulate'")
+        couplers = [n for g in model.constraint_groups if getattr(g, "coupler", False)
+                    for n in g.names]
+        if couplers:
+            raise ModelError(f"batch integration: model {model.name!r} has couplers "
+                             f"({', '.join(couplers)}), whose angles are unwrapped per step by "
+                             "simulate(); use engine='simulate'")
 
     @staticmethod
     def _signature(model):
