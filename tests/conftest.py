@@ -13,6 +13,18 @@ import pytest
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session):
+    """Under pytest-xdist (scripts/test.sh runs ``-n auto``) the controller compiles every
+    kernel once, before its workers start, so that they load them from the cache instead of
+    each compiling them."""
+    config = session.config
+    if getattr(config, "workerinput", None) is None and config.getoption("numprocesses",
+                                                                          default=None):
+        from spatialmbd.cli import main
+        assert main(["warmup", "--quiet"]) == 0
+
+
 @pytest.fixture(scope="session", autouse=True)
 def compiled_kernels():
     from spatialmbd.cli import main
