@@ -214,14 +214,27 @@ def cache_is_warm() -> bool:
     about a second instead of compiling (tens of seconds, once per machine and version)."""
     if not ENABLED:
         return True
-    for root, _ in _roots():
+    for root, _ in _roots():                # the directory the cache locator will use:
+        if not _usable(root):               # the first one that is or can be made writable
+            continue
         try:
             names = os.listdir(root)
         except OSError:
-            continue
-        if any(n.startswith("system.") and n.endswith(".nbi") for n in names):
-            return True
+            names = []
+        return any(n.startswith("system.") and n.endswith(".nbi") for n in names)
     return False
+
+
+def _usable(root: str) -> bool:
+    """Whether ``root`` exists writable, or could be created (its nearest existing parent is
+    writable): the cache locator's choice among the candidate directories."""
+    path = root
+    while not os.path.exists(path):
+        parent = os.path.dirname(path)
+        if parent == path:
+            return False
+        path = parent
+    return os.path.isdir(path) and os.access(path, os.W_OK)
 
 
 class compile_notice:

@@ -42,3 +42,15 @@ def test_the_compile_cache_key_covers_subpackages():
             for f in names:
                 if f.endswith(".py"):
                     assert os.path.relpath(os.path.join(root, f), pkg) in files
+
+
+def test_cache_is_warm_looks_where_the_cache_will_be(tmp_path, monkeypatch):
+    """With NUMBA_CACHE_DIR set, the compiled code goes there: an empty one is a cold cache
+    (the first run says it is compiling) even when the package's own cache is warm."""
+    from spatialmbd import jit
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    assert not jit.cache_is_warm()
+    root = tmp_path / f"spatialmbd-{jit._stamp()}"
+    root.mkdir()
+    (root / "system.stage_state-1.py311.nbi").write_bytes(b"")
+    assert jit.cache_is_warm()
