@@ -567,3 +567,38 @@ EXAMPLES.update({
                                              integrator={"name": "rk45", "rtol": 1e-9,
                                                          "atol": 1e-11})),
 })
+
+
+# ------------------------------------------------------------------------------------------
+# Couplers (constraints.couplers)
+# ------------------------------------------------------------------------------------------
+def gear_train(torque: float = 2.0) -> ModelBuilder:
+    """Two spur gears on fixed shafts (revolute joints about global z, 0.3 m apart), meshing
+    with ratio -1/2 (gear 2 turns half as fast, the other way), and a rack on gear 2 (pitch
+    radius 0.2 m) sliding along x; a constant motor torque ``torque`` (N m) on gear 1, no
+    gravity. Gear 1 accelerates at torque / (I1 + (1/2)^2 I2 + (1/2)^2 (0.2)^2 m_rack)."""
+    b = ModelBuilder("gear_train", gravity=(0.0, 0.0, 0.0))
+    b.add_body("gear1", 1.0, (0.15, 0.15, 0.2),
+               shapes=[{"type": "cylinder", "radius": 0.1, "length": 0.04, "axis": [0, 0, 1],
+                        "center": [0, 0, 0]}])
+    b.add_body("gear2", 2.0, (0.2, 0.2, 0.3), r=(0.3, 0.0, 0.0),
+               shapes=[{"type": "cylinder", "radius": 0.2, "length": 0.04, "axis": [0, 0, 1],
+                        "center": [0, 0, 0]}])
+    b.add_body("rack", 1.5, (0.002, 0.05, 0.05), r=(0.3, -0.2, 0.0),
+               shapes=[{"type": "box", "size": [0.6, 0.03, 0.04], "center": [0, 0, 0]}])
+    b.add_joint("revolute", "shaft1", "ground", "gear1", point=(0, 0, 0), axis=(0, 0, 1))
+    b.add_joint("revolute", "shaft2", "ground", "gear2", point=(0.3, 0, 0), axis=(0, 0, 1))
+    b.add_joint("translational", "guide", "ground", "rack", point=(0.3, -0.2, 0),
+                axis=(1, 0, 0))
+    b.add_coupler("gear", "mesh", "shaft1", "shaft2", ratio=-0.5)
+    b.add_coupler("rack_pinion", "teeth", "shaft2", "guide", radius=0.2)
+    b.add_force("torque", "motor", body="gear1", direction=(0, 0, 1), magnitude=torque)
+    return b
+
+
+EXAMPLES.update({
+    "gear_train": (gear_train, {}, dict(type="dynamic", t_end=3.0, output_step=0.01,
+                                         method={"name": "projection"},
+                                         integrator={"name": "rk45", "rtol": 1e-9,
+                                                     "atol": 1e-11})),
+})

@@ -180,3 +180,14 @@ def test_batch_integration_refuses_couplers():
     from spatialmbd.sweep.batch import BatchSetup
     with pytest.raises(ModelError, match="couplers \\(mesh\\)"):
         BatchSetup(gears().compile(), "standard", {})
+
+
+def test_gear_train_example_with_rack():
+    """models.gear_train: gear 1 -> gear 2 (ratio -1/2) -> rack (radius 0.2): the motor torque
+    tau sees I1 + r^2 I2 + (r R)^2 m_rack; the rack moves r R theta1."""
+    from spatialmbd import models
+    res = simulate(models.gear_train(2.0).compile(), 3.0, rtol=1e-10, atol=1e-12,
+                   output_step=0.05)
+    a1 = 2.0 / (0.2 + 0.25 * 0.3 + 0.25 * 0.04 * 1.5)
+    assert np.abs(res.v[:, 0, 5] - a1 * res.t).max() < 1e-8
+    assert np.abs(res.q[:, 2, 0] - 0.3 - 0.5 * a1 * res.t ** 2 * (-0.5) * 0.2).max() < 1e-8

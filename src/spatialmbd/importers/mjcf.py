@@ -21,12 +21,13 @@ model and builds the equivalent :class:`~spatialmbd.model.builder.ModelBuilder`:
 * gravity: ``opt.gravity`` (zero when gravity is disabled).
 
 Everything with no exact counterpart is named: by default (``strict=True``) a
-:class:`~spatialmbd.errors.ModelError` lists every such feature (tendons, actuators, joint and
-tendon equalities, explicit contact pairs, armature, friction loss, damping/stiffness of slide
-and ball joints, ...); with ``strict=False`` they are left out with an
+:class:`~spatialmbd.errors.ModelError` lists every such feature (tendons, actuators, nonlinear
+joint and tendon equalities, explicit contact pairs, armature, friction loss, damping/stiffness
+of slide and ball joints, ...); with ``strict=False`` they are left out with an
 :class:`MJCFImportWarning` that lists them.  Joint limits and geom collisions only act when
-reached / touching: they are always left out with a warning naming them (spatialmbd has neither
-limits nor contact).
+reached / touching: they are always left out with a warning naming them (spatialmbd has no
+joint limits, and its contact elements -- docs/contact.md -- are compliant force laws with
+their own parameters, not MuJoCo's soft contact model: add them where contact matters).
 """
 from __future__ import annotations
 
@@ -424,7 +425,9 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
         left_out += unsupported
     if inactive:
         warnings.warn("note (limits and contacts are left out: they act only when reached or "
-                      "touching, and spatialmbd has neither yet; keyframes are not used): "
+                      "touching; spatialmbd has no joint limits, and its contact elements "
+                      "(docs/contact.md) are to be added with their own law, not MuJoCo's soft "
+                      "contact; keyframes are not used): "
                       + "; ".join(inactive),
                       MJCFImportWarning, stacklevel=2)
         left_out += inactive
