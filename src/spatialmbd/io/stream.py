@@ -15,7 +15,7 @@ adaptive runs agree with one continuous run to the integration tolerance, not to
 one-step fixed-step integrators (euler, heun, rk4) whose step divides the segment give the
 same steps as the continuous run.
 
-File layout (HDF5, needs h5py: ``pip install spatialmbd[hdf5]``): datasets ``t`` (n,),
+File layout (HDF5 through h5py): datasets ``t`` (n,),
 ``q`` (n, nb, 7), ``v`` (n, nb, 6), ``vdot`` (n, nb, 6), ``lam`` (n, n_eq), ``work`` (n,);
 attributes ``status`` ("running" until finished, then "success", "failed", "budget",
 "interrupted"), ``message``, ``format`` = "spatialmbd-stream", ``version`` = 1,
@@ -40,8 +40,8 @@ def _h5py():
     try:
         import h5py
     except ImportError as exc:                      # pragma: no cover - extra installed in CI
-        raise ModelError("streaming results to HDF5 needs h5py: pip install "
-                         "'spatialmbd[hdf5]'") from exc
+        raise ModelError("streaming results to HDF5 needs h5py (a dependency of "
+                         "spatialmbd): pip install h5py") from exc
     return h5py
 
 
