@@ -92,3 +92,18 @@ def test_cli_budget_caps_a_kinematic_analysis(tmp_path, capsys):
     rows = [ln for ln in lines if not ln.startswith("#")]
     assert len(rows) == 1 + 3                                  # the header and three instants
     assert "step budget" in capsys.readouterr().out
+
+
+def test_the_budget_and_streaming_examples_of_docs_reliability_run(tmp_path, monkeypatch,
+                                                                   capsys):
+    import re
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "docs" / "reliability.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)[1:]
+    assert len(blocks) == 2
+    monkeypatch.chdir(tmp_path)
+    for code in blocks:
+        exec(compile(code, "docs/reliability.md", "exec"), {})
+    out = capsys.readouterr().out.split("\n")
+    assert out[0] == "budget 4" and out[1] == "success 10001 4"
+    assert (tmp_path / "long.h5").exists()
