@@ -2,7 +2,8 @@
 # Install spatialmbd with its test dependencies and run the whole test suite.
 # Browser tests need headless Chromium: it is installed from Debian's packages when missing
 # and we are root with apt-get (else those tests are skipped, unless
-# SPATIALMBD_REQUIRE_BROWSER=1 makes them fail). Extra arguments go to pytest.
+# SPATIALMBD_REQUIRE_BROWSER=1 makes them fail). Extra arguments go to pytest; the tests run in
+# parallel, one process per core (pytest-xdist).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python -m pip install --quiet --disable-pip-version-check -e ".[test]"
@@ -15,4 +16,6 @@ if [ -z "${SPATIALMBD_CHROMIUM:-}" ] && ! command -v chromium >/dev/null 2>&1; t
         echo "chromium not found: browser tests will be skipped (install it to run them)"
     fi
 fi
-exec python -m pytest "$@"
+# one worker per core (pytest-xdist); the kernels are compiled once, before the workers start
+# (tests/conftest.py)
+exec python -m pytest -n auto --dist load "$@"

@@ -1,10 +1,49 @@
 """Session set-up: the numerical kernels are compiled (or loaded from the cache) once, before
 the first test, so that ``pytest --durations`` shows what each test costs rather than which
-test happened to compile a kernel first."""
+test happened to compile a kernel first (in parallel runs: the common ones; see below).
+
+The tests mirror the package: tests/<subpackage>/ holds the tests of spatialmbd.<subpackage>,
+tests/ itself those of the top-level modules and of the whole (docs, examples, CLI). Shared test
+helpers (fd_check, fuzz_cases) live in tests/ and are importable from every directory."""
+import os
+import sys
+
 import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+
+def _warm_core():
+    """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
+    kinematics, the standard and projection right-hand sides with the force dispatch."""
+    from spatialmbd import models
+    from spatialmbd.kinematics import kinematic_analysis
+    from spatialmbd.simulate import simulate
+    kinematic_analysis(models.slider_crank(crank_speed=6.0).compile(), [0.0, 0.01])
+    fly = models.flyball_governor().compile()
+    for method in ("standard", "projection"):
+        simulate(fly, 1e-3, method=method, integrator="rk45", output_step=1e-3)
+
+
+def _parallel(config) -> bool:
+    return bool(config.getoption("numprocesses", default=None))
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session):
+    """Under pytest-xdist (scripts/test.sh runs ``-n auto``) the controller compiles the
+    common kernels once, before its workers start, so that they load them from the cache; the
+    rest (penalty, implicit integrators, the batch engine) compile in the first worker that
+    needs them, while the other worker runs tests."""
+    config = session.config
+    if getattr(config, "workerinput", None) is None and _parallel(config):
+        _warm_core()
 
 
 @pytest.fixture(scope="session", autouse=True)
-def compiled_kernels():
+def compiled_kernels(request):
+    if getattr(request.config, "workerinput", None) is not None:
+        _warm_core()                     # a worker: load the common kernels from the cache
+        return
     from spatialmbd.cli import main
     assert main(["warmup", "--quiet"]) == 0

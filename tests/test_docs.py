@@ -11,7 +11,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
-RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md")
+RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
+             "couplers.md", "sliding-joints.md")
 
 
 def _mkdocs(config: Path, site: Path):
@@ -70,6 +71,8 @@ def test_worked_examples_of_the_pages_run(tmp_path, monkeypatch):
         pytest.approx(-np.pi, abs=0.02)
     assert spaces["getting-started.md"]["units"]["pivot.angle"] == "rad"
     assert spaces["outputs.md"]["out"].attrs["units"]["spiral.torque"] == "N m"
+    assert spaces["contact.md"]["ratio"] == pytest.approx(0.7885, abs=2e-3)   # with gravity
+    assert spaces["contact.md"]["error"] < 1e-6
 
 
 USER_VISIBLE = ["src", "docs", "examples", "README.md", "mkdocs.yml", "pyproject.toml"]

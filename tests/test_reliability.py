@@ -121,8 +121,8 @@ def test_huge_integers_and_file_size(tmp_path, monkeypatch):
         text = '{"spatialmbd": ' + "9" * 5000 + "}"
         (problem,) = problems_of(text, tmp_path, suffix)
         assert "5000 digits" in problem
-    from spatialmbd.io import modelfile
-    monkeypatch.setattr(modelfile, "MAX_FILE_BYTES", 100)
+    from spatialmbd.io import source
+    monkeypatch.setattr(source, "MAX_FILE_BYTES", 100)
     (problem,) = problems_of(PENDULUM.read_text(encoding="utf-8"), tmp_path)
     assert "the limit is 100" in problem
 

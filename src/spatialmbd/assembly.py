@@ -46,6 +46,30 @@ class ConstraintValues:
         return f"ConstraintValues(m={np.size(self.phi)})"
 
 
+def coupler_slices(groups) -> list:
+    """(group, instance slice of the joint table) of the coupler groups (constraints.couplers),
+    whose law columns hold their angle references."""
+    out, start = [], 0
+    for g in groups:
+        if getattr(g, "coupler", False):
+            out.append((g, slice(start, start + g.n)))
+        start += g.n
+    return out
+
+
+def reset_couplers(couplers, law) -> None:
+    """Angle references of the couplers back to the assembled zero (start of an analysis)."""
+    for _, sl in couplers:
+        law[sl, :2] = 0.0
+
+
+def advance_couplers(couplers, law, q, nb) -> None:
+    """Advance the couplers' angle references to their unwrapped angles at q (nb, 7)."""
+    if couplers:
+        from .constraints.couplers import advance
+        advance(couplers, law, BodyState.from_qv(np.asarray(q).reshape(nb, 7), None, 0.0))
+
+
 class Assembler:
     def __init__(self, model, sparse: bool | None = None):
         self.model = model
@@ -55,6 +79,7 @@ class Assembler:
         self.sparse = (self.n > SPARSE_THRESHOLD) if sparse is None else bool(sparse)
         groups, offsets = model.constraint_groups, model.group_offsets
         self.table = JointTable(groups, offsets)
+        self.couplers = coupler_slices(groups)
         self._python = [(g, off) for g, off in zip(groups, offsets) if not g.compiled]
         rows, cols, keep = [], [], []
         for g, off in zip(groups, offsets):
@@ -81,6 +106,12 @@ class Assembler:
             self._csr_order = pattern.data.astype(np.intp) - 1
             self._csr_indices = pattern.indices.copy()
             self._csr_indptr = pattern.indptr.copy()
+
+    def reset_couplers(self) -> None:
+        reset_couplers(self.couplers, self.table.law)
+
+    def advance_couplers(self, q) -> None:
+        advance_couplers(self.couplers, self.table.law, q, self.nb)
 
     # ---------------------------------------------------------------------------------------
     def blocks(self, state: BodyState, t: float):

@@ -25,7 +25,9 @@ def element_types() -> list[ElementInfo]:
     from .constraints import DRIVER_TYPES, JOINT_TYPES
     from .forces import FORCE_TYPES
     out = []
-    for family, table in (("joint", JOINT_TYPES), ("driver", DRIVER_TYPES)):
+    from .constraints.couplers import COUPLER_TYPES
+    for family, table in (("joint", JOINT_TYPES), ("driver", DRIVER_TYPES),
+                          ("coupler", COUPLER_TYPES)):
         for name in sorted(table):
             cls = table[name]
             out.append(ElementInfo(family, name, tuple(cls.aliases), cls.doc(),
@@ -46,8 +48,9 @@ def markdown() -> str:
              "edit; `tests/test_catalog.py` checks it is current). How to add a type: "
              "[architecture.md](architecture.md).", ""]
     titles = {"joint": "Joints and basic constraints", "driver": "Drivers",
+              "coupler": "Couplers (between two joints: `add_coupler`, `couplers:`)",
               "force": "Force elements"}
-    for family in ("joint", "driver", "force"):
+    for family in ("joint", "driver", "coupler", "force"):
         rows = [e for e in element_types() if e.family == family]
         lines += [f"## {titles[family]}", ""]
         if family == "force":

@@ -38,20 +38,29 @@ _OPTIONS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 
 _PKG = os.path.dirname(os.path.abspath(__file__))
 #: the sources of compiled code (and of everything it calls), relative to the package
-HOT_PATH = ("jit.py", "rotations.py", "state.py", "constraints", "forces", "dynamics",
-            "integrators", "sweep/batch.py")
+HOT_PATH = ("jit.py", "rotations.py", "state.py", "broadphase.py", "constraints", "forces",
+            "dynamics", "integrators", "sweep/batch.py")
+
+
+def hot_path_files() -> list:
+    """Every source file of the hot path: the listed modules, and every module of the listed
+    packages and of their subpackages (forces/contact, ...), relative to the package."""
+    out = []
+    for entry in HOT_PATH:
+        path = os.path.join(_PKG, entry)
+        files = [path] if path.endswith(".py") else sorted(
+            os.path.join(root, f) for root, _, names in os.walk(path) for f in names
+            if f.endswith(".py"))
+        out += [os.path.relpath(f, _PKG) for f in files]
+    return out
 
 
 def _source_hash() -> str:
     h = hashlib.sha256(getattr(_numba, "__version__", "").encode())
-    for entry in HOT_PATH:
-        path = os.path.join(_PKG, entry)
-        files = [path] if path.endswith(".py") else sorted(
-            os.path.join(path, f) for f in os.listdir(path) if f.endswith(".py"))
-        for f in files:
-            h.update(os.path.relpath(f, _PKG).encode())
-            with open(f, "rb") as fh:
-                h.update(fh.read())
+    for rel in hot_path_files():
+        h.update(rel.encode())
+        with open(os.path.join(_PKG, rel), "rb") as fh:
+            h.update(fh.read())
     return h.hexdigest()[:16]
 
 
@@ -205,14 +214,27 @@ def cache_is_warm() -> bool:
     about a second instead of compiling (tens of seconds, once per machine and version)."""
     if not ENABLED:
         return True
-    for root, _ in _roots():
+    for root, _ in _roots():                # the directory the cache locator will use:
+        if not _usable(root):               # the first one that is or can be made writable
+            continue
         try:
             names = os.listdir(root)
         except OSError:
-            continue
-        if any(n.startswith("system.") and n.endswith(".nbi") for n in names):
-            return True
+            names = []
+        return any(n.startswith("system.") and n.endswith(".nbi") for n in names)
     return False
+
+
+def _usable(root: str) -> bool:
+    """Whether ``root`` exists writable, or could be created (its nearest existing parent is
+    writable): the cache locator's choice among the candidate directories."""
+    path = root
+    while not os.path.exists(path):
+        parent = os.path.dirname(path)
+        if parent == path:
+            return False
+        path = parent
+    return os.path.isdir(path) and os.access(path, os.W_OK)
 
 
 class compile_notice:

@@ -343,6 +343,7 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
     guard = BudgetGuard(limits) if limits.active else None
     nb = model.nb
     q = np.array(model.q0 if q_guess is None else q_guess, dtype=float).reshape(nb, 7)
+    model.assembler.reset_couplers()           # gear angles measured from the assembled zero
     q, info = solve_positions(model, q, t[0], tol, max_iter)
     mob = mobility(model, q, t[0])
     if mob.dof > 0:
@@ -375,6 +376,7 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
             if k > 0:
                 if guard is not None:
                     guard(t[k - 1])                    # one solved instant = one step
+                asm.advance_couplers(Q[k - 1])   # gear angles unwrapped from instant to instant
                 dt = tk - t[k - 1]
                 guess = apply_correction(Q[k - 1], (V[k - 1] * dt + 0.5 * VD[k - 1] * dt * dt))
                 q, info = solve_positions(model, guess, tk, tol, max_iter)

@@ -101,6 +101,11 @@ QUANTITIES = {
     "bushing": {"dx": "m", "dy": "m", "dz": "m", "rx": "rad", "ry": "rad", "rz": "rad",
                 "fx": "N", "fy": "N", "fz": "N", "mx": "N m", "my": "N m", "mz": "N m",
                 "power": "W", "energy": "J"},
+    #: contact instances (spatialmbd.forces.contact): the pair's state at the contact
+    "contact": {"gap": "m", "penetration": "m", "gap_rate": "m/s", "impact_velocity": "m/s",
+                "normal_force": "N", "friction_x": "N", "friction_y": "N", "friction_z": "N",
+                "slip_x": "m/s", "slip_y": "m/s", "slip_z": "m/s", "slip_speed": "m/s",
+                "point_x": "m", "point_y": "m", "point_z": "m", "active": "-"},
     #: any other force type (one element of its type in the model): power and energy
     "*": {"power": "W", "energy": "J"},
     "driver": {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s",
@@ -460,6 +465,8 @@ def _force(results, model, element: str, states=None) -> dict:
     if kind is None:
         raise ModelError(f"force element {element!r}: no outputs for elements of type "
                          f"{g.name!r} when the model has several of them")
+    if kind == "contact":
+        return _contact(results, g.names[i])
     cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
     for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
@@ -525,6 +532,27 @@ def _force(results, model, element: str, states=None) -> dict:
         # the joint angle itself, unwrapped (the deflection stays wrapped, as the element uses it)
         cols["angle"] = np.unwrap(g.theta0[i] + cols["deflection"]) if nt else cols["angle"]
     return cols
+
+
+def _contact(results, name: str) -> dict:
+    """The QUANTITIES["contact"] columns of contact instance ``name`` (all contacts of the
+    results are evaluated once and kept with them)."""
+    from .forces.contact.memory import contact_table
+    cache = getattr(results, "_contact_columns", None)
+    if cache is None or cache[0] != len(results.t):
+        cache = (len(results.t), contact_table(results))
+        try:
+            results._contact_columns = cache
+        except AttributeError:
+            pass
+    c = cache[1][name]
+    cols = {key: c[key] for key in ("gap", "penetration", "gap_rate", "impact_velocity",
+                                    "normal_force", "slip_speed")}
+    for key, vec in (("friction", c["friction"]), ("slip", c["slip"]), ("point", c["point"])):
+        for a, axis in enumerate("xyz"):
+            cols[f"{key}_{axis}"] = vec[:, a]
+    cols["active"] = c["active"].astype(float)
+    return {q: cols[q] for q in QUANTITIES["contact"]}
 
 
 # ============================================================================ drivers

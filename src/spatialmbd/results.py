@@ -61,6 +61,8 @@ class Results:
     output_requests: list = field(default_factory=list)
     #: located events of simulate(..., events=...): dicts with t (s), name, index, terminal
     events: list = field(default_factory=list)
+    #: the state at each located event: (q (nb, 7), v (nb, 6)), in the order of ``events``
+    event_states: list = field(default_factory=list)
 
     # ----------------------------------------------------------------------------------------
     @classmethod
@@ -169,12 +171,24 @@ class Results:
         asm = self.model.assembler
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
+        asm.reset_couplers()                  # gear angles unwrapped along the outputs
         for k in range(nt):
+            if k:
+                asm.advance_couplers(self.q[k - 1])
             cv = asm.evaluate(self.q[k], self.v[k], self.t[k])
             sq[k] = float(cv.phi @ cv.phi)
             pos[k] = np.sqrt(sq[k])
             vel[k] = float(np.linalg.norm(cv.D @ self.v[k].reshape(-1) - cv.nu))
         return dict(position=pos, phi_squared=sq, velocity=vel)
+
+    # ---------------------------------------------------------------------------- contacts
+    def contacts(self) -> dict:
+        """Per contact instance (spatialmbd.forces.contact), at every output time: gap,
+        penetration (m), gap_rate (m/s), impact_velocity (m/s), normal_force (N), friction
+        (nt, 3) N, slip (nt, 3) and slip_speed m/s, point (nt, 3) m, normal (nt, 3), active;
+        and "n_active" (nt,), the number of closed contacts."""
+        from .forces.contact.memory import contact_table
+        return contact_table(self)
 
     # ---------------------------------------------------------------------------- energy
     def energy(self) -> dict:

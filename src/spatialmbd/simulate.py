@@ -26,6 +26,7 @@ from . import guards
 from .assembly import SPARSE_THRESHOLD
 from .budget import Budget, BudgetGuard, check_fixed_steps, check_outputs
 from .dynamics import EquationsOfMotion, get_method
+from .assembly import advance_couplers, coupler_slices, reset_couplers
 from .dynamics import system as cs
 from .dynamics.correction import correct_initial_conditions, hold_mask
 from .errors import ModelError, SpatialMBDError
@@ -111,7 +112,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         (state: a :class:`.state.BodyState` of the bodies, ground last) or an object with
         ``function`` and optional ``terminal`` (stop the run there), ``direction`` (> 0 rising
         only, < 0 falling only), ``name``; located to ``event_tol`` (s) on the dense output;
-        listed in ``results.events`` (t, name, index, terminal).
+        listed in ``results.events`` (t, name, index, terminal), the state at each in
+        ``results.event_states`` ((q (nb, 7), v (nb, 6)) per event, located, not sampled).
 
     Returns Results: status "success"; "event" (a terminal event stopped the run; its state is
     the last output); "failed" (with the cause, and a diagnosis at a singular
@@ -171,15 +173,20 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if rhs is None:
         rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
 
+    couplers = coupler_slices(model.constraint_groups)
+    reset_couplers(couplers, eom.system.law)       # gear angles from the assembled zero
+
     def project(t, y):
         y = y.copy()
         cs.normalize_y(y, nb)
         if meth.projects and hasattr(meth, "project_y"):
-            return meth.project_y(eom.system, t, y)
-        if meth.projects:
+            y = meth.project_y(eom.system, t, y)
+        elif meth.projects:
             qq, vv = meth.project(eom, t, y[:n_q].reshape(nb, 7), y[n_q:n_q + n_v])
             y[n_q:n_q + n_v] = vv
             y[:n_q] = np.asarray(qq).reshape(-1)
+        if couplers:             # every accepted step: the couplers' angles, unwrapped
+            advance_couplers(couplers, eom.system.law, y[:n_q], nb)
         return y
 
     y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
@@ -191,13 +198,20 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if limits.active:
         callback = BudgetGuard(limits, callback)
         rhs, stages = _guarded(rhs, stages, callback)
+    integ_events = _state_events(events, nb)
+    contact_memory = _contact_memory(model, eom, compiled, t0, y0)
+    if contact_memory is not None:
+        from .integrators import Event
+        integ_events = (integ_events or []) + [
+            Event(gap, direction=-1.0, name=name, restart=touch, record=False)
+            for name, gap, touch in contact_memory.triggers()]
     start = time.perf_counter()
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
         problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
                              stages=stages, n_quadrature=1)   # W does not enter the rhs
         res = integ.integrate(problem, t0, y0, t_out, progress=callback,
-                              events=_state_events(events, nb), event_tol=event_tol)
+                              events=integ_events, event_tol=event_tol)
     finally:
         if hasattr(callback, "close"):
             callback.close()
@@ -221,7 +235,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if res.status not in ("success", "event"):
         messages.append(res.message)
     results = Results.from_integration(
-        model=model, eom=eom, method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
+        model=model, eom=eom if contact_memory is None else _AtTime(eom, contact_memory),
+        method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
         message=res.message, counters=_counters(res, meth), wall_time=wall,
         correction=correction, redundant_joints=redundant_joints, messages=messages,
         settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
@@ -231,7 +246,46 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     results.output_requests = requests
     results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                       for e in res.events]
+    results.event_states = [(np.asarray(e.y[:7 * nb], dtype=float).reshape(nb, 7),
+                             np.asarray(e.y[7 * nb:13 * nb], dtype=float).reshape(nb, 6))
+                            for e in res.events]
+    results.contact_log = contact_memory.log if contact_memory is not None else []
     return results
+
+
+class _AtTime:
+    """The equations of motion with the contacts' impact-velocity memory set to what it was
+    at each evaluation time (the accelerations at the output times, after the run)."""
+
+    def __init__(self, eom, memory):
+        self._eom, self._memory = eom, memory
+
+    def evaluate(self, t, q, v):
+        self._memory.restore(t)
+        return self._eom.evaluate(t, q, v)
+
+    def __getattr__(self, name):
+        return getattr(self._eom, name)
+
+
+def _contact_memory(model, eom, compiled, t0, y0):
+    """The impact-velocity memory of the contact elements for this run (None without
+    contacts): restart events at every first touch (:mod:`.forces.contact.memory`)."""
+    from .forces.contact.memory import ContactMemory, contact_groups
+    if not contact_groups(model):
+        return None
+    if not compiled:
+        from .forces.contact.laws import C_LAW, HERTZ
+        hyst = [g.element[k] for g in contact_groups(model) for k in range(g.n)
+                if g.param[k, C_LAW] > HERTZ]
+        if hyst:
+            raise ModelError(f"forces[{hyst[0]!r}]: a hysteresis contact law needs the impact "
+                             "velocity, which only the compiled right-hand sides record; use a "
+                             "built-in method without solver='kkt'")
+        return None
+    memory = ContactMemory(model, eom.system)
+    memory.start(t0, y0)
+    return memory
 
 
 def _counters(res, meth) -> dict:

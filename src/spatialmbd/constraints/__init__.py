@@ -18,17 +18,21 @@ class _RegistryView(Mapping):
         self._drivers = drivers
 
     def _names(self):
-        return [n for n, c in CONSTRAINT_TYPES.items() if c.rheonomic == self._drivers]
+        return [n for n, c in CONSTRAINT_TYPES.items() if self._mine(c)]
+
+    def _mine(self, cls) -> bool:
+        # couplers (constraints.couplers) relate two joints, not two bodies: neither view
+        return cls.rheonomic == self._drivers and not getattr(cls, "coupler", False)
 
     def __getitem__(self, name):
         cls = CONSTRAINT_TYPES[canonical_name(name)]
-        if cls.rheonomic != self._drivers:
+        if not self._mine(cls):
             raise KeyError(name)
         return cls
 
     def __contains__(self, name):
         cls = CONSTRAINT_TYPES.get(canonical_name(name))
-        return cls is not None and cls.rheonomic == self._drivers
+        return cls is not None and self._mine(cls)
 
     def __iter__(self):
         return iter(self._names())

@@ -59,11 +59,13 @@ class ConstraintEval:
 
 @dataclass(frozen=True)
 class Param:
-    """One parameter of an element type: a number per instance.
+    """One parameter of an element type: a number per instance, or with ``size`` > 1 a list of
+    1 to ``size`` numbers (stored as its length followed by the values: ``size + 1`` columns).
 
     name: keyword in the API and the model file; unit: SI unit ("m", "m/rad", "-", ...);
     default: None = required (unless the type computes it from the assembled configuration);
-    positive / nonzero: checks applied by the builder and the file reader; doc: one line.
+    positive / nonzero: checks applied by the builder and the file reader (to every value of a
+    list); doc: one line.
     """
 
     name: str
@@ -72,9 +74,29 @@ class Param:
     default: Optional[float] = None
     positive: bool = False
     nonzero: bool = False
+    size: int = 1
 
-    def check(self, value, what: str) -> float:
-        """The validated value (a finite float), or ModelError naming the element and value."""
+    @property
+    def width(self) -> int:
+        """Columns of the parameter block: 1, or the length and ``size`` values of a list."""
+        return 1 if self.size == 1 else self.size + 1
+
+    def check(self, value, what: str):
+        """The validated value (a finite float; a float array for a list), or ModelError naming
+        the element and value."""
+        if self.size > 1:
+            if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+                raise ModelError(f"{what}.{self.name}: expected a list of 1 to {self.size} "
+                                 f"numbers ({self.unit}), got {value!r}")
+            if not 1 <= len(value) <= self.size:
+                raise ModelError(f"{what}.{self.name}: expected 1 to {self.size} numbers "
+                                 f"({self.unit}), got {len(value)}")
+            out = np.empty(len(value))
+            for k, x in enumerate(value):       # each value checked as a scalar parameter
+                item = Param(f"{self.name}[{k}]", self.unit, self.doc, None, self.positive,
+                             self.nonzero)
+                out[k] = item.check(x, what)
+            return out
         try:
             x = float(value)
         except (TypeError, ValueError):
@@ -167,8 +189,10 @@ class ConstraintType:
 
         P_i, P_j: the global joint points as assembled (for defaults derived from them).
         Missing parameters take their default; LINK_LENGTH defaults to |P_j - P_i|."""
-        out = np.zeros(len(cls.parameters))
-        for a, par in enumerate(cls.parameters):
+        out = np.zeros(cls.param_columns())
+        col = 0
+        for par in cls.parameters:
+            a, col = col, col + par.width
             value = given.get(par.name)
             if value is None and par is LINK_LENGTH:
                 value = float(np.linalg.norm(P_j - P_i))
@@ -180,8 +204,19 @@ class ConstraintType:
             if value is None:
                 raise ModelError(f"{what}: a {cls.name} joint needs {par.name} ({par.unit}): "
                                  f"{par.doc}")
-            out[a] = par.check(value, what)
+            value = par.check(value, what)
+            if par.size == 1:
+                out[a] = value
+            else:                        # a list: its length, then its values
+                out[a] = value.size
+                out[a + 1:a + 1 + value.size] = value
         return out
+
+    @classmethod
+    def param_columns(cls) -> int:
+        """Columns of the type's parameter block: the widths of its parameters (a type that
+        stores derived values after them, e.g. spline coefficients, returns more)."""
+        return sum(par.width for par in cls.parameters)
 
     @classmethod
     def check_assembled(cls, what: str, axis_i: np.ndarray, axis_j: np.ndarray) -> None:

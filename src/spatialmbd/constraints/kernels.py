@@ -55,7 +55,7 @@ _discover()
 KINDS = tuple(sorted(name for name, cls in CONSTRAINT_TYPES.items() if cls.kernel is not None))
 KIND_ID = {name: k for k, name in enumerate(KINDS)}
 #: parameter columns of the table (the most any type declares, at least 1)
-N_PARAM = max([1] + [len(cls.parameters) for cls in CONSTRAINT_TYPES.values()])
+N_PARAM = max([1] + [cls.param_columns() for cls in CONSTRAINT_TYPES.values()])
 evaluate_instances = jit.generated_module("constraint_dispatch", jit.dispatch_source(
     "spatialmbd.constraints.kernels", "evaluate_instances", "S, G, rows, out",
     "S, G, k, rows[k], out", [(name, CONSTRAINT_TYPES[name].kernel) for name in KINDS],
@@ -70,10 +70,10 @@ def register_late(cls) -> None:
     """A type registered after import: compile a loop of its own over its instances."""
     if cls.kernel is None:
         return
-    if len(cls.parameters) > N_PARAM:
+    if cls.param_columns() > N_PARAM:
         from ..errors import ModelError
-        raise ModelError(f"constraint type {cls.name!r} declares {len(cls.parameters)} "
-                         f"parameters; types registered from outside the package may have at "
+        raise ModelError(f"constraint type {cls.name!r} needs {cls.param_columns()} parameter "
+                         f"columns; types registered from outside the package may have at "
                          f"most {N_PARAM}")
     kernel = cls.kernel
 

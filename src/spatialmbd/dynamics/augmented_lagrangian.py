@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from . import system as cs
+from .penalty import after_state_penalty
 from .base import check_positive, register
 from .penalty import _PenaltyBase
 
@@ -99,7 +100,7 @@ class AugmentedLagrangian(_PenaltyBase):
         if near:
             system.drop_penalty_rows(sorted(set(near) | set(self._drop or ())))
             try:
-                code = cs.after_state_penalty(y, out, system.F, system.I, W, KI, KW,
+                code = after_state_penalty(y, out, system.F, system.I, W, KI, KW,
                                               self.params())
             finally:
                 system.drop_penalty_rows(self._drop)
@@ -113,7 +114,7 @@ class AugmentedLagrangian(_PenaltyBase):
             mp[1] = min(max(self._alpha0 * fa, ALPHA_RANGE[0]), ALPHA_RANGE[1])
             mp[6] = max(int(self._iterations0 * fi), int(base[6]))
             tried.append(f"alpha {mp[1]:.3g} with {int(mp[6])} iterations")
-            code = cs.after_state_penalty(y, out, system.F, system.I, W, KI, KW, mp)
+            code = after_state_penalty(y, out, system.F, system.I, W, KI, KW, mp)
             if code >= 0:
                 self.alpha, self.max_iterations = float(mp[1]), int(mp[6])
                 live = self.__dict__.get("_mp")

@@ -71,19 +71,19 @@ def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assemb
                       system=None):
     """Positions satisfying Phi(q, t) = 0 by (14.12); returns (q, dx_total, iterations, phi0).
 
-    Without ``hold`` the compiled Newton iteration of :func:`.system.project_positions` runs
+    Without ``hold`` the compiled Newton iteration of :func:`.projection.project_positions` runs
     (on ``system``, default a new one for the model); with held coordinates, or when D D^T is
     singular (redundant constraints), the iteration below with the least-squares
     pseudo-inverse."""
     q = np.array(q, dtype=float).reshape(model.nb, 7)
     sys_ = _system(model, system) if _free(hold) and model.n_eq else None
     if sys_ is not None and not sys_.python_groups:
-        from . import system as cs
+        from .projection import project_positions
         if sys_.table.has_drivers:
             sys_.table.set_time(t)
         y = np.concatenate([q.ravel(), np.zeros(6 * model.nb)])
         total = np.zeros(6 * model.nb)
-        it, phi0, err = cs.project_positions(t, y, sys_.F, sys_.I, sys_.W, tol, max_iter,
+        it, phi0, err = project_positions(t, y, sys_.F, sys_.I, sys_.W, tol, max_iter,
                                              total)
         if it >= 0:
             return y[:7 * model.nb].reshape(model.nb, 7), total, it, phi0
@@ -112,16 +112,16 @@ def _correct_positions_lstsq(model, q, t, tol, max_iter, hold, assembler=None):
 def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None, system=None):
     """Velocities satisfying D v = nu by (14.19); returns (v, phidot_before, phidot_after).
 
-    Compiled (:func:`.system.project_velocities`) without ``hold``; least squares otherwise
+    Compiled (:func:`.projection.project_velocities`) without ``hold``; least squares otherwise
     or when D D^T is singular."""
     v = np.array(v, dtype=float).reshape(-1)
     sys_ = _system(model, system) if _free(hold) and model.n_eq else None
     if sys_ is not None and not sys_.python_groups:
-        from . import system as cs
+        from .projection import project_velocities
         if sys_.table.has_drivers:
             sys_.table.set_time(t)
         y = np.concatenate([np.asarray(q, dtype=float).ravel(), v])
-        ok, before, after = cs.project_velocities(t, y, sys_.F, sys_.I, sys_.W)
+        ok, before, after = project_velocities(t, y, sys_.F, sys_.I, sys_.W)
         if ok:
             return y[7 * model.nb:].copy(), before, after
     return _correct_velocities_lstsq(model, q, v, t, hold, assembler)

@@ -7,7 +7,7 @@ omega^2 Phi) (the convention of eom.py). Redundant constraints need no special t
 leading matrix stays positive definite. Defaults alpha = 1e7, omega = 10, mu = 1 (text).
 
 M + alpha D^T D has the block pattern of the bodies connected by joints; it is assembled into
-that fixed pattern and factorised by a sparse Cholesky (compiled: :func:`.system.solve_penalty`).
+that fixed pattern and factorised by a sparse Cholesky (compiled: :func:`penalty_solve`).
 """
 from __future__ import annotations
 
@@ -43,7 +43,7 @@ class _PenaltyBase(Method):
     def kernels(self, system, W=None):
         KI, KW = system.penalty_pack()
         self._mp = self.params()
-        return (cs.rhs_penalty, cs.after_state_penalty,
+        return (rhs_penalty, after_state_penalty,
                 (system.F, system.I, system.W if W is None else W, KI, KW, self._mp))
 
     def stages(self, system):
@@ -52,7 +52,7 @@ class _PenaltyBase(Method):
             return None
         KI, KW = system.penalty_pack()
         F, I, W, mp = system.F, system.I, system.W, self._mp
-        kernel = cs.stages_penalty
+        kernel = stages_penalty
         count = np.zeros(1, dtype=np.int64)
         method = self
 
@@ -78,7 +78,7 @@ class _PenaltyBase(Method):
             mp = self._mp = self.params()
         KI, KW = sys_.penalty_pack()
         y = _y_of(ev)
-        code = cs.after_state_penalty(y, np.empty(y.size), sys_.F, sys_.I, ev.W, KI, KW, mp)
+        code = after_state_penalty(y, np.empty(y.size), sys_.F, sys_.I, ev.W, KI, KW, mp)
         if code < 0:
             self.status(code, sys_, t, y, None, ev.W)
         it = max(code, 0)
@@ -94,3 +94,147 @@ class _PenaltyBase(Method):
 @register
 class Penalty(_PenaltyBase):
     name = "penalty"
+
+
+# -------------------- Compiled solve of the penalty and augmented Lagrangian methods, Eq. (12.14)
+import math
+from ..integrators.explicit import rk_combine
+from .layout import unpack_k
+from . import sparse as spc
+from ..jit import njit
+from .system import (NOT_CONVERGED, NOT_FINITE, OK, SINGULAR, _M, _R, _write_ydot,
+                     add_transpose_times, body_views, cons_views, copy, copy_v, fill, finite,
+                     m_all, minv_all, row_times, stage_state)  # noqa: E402
+
+
+@njit
+def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
+    """Kx = values of M + alpha D^T D (12.14): the body blocks of M, and alpha D_r^T D_r of
+    every row r into the blocks of its bodies."""
+    mass, J, Jinv = M
+    D = R[0]
+    fill(Kx, 0.0)
+    for b in range(mass.size):
+        for a in range(6):
+            for c in range(6):
+                pos = blkpos[b, a, c]
+                if pos < 0:
+                    continue
+                if a < 3 and c < 3:
+                    if a == c:
+                        Kx[pos] += mass[b]
+                elif a >= 3 and c >= 3:
+                    Kx[pos] += J[b, a - 3, c - 3]
+    for r in range(D.shape[0]):
+        bii, bjj, bij, flip = rowblk[r, 0], rowblk[r, 1], rowblk[r, 2], rowblk[r, 3]
+        if flip < 0:                          # a redundant row left out (drop_penalty_rows)
+            continue
+        for a in range(6):
+            da_i = alpha * D[r, a]
+            da_j = alpha * D[r, 6 + a]
+            for c in range(6):
+                if bii >= 0:
+                    pos = blkpos[bii, a, c]
+                    if pos >= 0:
+                        Kx[pos] += da_i * D[r, c]
+                if bjj >= 0:
+                    pos = blkpos[bjj, a, c]
+                    if pos >= 0:
+                        Kx[pos] += da_j * D[r, 6 + c]
+                if bij >= 0:
+                    pos = blkpos[bij, c, a] if flip else blkpos[bij, a, c]
+                    Kx[pos] += da_i * D[r, 6 + c]
+
+
+@njit
+def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
+    """Penalty (12.14) or augmented Lagrangian (12.16)-(12.18) accelerations and lam.
+
+    Returns the number of iterations (0 for the penalty method), SINGULAR if
+    M + alpha D^T D is not positive definite, NOT_CONVERGED if the augmented Lagrangian
+    iteration did not converge."""
+    alpha, omega, mu, al = mp[1], mp[2], mp[3], mp[4] != 0.0
+    tol, max_it, floor = mp[5], int(mp[6]), mp[7]
+    n = vdot.size
+    m = phi.size
+    assemble_penalty(M, R, k.blkpos, k.rowblk, alpha, k.Kx)
+    sym = (k.K_Cp, k.K_Ci, k.K_Lp, k.K_Li, k.K_Rp, k.K_Rj, k.K_Rpos, k.K_perm)
+    if not spc.numeric(sym, k.Kx, k.KLx, k.xk):
+        return SINGULAR
+    # constraint dynamics term of (12.14): c = -gamma + 2 mu omega Phidot + omega^2 Phi
+    for a in range(m):
+        if k.rowblk[a, 3] < 0:                # a redundant row left out
+            k.ck[a] = 0.0
+            continue
+        phidot = row_times(R, a, v) - nu[a]
+        k.ck[a] = -gamma[a] + 2.0 * mu * omega * phidot + omega * omega * phi[a]
+    fill(k.dtc, 0.0)
+    add_transpose_times(R, k.ck, k.dtc)
+    if not al:
+        for j in range(n):
+            vdot[j] = g[j] - alpha * k.dtc[j]
+        spc.solve(sym, k.KLx, vdot, k.yk)
+        for a in range(m):
+            lam[a] = (-alpha * (row_times(R, a, vdot) + k.ck[a]) if k.rowblk[a, 3] >= 0
+                      else 0.0)
+        return OK
+    minv_all(M, g, vdot)                                              # (12.16)
+    fill(lam, 0.0)
+    previous = np.inf
+    for it in range(1, max_it + 1):
+        copy(k.old, vdot)
+        m_all(M, k.old, t6)
+        for j in range(n):
+            vdot[j] = t6[j] - alpha * k.dtc[j]
+        spc.solve(sym, k.KLx, vdot, k.yk)                            # (12.17)
+        for a in range(m):
+            if k.rowblk[a, 3] >= 0:
+                lam[a] += -alpha * (row_times(R, a, vdot) + k.ck[a])
+        change = 0.0
+        big = 1.0
+        for j in range(n):
+            change += (vdot[j] - k.old[j]) ** 2
+            big = max(big, abs(vdot[j]))
+        change = math.sqrt(change)
+        at_floor = change <= floor * big and change > 0.5 * previous
+        if change <= tol * big or at_floor:                           # (12.18)
+            return it
+        previous = change
+    return NOT_CONVERGED
+
+
+@njit
+def rhs_penalty(t, y, ydot, F, I, W, KI, KW, mp):
+    stage_state(t, y, mp[0], F, I, W)
+    return after_state_penalty(y, ydot, F, I, W, KI, KW, mp)
+
+
+@njit
+def after_state_penalty(y, ydot, F, I, W, KI, KW, mp):
+    return _after_penalty(y, ydot, body_views(F, I, W), cons_views(F, I, W),
+                          unpack_k(KI, KW), mp)
+
+
+@njit
+def stages_penalty(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, iterations):
+    """:func:`stages_standard` for the penalty / augmented Lagrangian methods; adds the inner
+    iterations to iterations[0]."""
+    for s in range(s0, s1):
+        rk_combine(y, h, A, K, s, out)
+        stage_state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], F, I, W)
+        it = after_state_penalty(out, K[s], F, I, W, KI, KW, mp)
+        if it < 0:
+            return s
+        iterations[0] += it
+    return s1
+
+
+@njit(inline="always")
+def _after_penalty(y, ydot, bo, co, k, mp):
+    copy_v(y, bo.v)
+    it = penalty_solve(_M(bo), _R(co), co.phi, co.nu, co.gamma, bo.g, bo.v, k, mp, co.lam,
+                       bo.vdot, bo.t6)
+    if it < 0:
+        return it
+    _write_ydot(bo, co, ydot)
+    return it if finite(ydot) else NOT_FINITE

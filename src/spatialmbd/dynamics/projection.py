@@ -3,7 +3,7 @@ for the accelerations, and after every accepted step the positions and velocitie
 back onto Phi = 0 and D v = nu with the corrections of chapter 14 (14.12, 14.19). No gains to
 choose -- the text notes there is no reliable rule for Baumgarte's.
 
-The projection runs compiled (:func:`.system.project`) on the same sparse Cholesky machinery as
+The projection runs compiled (:func:`project`) on the same sparse Cholesky machinery as
 the multipliers (D D^T instead of D M^-1 D^T); if D D^T is singular at some instant the
 least-squares corrections of :mod:`.correction` are used for that instant.
 """
@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError
-from . import system as cs
 from .base import check_positive, register
 from .correction import _correct_positions_lstsq, _correct_velocities_lstsq
 from .standard import Standard
@@ -35,7 +34,7 @@ class Projection(Standard):
             system.table.set_time(t)
         it = -1
         if not system.python_groups:
-            it = cs.project(t, y, system.F, system.I, system.W, self.tolerance,
+            it = project(t, y, system.F, system.I, system.W, self.tolerance,
                             self.max_iterations, np.zeros(6 * system.nb))
         if it == -1 or it == -2:
             # D D^T singular here, or Newton on it stalled (D nearly rank deficient: a singular
@@ -76,3 +75,109 @@ class Projection(Standard):
     def parameters(self):
         return {"tolerance": self.tolerance, "max_iterations": self.max_iterations,
                 "solver": self.solver}
+
+
+# -------------------- Compiled projection (14.12, 14.19) after each accepted step
+import math
+from ..rotations import rotate_p_scalar
+from ..jit import array_view, njit
+from .system import (_M, _P, _R, add_transpose_times, body_views, cons_views, copy_v, fill,
+                     row_times, schur_factor, schur_solve, schur_views, stage_state)  # noqa: E402
+
+
+@njit
+def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx):
+    """dx = -D^T (D D^T)^-1 r over the kept rows (r = rhs_rows[keep]); False if D D^T is
+    singular."""
+    keep = P[0]
+    if not schur_factor(M, R, P, False):
+        return False
+    for k in range(keep.size):
+        bs[k] = rhs_rows[keep[k]]
+    schur_solve(P, bs)
+    fill(lam, 0.0)
+    for k in range(keep.size):
+        lam[keep[k]] = -bs[k]
+    fill(dx, 0.0)
+    add_transpose_times(R, lam, dx)
+    return True
+
+
+@njit
+def project_positions(t, y, F, I, W, tol, max_it, dx_total):
+    """Positions onto Phi(q, t) = 0 by Newton-Raphson, dx = -D^T (D D^T)^-1 Phi (14.12) over
+    the kept rows, rotations applied exactly (p <- quat(dpi) (x) p); in place on y[:7 nb].
+
+    dx_total (6 nb,) accumulates the corrections. Returns (iterations, max |Phi| before, after);
+    iterations = -1 if D D^T is singular, -2 if Newton did not converge in max_it."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    nb = bo.mass.size
+    q = array_view(y, 0, (nb, 7))
+    M, R, P = _M(bo), _R(co), _P(sc)
+    it = 0
+    phi0 = -1.0
+    while True:
+        stage_state(t, y, 0.0, F, I, W)
+        err = 0.0
+        for a in range(co.phi.size):
+            err = max(err, abs(co.phi[a]))
+        if phi0 < 0.0:
+            phi0 = err
+        if err <= tol:
+            return it, phi0, err
+        if it == max_it or not math.isfinite(err):
+            return -2, phi0, err
+        if not dd_solve_correction(M, R, P, co.phi, sc.bs, co.lam, bo.t6):
+            return -1, phi0, err
+        for b in range(nb):
+            for c in range(3):
+                q[b, c] += bo.t6[6 * b + c]
+            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
+                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
+            for c in range(4):
+                q[b, 3 + c] = pn[c]
+        for j in range(6 * nb):
+            dx_total[j] += bo.t6[j]
+        it += 1
+
+
+@njit
+def _max_residual(R, v, nu):
+    out = 0.0
+    for a in range(nu.size):
+        out = max(out, abs(row_times(R, a, v) - nu[a]))
+    return out
+
+
+@njit
+def project_velocities(t, y, F, I, W):
+    """v <- v - D^T (D D^T)^-1 (D v - nu) (14.19) over the kept rows, in place on y.
+
+    Returns (ok, max |D v - nu| before, after) (all rows); ok False if D D^T is singular."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    nb = bo.mass.size
+    stage_state(t, y, 0.0, F, I, W)
+    copy_v(y, bo.v)
+    R = _R(co)
+    before = _max_residual(R, bo.v, co.nu)
+    if co.phi.size == 0:
+        return True, 0.0, 0.0
+    for a in range(co.rg.size):
+        co.rg[a] = row_times(R, a, bo.v) - co.nu[a]
+    if not dd_solve_correction(_M(bo), R, _P(sc), co.rg, sc.bs, co.lam, bo.t6):
+        return False, before, before
+    for j in range(6 * nb):
+        y[7 * nb + j] += bo.t6[j]
+    copy_v(y, bo.v)
+    return True, before, _max_residual(R, bo.v, co.nu)
+
+
+@njit
+def project(t, y, F, I, W, tol, max_it, dx_total):
+    """Both projections (the projection method's step); returns the position iterations, -1
+    if D D^T is singular, -2 if Newton did not converge."""
+    it, phi0, err = project_positions(t, y, F, I, W, tol, max_it, dx_total)
+    if it < 0:
+        return it
+    ok, before, after = project_velocities(t, y, F, I, W)
+    return it if ok else -1

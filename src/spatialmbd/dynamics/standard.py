@@ -132,7 +132,7 @@ class Standard(Method):
         if self.mode == 0:
             return ev.cv.gamma
         sys_ = ev.system
-        cs.rhs_gamma_into(_y_of(ev), sys_.F, sys_.I, ev.W, self.params())
+        rhs_gamma_into(_y_of(ev), sys_.F, sys_.I, ev.W, self.params())
         return sys_.fields(ev.W, "rg").copy()
 
     # ---- compiled path: used by accelerations() and by simulate's right-hand side
@@ -140,7 +140,7 @@ class Standard(Method):
         if self.solver == "kkt":
             return None
         self._mp = self.params()
-        return (cs.rhs_standard, cs.after_state_standard,
+        return (rhs_standard, after_state_standard,
                 (system.F, system.I, system.W if W is None else W, self._mp))
 
     def stages(self, system):
@@ -149,7 +149,7 @@ class Standard(Method):
         if self.solver == "kkt" or not system.fused or system.table.has_drivers:
             return None
         F, I, W, mp = system.F, system.I, system.W, self._mp
-        kernel = cs.stages_standard
+        kernel = stages_standard
 
         def stages(t, y, h, A, C, K, s0, s1, out, t_last):
             return kernel(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp)
@@ -160,7 +160,7 @@ class Standard(Method):
         W = system.W if W is None else W
         if code == cs.SINGULAR:
             fallback_multipliers(system, W)
-            code = cs.fallback_finish(y, ydot, system.F, system.I, W)
+            code = fallback_finish(y, ydot, system.F, system.I, W)
         if code == cs.NOT_FINITE and not np.all(np.isfinite(system.fields(W, "vdot"))):
             raise singular_error(t)
         return code
@@ -177,10 +177,74 @@ class Standard(Method):
             mp = self._mp = self.params()
         y = _y_of(ev)
         ydot = np.empty(y.size)
-        code = cs.after_state_standard(y, ydot, sys_.F, sys_.I, ev.W, mp)
+        code = after_state_standard(y, ydot, sys_.F, sys_.I, ev.W, mp)
         if code < 0:
             self.status(code, sys_, t, y, ydot, ev.W)
         return MethodOutput(sys_.fields(ev.W, "vdot").copy(), sys_.fields(ev.W, "lam").copy())
 
     def parameters(self):
         return {"solver": self.solver}
+
+
+# -------------------- Compiled right-hand side of the standard and Baumgarte methods
+from ..integrators.explicit import rk_combine
+from ..jit import njit
+from .system import (NOT_FINITE, OK, SINGULAR, _M, _P, _R, _write_ydot, baumgarte_rhs, body_views,
+                     cons_views, copy_v, finish, finite, schur_views, solve_multipliers,
+                     stage_state)  # noqa: E402
+
+
+@njit
+def rhs_gamma_into(y, F, I, W, mp):
+    """rg of :func:`baumgarte_rhs` at the evaluation in W (v read from y)."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    copy_v(y, bo.v)
+    baumgarte_rhs(_R(co), co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
+
+
+@njit
+def rhs_standard(t, y, ydot, F, I, W, mp):
+    """The whole right-hand side of the standard / Baumgarte methods (no Python parts)."""
+    stage_state(t, y, mp[0], F, I, W)
+    return after_state_standard(y, ydot, F, I, W, mp)
+
+
+@njit
+def after_state_standard(y, ydot, F, I, W, mp):
+    """The standard / Baumgarte solve after :func:`stage_state` (and the Python stage)."""
+    return _after_standard(y, ydot, body_views(F, I, W), cons_views(F, I, W),
+                           schur_views(F, I, W), mp)
+
+
+@njit(inline="always")
+def _after_standard(y, ydot, bo, co, sc, mp):
+    copy_v(y, bo.v)
+    R = _R(co)
+    baumgarte_rhs(R, co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
+    if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg, co.lam, sc.bs, bo.t6, bo.u6,
+                             bo.vdot):
+        return SINGULAR
+    _write_ydot(bo, co, ydot)
+    return OK if finite(ydot) else NOT_FINITE
+
+
+@njit
+def stages_standard(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp):
+    """Runge-Kutta stages s0 .. s1-1 with the standard / Baumgarte right-hand side (the
+    ``ODEProblem.stages`` hook): out = y + h sum_j A[s, j] K[j], K[s] = f(t + C[s] h, out).
+    Returns the first stage that did not succeed (s1 if all did)."""
+    for s in range(s0, s1):
+        rk_combine(y, h, A, K, s, out)
+        stage_state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], F, I, W)
+        if after_state_standard(out, K[s], F, I, W, mp) != OK:
+            return s
+    return s1
+
+
+@njit
+def fallback_finish(y, ydot, F, I, W):
+    """vdot and ydot after a fallback solve that has put lam into co.lam."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    finish(_M(bo), _R(co), bo.g, co.lam, bo.t6, bo.vdot)
+    _write_ydot(bo, co, ydot)
+    return OK if finite(ydot) else NOT_FINITE

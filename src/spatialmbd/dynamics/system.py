@@ -13,10 +13,13 @@ with no Python loop over bodies or joints:
 * the method's linear algebra, all O(N) for tree topologies (a chain):
   :func:`solve_multipliers` -- S = D M^-1 D^T (12.5) assembled body by body into a fixed
   sparse pattern, sparse Cholesky with a fill-reducing ordering (:mod:`.sparse`), then
-  vdot = M^-1 (g + D^T lam) (12.4); :func:`solve_penalty` -- M + alpha D^T D (12.14) and the
-  augmented Lagrangian iteration (12.17); :func:`project` -- the corrections of chapter 14
+  vdot = M^-1 (g + D^T lam) (12.4); the penalty solve -- M + alpha D^T D (12.14) and the
+  augmented Lagrangian iteration (12.17); the projection -- the corrections of chapter 14
   with D D^T;
-* :func:`rhs_standard` / :func:`rhs_penalty` fuse it all with qdot = T(q) v (5.12).
+* each method's compiled right-hand side fuses it all with qdot = T(q) v (5.12): it lives next
+  to the method's class (``standard.rhs_standard`` / ``stages_standard``,
+  ``penalty.rhs_penalty`` / ``stages_penalty``, ``projection.project``); this module holds
+  what they share (the stage, the structured solves, the packed buffers, :class:`System`).
 
 Force elements and constraint types without a compiled kernel are evaluated in Python between
 the two stages (they see the state through :attr:`System.state`).
@@ -33,16 +36,14 @@ import numpy as np
 
 from ..constraints.kernels import JointRows, JointTable, evaluate_instances
 from ..forces.kernels import ForceTable, evaluate_forces
-from ..integrators.explicit import rk_combine
 from ..jit import array_view, njit
-from ..rotations import rotate_p_scalar
 from ..state import BodyState, qdot_into, state_into
 from . import sparse as spc
 
 # --------------------------------------------------------------------------------- layout
 # The packed buffers and their compiled views are declared once, in :mod:`.layout`.
 from .layout import (FIELDS, KFIELDS, body_views, cons_views, field_view, force_views,  # noqa: F401
-                     pack, schur_views, unpack_k)
+                     pack, schur_views)
 
 
 # --------------------------------------------------------------------------------- helpers
@@ -345,298 +346,12 @@ OK, SINGULAR, NOT_FINITE, NOT_CONVERGED = 0, -1, -2, -3
 MP_STANDARD = ("normalize", "mode", "alpha", "beta")
 
 
-@njit
-def rhs_gamma_into(y, F, I, W, mp):
-    """rg of :func:`baumgarte_rhs` at the evaluation in W (v read from y)."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
-    copy_v(y, bo.v)
-    baumgarte_rhs(_R(co), co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
-
-
-@njit
-def rhs_standard(t, y, ydot, F, I, W, mp):
-    """The whole right-hand side of the standard / Baumgarte methods (no Python parts)."""
-    stage_state(t, y, mp[0], F, I, W)
-    return after_state_standard(y, ydot, F, I, W, mp)
-
-
-@njit
-def after_state_standard(y, ydot, F, I, W, mp):
-    """The standard / Baumgarte solve after :func:`stage_state` (and the Python stage)."""
-    return _after_standard(y, ydot, body_views(F, I, W), cons_views(F, I, W),
-                           schur_views(F, I, W), mp)
-
-
-@njit(inline="always")
-def _after_standard(y, ydot, bo, co, sc, mp):
-    copy_v(y, bo.v)
-    R = _R(co)
-    baumgarte_rhs(R, co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
-    if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg, co.lam, sc.bs, bo.t6, bo.u6,
-                             bo.vdot):
-        return SINGULAR
-    _write_ydot(bo, co, ydot)
-    return OK if finite(ydot) else NOT_FINITE
-
-
-@njit
-def stages_standard(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp):
-    """Runge-Kutta stages s0 .. s1-1 with the standard / Baumgarte right-hand side (the
-    ``ODEProblem.stages`` hook): out = y + h sum_j A[s, j] K[j], K[s] = f(t + C[s] h, out).
-    Returns the first stage that did not succeed (s1 if all did)."""
-    for s in range(s0, s1):
-        rk_combine(y, h, A, K, s, out)
-        stage_state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], F, I, W)
-        if after_state_standard(out, K[s], F, I, W, mp) != OK:
-            return s
-    return s1
-
-
-@njit
-def fallback_finish(y, ydot, F, I, W):
-    """vdot and ydot after a fallback solve that has put lam into co.lam."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
-    finish(_M(bo), _R(co), bo.g, co.lam, bo.t6, bo.vdot)
-    _write_ydot(bo, co, ydot)
-    return OK if finite(ydot) else NOT_FINITE
-
-
-# --------------------------------------------------------------------------------- penalty
-@njit
-def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
-    """Kx = values of M + alpha D^T D (12.14): the body blocks of M, and alpha D_r^T D_r of
-    every row r into the blocks of its bodies."""
-    mass, J, Jinv = M
-    D = R[0]
-    fill(Kx, 0.0)
-    for b in range(mass.size):
-        for a in range(6):
-            for c in range(6):
-                pos = blkpos[b, a, c]
-                if pos < 0:
-                    continue
-                if a < 3 and c < 3:
-                    if a == c:
-                        Kx[pos] += mass[b]
-                elif a >= 3 and c >= 3:
-                    Kx[pos] += J[b, a - 3, c - 3]
-    for r in range(D.shape[0]):
-        bii, bjj, bij, flip = rowblk[r, 0], rowblk[r, 1], rowblk[r, 2], rowblk[r, 3]
-        if flip < 0:                          # a redundant row left out (drop_penalty_rows)
-            continue
-        for a in range(6):
-            da_i = alpha * D[r, a]
-            da_j = alpha * D[r, 6 + a]
-            for c in range(6):
-                if bii >= 0:
-                    pos = blkpos[bii, a, c]
-                    if pos >= 0:
-                        Kx[pos] += da_i * D[r, c]
-                if bjj >= 0:
-                    pos = blkpos[bjj, a, c]
-                    if pos >= 0:
-                        Kx[pos] += da_j * D[r, 6 + c]
-                if bij >= 0:
-                    pos = blkpos[bij, c, a] if flip else blkpos[bij, a, c]
-                    Kx[pos] += da_i * D[r, 6 + c]
-
-
 #: the parameter array ``mp`` of the penalty / augmented Lagrangian right-hand side
 MP_PENALTY = ("normalize", "alpha", "omega", "mu", "iterate", "tolerance", "max_iterations",
               "floor")
 
 
-@njit
-def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
-    """Penalty (12.14) or augmented Lagrangian (12.16)-(12.18) accelerations and lam.
-
-    Returns the number of iterations (0 for the penalty method), SINGULAR if
-    M + alpha D^T D is not positive definite, NOT_CONVERGED if the augmented Lagrangian
-    iteration did not converge."""
-    alpha, omega, mu, al = mp[1], mp[2], mp[3], mp[4] != 0.0
-    tol, max_it, floor = mp[5], int(mp[6]), mp[7]
-    n = vdot.size
-    m = phi.size
-    assemble_penalty(M, R, k.blkpos, k.rowblk, alpha, k.Kx)
-    sym = (k.K_Cp, k.K_Ci, k.K_Lp, k.K_Li, k.K_Rp, k.K_Rj, k.K_Rpos, k.K_perm)
-    if not spc.numeric(sym, k.Kx, k.KLx, k.xk):
-        return SINGULAR
-    # constraint dynamics term of (12.14): c = -gamma + 2 mu omega Phidot + omega^2 Phi
-    for a in range(m):
-        if k.rowblk[a, 3] < 0:                # a redundant row left out
-            k.ck[a] = 0.0
-            continue
-        phidot = row_times(R, a, v) - nu[a]
-        k.ck[a] = -gamma[a] + 2.0 * mu * omega * phidot + omega * omega * phi[a]
-    fill(k.dtc, 0.0)
-    add_transpose_times(R, k.ck, k.dtc)
-    if not al:
-        for j in range(n):
-            vdot[j] = g[j] - alpha * k.dtc[j]
-        spc.solve(sym, k.KLx, vdot, k.yk)
-        for a in range(m):
-            lam[a] = (-alpha * (row_times(R, a, vdot) + k.ck[a]) if k.rowblk[a, 3] >= 0
-                      else 0.0)
-        return OK
-    minv_all(M, g, vdot)                                              # (12.16)
-    fill(lam, 0.0)
-    previous = np.inf
-    for it in range(1, max_it + 1):
-        copy(k.old, vdot)
-        m_all(M, k.old, t6)
-        for j in range(n):
-            vdot[j] = t6[j] - alpha * k.dtc[j]
-        spc.solve(sym, k.KLx, vdot, k.yk)                            # (12.17)
-        for a in range(m):
-            if k.rowblk[a, 3] >= 0:
-                lam[a] += -alpha * (row_times(R, a, vdot) + k.ck[a])
-        change = 0.0
-        big = 1.0
-        for j in range(n):
-            change += (vdot[j] - k.old[j]) ** 2
-            big = max(big, abs(vdot[j]))
-        change = math.sqrt(change)
-        at_floor = change <= floor * big and change > 0.5 * previous
-        if change <= tol * big or at_floor:                           # (12.18)
-            return it
-        previous = change
-    return NOT_CONVERGED
-
-
-@njit
-def rhs_penalty(t, y, ydot, F, I, W, KI, KW, mp):
-    stage_state(t, y, mp[0], F, I, W)
-    return after_state_penalty(y, ydot, F, I, W, KI, KW, mp)
-
-
-@njit
-def after_state_penalty(y, ydot, F, I, W, KI, KW, mp):
-    return _after_penalty(y, ydot, body_views(F, I, W), cons_views(F, I, W),
-                          unpack_k(KI, KW), mp)
-
-
-@njit
-def stages_penalty(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, iterations):
-    """:func:`stages_standard` for the penalty / augmented Lagrangian methods; adds the inner
-    iterations to iterations[0]."""
-    for s in range(s0, s1):
-        rk_combine(y, h, A, K, s, out)
-        stage_state(t_last if s == s1 - 1 else t + C[s] * h, out, mp[0], F, I, W)
-        it = after_state_penalty(out, K[s], F, I, W, KI, KW, mp)
-        if it < 0:
-            return s
-        iterations[0] += it
-    return s1
-
-
-@njit(inline="always")
-def _after_penalty(y, ydot, bo, co, k, mp):
-    copy_v(y, bo.v)
-    it = penalty_solve(_M(bo), _R(co), co.phi, co.nu, co.gamma, bo.g, bo.v, k, mp, co.lam,
-                       bo.vdot, bo.t6)
-    if it < 0:
-        return it
-    _write_ydot(bo, co, ydot)
-    return it if finite(ydot) else NOT_FINITE
-
-
 # --------------------------------------------------------------------------------- projection
-@njit
-def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx):
-    """dx = -D^T (D D^T)^-1 r over the kept rows (r = rhs_rows[keep]); False if D D^T is
-    singular."""
-    keep = P[0]
-    if not schur_factor(M, R, P, False):
-        return False
-    for k in range(keep.size):
-        bs[k] = rhs_rows[keep[k]]
-    schur_solve(P, bs)
-    fill(lam, 0.0)
-    for k in range(keep.size):
-        lam[keep[k]] = -bs[k]
-    fill(dx, 0.0)
-    add_transpose_times(R, lam, dx)
-    return True
-
-
-@njit
-def project_positions(t, y, F, I, W, tol, max_it, dx_total):
-    """Positions onto Phi(q, t) = 0 by Newton-Raphson, dx = -D^T (D D^T)^-1 Phi (14.12) over
-    the kept rows, rotations applied exactly (p <- quat(dpi) (x) p); in place on y[:7 nb].
-
-    dx_total (6 nb,) accumulates the corrections. Returns (iterations, max |Phi| before, after);
-    iterations = -1 if D D^T is singular, -2 if Newton did not converge in max_it."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
-    nb = bo.mass.size
-    q = array_view(y, 0, (nb, 7))
-    M, R, P = _M(bo), _R(co), _P(sc)
-    it = 0
-    phi0 = -1.0
-    while True:
-        stage_state(t, y, 0.0, F, I, W)
-        err = 0.0
-        for a in range(co.phi.size):
-            err = max(err, abs(co.phi[a]))
-        if phi0 < 0.0:
-            phi0 = err
-        if err <= tol:
-            return it, phi0, err
-        if it == max_it or not math.isfinite(err):
-            return -2, phi0, err
-        if not dd_solve_correction(M, R, P, co.phi, sc.bs, co.lam, bo.t6):
-            return -1, phi0, err
-        for b in range(nb):
-            for c in range(3):
-                q[b, c] += bo.t6[6 * b + c]
-            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
-                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
-            for c in range(4):
-                q[b, 3 + c] = pn[c]
-        for j in range(6 * nb):
-            dx_total[j] += bo.t6[j]
-        it += 1
-
-
-@njit
-def _max_residual(R, v, nu):
-    out = 0.0
-    for a in range(nu.size):
-        out = max(out, abs(row_times(R, a, v) - nu[a]))
-    return out
-
-
-@njit
-def project_velocities(t, y, F, I, W):
-    """v <- v - D^T (D D^T)^-1 (D v - nu) (14.19) over the kept rows, in place on y.
-
-    Returns (ok, max |D v - nu| before, after) (all rows); ok False if D D^T is singular."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
-    nb = bo.mass.size
-    stage_state(t, y, 0.0, F, I, W)
-    copy_v(y, bo.v)
-    R = _R(co)
-    before = _max_residual(R, bo.v, co.nu)
-    if co.phi.size == 0:
-        return True, 0.0, 0.0
-    for a in range(co.rg.size):
-        co.rg[a] = row_times(R, a, bo.v) - co.nu[a]
-    if not dd_solve_correction(_M(bo), R, _P(sc), co.rg, sc.bs, co.lam, bo.t6):
-        return False, before, before
-    for j in range(6 * nb):
-        y[7 * nb + j] += bo.t6[j]
-    copy_v(y, bo.v)
-    return True, before, _max_residual(R, bo.v, co.nu)
-
-
-@njit
-def project(t, y, F, I, W, tol, max_it, dx_total):
-    """Both projections (the projection method's step); returns the position iterations, -1
-    if D D^T is singular, -2 if Newton did not converge."""
-    it, phi0, err = project_positions(t, y, F, I, W, tol, max_it, dx_total)
-    if it < 0:
-        return it
-    ok, before, after = project_velocities(t, y, F, I, W)
-    return it if ok else -1
 
 
 @njit

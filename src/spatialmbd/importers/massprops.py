@@ -11,6 +11,7 @@ those of the viewer and of model files::
     {"type": "capsule", "radius": r, "length": L, "center": [...], "axis": [...]}   (L: the
         cylindrical part, between the centres of the two hemispherical caps)
     {"type": "mesh", "vertices": (n, 3), "faces": (m, 3)} or {"type": "mesh", "file": path}
+        (optional "scale", "center", "p"; see :mod:`spatialmbd.meshes`)
 
 :func:`combine` adds several parts (parallel-axis theorem).  Meshes need the optional extra
 ``pip install spatialmbd[mesh]`` (trimesh); the mesh must be closed (watertight) so that its
@@ -24,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
+from ..meshes import mesh_arrays
 
 __all__ = ["MassProperties", "shape_mass_properties", "combine", "body_mass_properties", "box",
            "cylinder", "sphere", "capsule", "mesh"]
@@ -86,18 +88,17 @@ def capsule(density: float, radius: float, length: float) -> MassProperties:
     return MassProperties(cyl.mass + 2 * mh, np.zeros(3), inertia)
 
 
-def mesh(density: float, vertices=None, faces=None, file=None) -> MassProperties:
-    """Closed triangle mesh (m) through trimesh (optional extra ``spatialmbd[mesh]``)."""
+def mesh(density: float, vertices=None, faces=None, file=None, scale=1.0) -> MassProperties:
+    """Closed triangle mesh (m; file, or vertices and faces, see :mod:`spatialmbd.meshes`)
+    through trimesh (optional extra ``spatialmbd[mesh]``)."""
     try:
         import trimesh
     except ImportError:
         raise ModelError("mass properties of a mesh need trimesh: pip install "
                          "'spatialmbd[mesh]' (or give the body's mass and inertia)") from None
-    if file is not None:
-        tm = trimesh.load(str(file), force="mesh")
-    else:
-        tm = trimesh.Trimesh(vertices=np.asarray(vertices, dtype=float),
-                             faces=np.asarray(faces, dtype=int), process=True)
+    V, F = mesh_arrays({"type": "mesh", "vertices": vertices, "faces": faces, "file": file,
+                        "scale": scale}, f"mesh {file or ''}".strip())
+    tm = trimesh.Trimesh(vertices=V, faces=F, process=True)
     if not tm.is_watertight:
         raise ModelError(f"mesh {file or ''}: not closed (watertight), so its volume and mass "
                          "properties are undefined; repair it or give mass and inertia")
@@ -133,7 +134,8 @@ def shape_mass_properties(shape: dict, density: float) -> MassProperties:
     elif kind == "capsule":
         local = capsule(density, float(shape["radius"]), float(shape["length"]))
     elif kind == "mesh":
-        local = mesh(density, shape.get("vertices"), shape.get("faces"), shape.get("file"))
+        local = mesh(density, shape.get("vertices"), shape.get("faces"), shape.get("file"),
+                     shape.get("scale", 1.0))
     else:
         raise ModelError(f"no mass properties for shape type {kind!r}; use box, cylinder, "
                          "sphere, capsule or mesh")

@@ -146,7 +146,17 @@ def _geom_shapes(mujoco, m, d, g, R, c) -> list:
     if kind == G.mjGEOM_BOX or kind == G.mjGEOM_ELLIPSOID:
         return [dict(type="box", size=(2 * size[:3]).tolist(), center=_clean(center),
                      p=_clean(p_from_A(Rg)), **extra)]
-    # meshes, hfields, sdf: their bounding box in the geom frame
+    if kind == G.mjGEOM_MESH and int(m.geom_dataid[g]) >= 0:
+        # the compiled mesh, in the geom frame (MuJoCo re-centres it on the geom's pos/quat)
+        k = int(m.geom_dataid[g])
+        v0, nv = int(m.mesh_vertadr[k]), int(m.mesh_vertnum[k])
+        f0, nf = int(m.mesh_faceadr[k]), int(m.mesh_facenum[k])
+        vertices = np.asarray(m.mesh_vert[v0:v0 + nv], dtype=float)
+        faces = np.asarray(m.mesh_face[f0:f0 + nf], dtype=np.int64)
+        return [dict(type="mesh", vertices=[_clean(v) for v in vertices],
+                     faces=faces.tolist(), center=_clean(center), p=_clean(p_from_A(Rg)),
+                     **extra)]
+    # hfields, sdf: their bounding box in the geom frame
     aabb = np.asarray(m.geom_aabb[g], dtype=float)
     half = np.maximum(aabb[3:], 1e-6)
     return [dict(type="box", size=(2 * half).tolist(), center=_clean(center + Rg @ aabb[:3]),
@@ -298,6 +308,7 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
         return "ground" if root == 0 else body_name[root]
 
     # ----------------------------------------------------------------- joints
+    single = {}                           # MuJoCo joint id -> our joint (one hinge or slide)
     for r in roots:
         jids = [j for b in members[r] for j in range(m.body_jntadr[b],
                                                      m.body_jntadr[b] + m.body_jntnum[b])
@@ -321,6 +332,8 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
                 geometry["axis"] = axes[0].tolist()
             joint_name = fresh(names[0])
             builder.add_joint(kind, joint_name, parent, child, **geometry)
+            if kind != "spherical":
+                single[jids[0]] = joint_name
         elif (types == [int(J.mjJNT_HINGE)] * 2 and same_point
               and abs(axes[0] @ axes[1]) < 1e-9):
             joint_name = fresh("_".join(names))
@@ -363,6 +376,9 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
     for e in range(m.neq):
         ename = _name(mujoco, m, OBJ.mjOBJ_EQUALITY, e, f"equality{e}")
         etype = int(m.eq_type[e])
+        if etype == int(EQ.mjEQ_JOINT) and m.eq_active0[e]:
+            _joint_equality(m, e, ename, single, builder, fresh, unsupported)
+            continue
         if etype not in (int(EQ.mjEQ_CONNECT), int(EQ.mjEQ_WELD)):
             unsupported.append(f"{EQ(etype).name[5:].lower()} equality {ename!r} (no exact "
                                "coupling constraint here)")
@@ -413,6 +429,31 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = True,
                       MJCFImportWarning, stacklevel=2)
         left_out += inactive
     return MJCFImport(builder=builder, groups=groups, left_out=left_out, mj_model=m)
+
+
+def _joint_equality(m, e, ename, single, builder, fresh, unsupported) -> None:
+    """MJCF <equality><joint joint1 joint2 polycoef="a0 a1 0 0 0">: MuJoCo's
+    q1 - q1_ref = a0 + a1 (q2 - q2_ref), exactly our coupler q1 - a1 q2 = a0 (joint coordinates
+    measured from the reference configuration, which is ours as assembled)."""
+    j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+    poly = np.asarray(m.eq_data[e][:5], dtype=float)
+    if j2 < 0:
+        unsupported.append(f"joint equality {ename!r} with one joint (it locks the joint: use "
+                           "a driver)")
+        return
+    if np.any(poly[2:] != 0):
+        unsupported.append(f"joint equality {ename!r} with a nonlinear polycoef "
+                           f"{poly.tolist()} (only a0 + a1 x couples exactly)")
+        return
+    if j1 not in single or j2 not in single:
+        unsupported.append(f"joint equality {ename!r}: its joints must each be a single hinge "
+                           "or slide")
+        return
+    try:
+        builder.add_coupler("coupler", fresh(ename), single[j1], single[j2], c1=1.0,
+                            c2=-float(poly[1]), c0=float(poly[0]))
+    except ModelError as exc:
+        unsupported.append(f"joint equality {ename!r}: {exc}")
 
 
 def _check_equalities_hold(mujoco, m, d, unsupported) -> None:

@@ -19,6 +19,12 @@ local error estimate, a dense interpolant on [t, t_new]) -- and the *controller*
 * partial results on failure (the exceptions carry the time ``.t``; ``Integrator.integrate``
   turns them into a "failed" result with every output computed before).
 
+* **restart events**: an event with a ``restart`` action (a callable (t, y)) ends the accepted
+  step at its located time (outputs up to there come from the dense output), calls the action
+  (which may change the right-hand side from then on, e.g. record an impact velocity), and
+  restarts the stepper from that state (its FSAL derivative or history is stale). The located
+  time is taken on the far side of the crossing, so the event does not fire again there.
+
 Event convention: a crossing is a strict sign change between the ends of an accepted step
 (g_old < 0 <= g_new rising, g_old > 0 >= g_new falling), so a zero at the start of the run (e.g.
 a restart from a terminal event) does not fire again. ``direction`` > 0 keeps rising crossings
@@ -97,16 +103,24 @@ class Event:
 
     function: (t, y) -> float. terminal: stop the run at the first crossing. direction: > 0
     rising crossings only, < 0 falling only, 0 both. name: for messages and results.
+    restart: None, or an action (t, y) -> None run at the crossing, after which the step ends
+    there and the stepper restarts (see the module docstring). record: False keeps the event
+    out of the located-events list (bookkeeping events).
     """
 
     def __init__(self, function: Callable, terminal: bool = False, direction: float = 0.0,
-                 name: Optional[str] = None):
+                 name: Optional[str] = None, restart: Optional[Callable] = None,
+                 record: bool = True):
         if not callable(function):
             raise ValueError(f"event function {function!r} is not callable")
+        if restart is not None and not callable(restart):
+            raise ValueError(f"event restart action {restart!r} is not callable")
         self.function = function
         self.terminal = bool(terminal)
         self.direction = float(direction)
         self.name = name or getattr(function, "__name__", "event")
+        self.restart = restart
+        self.record = bool(record)
 
     @classmethod
     def coerce(cls, spec, index: int) -> "Event":
@@ -124,7 +138,8 @@ class Event:
         if not name or name == "<lambda>":
             name = f"event{index}"
         return cls(fun, terminal=getattr(spec, "terminal", False),
-                   direction=getattr(spec, "direction", 0.0), name=name)
+                   direction=getattr(spec, "direction", 0.0), name=name,
+                   restart=getattr(spec, "restart", None))
 
 
 @dataclass
@@ -254,6 +269,7 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             dense = _corrected_dense(st.dense, t, t_new, y_raw, y_new)
             # ---------------------------------------------------------- events
             t_stop = t_new
+            restart = None
             if evs:
                 g_new = [float(e.function(t_new, y_new)) for e in evs]
                 found = []
@@ -268,16 +284,23 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                         found.append((te, i))
                 found.sort()
                 for te, i in found:
+                    if evs[i].restart is not None:
+                        te = _far_side(evs[i], dense, te, t_new, g_old[i], event_tol)
                     ye = y_new if te == t_new else dense(te)
                     if project is not None and (te != t_new or not project_steps):
                         ye = project(te, ye)
                     rec = EventRecord(te, ye, i, evs[i].name, evs[i].terminal)
-                    state.events.append(rec)
+                    if evs[i].record:
+                        state.events.append(rec)
                     if rec.terminal:
                         state.terminated = rec
                         t_stop = te
                         break
-                g_old = g_new
+                    if evs[i].restart is not None:
+                        restart = rec
+                        t_stop = te
+                        break
+                g_at_t, g_old = g_old, g_new
             # ---------------------------------------------------------- outputs in (t, t_stop]
             while k_out < n_out and touts[k_out] <= t_stop:
                 to = touts[k_out]
@@ -299,6 +322,22 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                 if progress is not None:
                     progress(t_stop)
                 return
+            if restart is not None:
+                if not selfc and t < restart.t < t_new:
+                    restart = _restep(stepper, problem, t, y, restart, t_end, counters,
+                                      project if project_steps else None, evs[restart.index],
+                                      g_at_t[restart.index], t_new, event_tol)
+                    if evs[restart.index].record:
+                        state.events[-1] = restart
+                evs[restart.index].restart(restart.t, restart.y)
+                # later crossings are found again from there
+                g_old = [float(e.function(restart.t, restart.y)) for e in evs]
+                # the step ends there; the controller's next step size still comes from the
+                # error of the whole step
+                t_new, y_new = restart.t, restart.y
+                stepper.start(problem, t_new, y_new, t_end, counters)
+                if land:
+                    anchor, n_anchor = t_new, 0
             if progress is not None:
                 for tp in (st.progress_times or (t_new,)):
                     progress(tp)
@@ -318,6 +357,45 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             except AttributeError:
                 pass
         raise
+
+
+def _restep(stepper, problem, t, y, rec, t_end, counters, project, event, g_old, t_new, xtol):
+    """The state at a restart event by a step of the stepper from (t, y) to the event time
+    (shorter than the accepted step, so at least as accurate): the dense output can be an
+    order less accurate than the step, and the run continues from this state. The time moves
+    on by xtol, 2 xtol, ... until the stepped state has crossed (so the event does not fire
+    again from there). rec itself (the dense output's state) if that fails."""
+    te, step = rec.t, max(xtol, 4.0 * EPS * abs(rec.t))
+    for _ in range(60):
+        stepper.start(problem, t, y, t_end, counters)
+        st = stepper.step(t, y, te)
+        if st.failed is not None or st.y_new is None or st.t_new != te:
+            break
+        y_new = project(te, st.y_new) if project is not None else st.y_new
+        if not np.all(np.isfinite(y_new)):
+            break
+        if _crossed(g_old, float(event.function(te, y_new)), event.direction):
+            stepper.accept(st, y_new)
+            counters.steps += st.n_steps
+            return EventRecord(te, y_new, rec.index, rec.name, rec.terminal)
+        te = min(te + step, t_new)
+        step *= 2.0
+        if te >= t_new:
+            break
+    stepper.start(problem, rec.t, rec.y, t_end, counters)
+    return rec
+
+
+def _far_side(event, dense, te, t_new, g_old, xtol):
+    """The first time from te on (steps xtol, 2 xtol, 4 xtol, ...) where g has crossed, so a
+    restart there does not see the same crossing again; t_new at the latest."""
+    step = max(xtol, 4.0 * EPS * abs(te))
+    while te < t_new:
+        if _crossed(g_old, float(event.function(te, dense(te))), event.direction):
+            return te
+        te = min(te + step, t_new)
+        step *= 2.0
+    return t_new
 
 
 def _corrected_dense(dense, t0, t1, y_raw, y_proj):

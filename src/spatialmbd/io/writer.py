@@ -1,6 +1,6 @@
 """Writing model files: builder or model -> the schema's dictionary -> YAML or JSON text,
 exactly (floats with repr precision, so model -> file -> model gives bit-identical specs),
-atomically. The schema and the reader are in :mod:`.modelfile`."""
+atomically. The schema is in :mod:`.schema`, the reader in :mod:`.reader`."""
 from __future__ import annotations
 
 import inspect
@@ -14,43 +14,14 @@ from typing import Optional, Union
 import numpy as np
 import yaml
 
-from ..errors import ModelError
 from ..model import Model, ModelBuilder
-from .modelfile import (GEOMETRY_KEYS, JSON_SUFFIXES, SCHEMA_VERSION, YAML_SUFFIXES, _FLOAT_RE,
-                        _FLOAT_TAG, Analysis, ModelFileError, _Problems, _render)
+from .analysis import Analysis
+from .schema import (GEOMETRY_KEYS, JSON_SUFFIXES, SCHEMA_VERSION, YAML_SUFFIXES, ModelFileError,
+                     _plain, _Problems)
+from .source import _FLOAT_RE, _FLOAT_TAG
+
 
 # ============================================================================ builder -> file
-def _plain(value, P=None, path=()):
-    """``value`` as plain Python types (dict, list, str, float, int, bool, None)."""
-    from ..motion import MotionLaw
-    if isinstance(value, MotionLaw):
-        try:
-            value = value.to_dict()
-        except ModelError as exc:
-            if P is None:
-                raise
-            P.add(path, f"{exc}; use a law of type constant, constant_velocity, harmonic, "
-                        "smooth_step or polynomial, or add this element in Python after "
-                        "loading")
-            return None
-        return _plain(value, P, path)
-    if isinstance(value, dict):
-        return {str(k): _plain(v, P, tuple(path) + (str(k),)) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v, P, tuple(path) + (k,)) for k, v in enumerate(value)]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist(), P, path)
-    if isinstance(value, np.generic):
-        return value.item()
-    if value is None or isinstance(value, (str, bool, int, float)):
-        return value
-    what = "a Python callable" if callable(value) else f"a {type(value).__name__}"
-    if P is None:
-        raise ModelFileError([f"{_render(path)}: {what} cannot be written to a model file"])
-    P.add(path, f"{what} cannot be written to a model file")
-    return None
-
-
 def _floats(arr) -> list:
     return [float(x) for x in np.asarray(arr, dtype=float).reshape(-1)]
 
@@ -65,7 +36,8 @@ def _state(obj) -> dict:
         return obj.builder_state
     if isinstance(obj, ModelBuilder):
         return dict(name=obj.name, gravity=obj.gravity, bodies=obj.bodies, joints=obj.joints,
-                    drivers=obj.drivers, forces=obj.forces, ground_shapes=obj.ground_shapes)
+                    drivers=obj.drivers, forces=obj.forces, ground_shapes=obj.ground_shapes,
+                    couplers=obj.couplers)
     raise TypeError(f"expected a Model or a ModelBuilder, not {type(obj).__name__}")
 
 
@@ -112,8 +84,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
             if key in spec.geometry and spec.geometry[key] is not None:
                 val = spec.geometry[key]
                 d[key] = val if isinstance(val, str) else _floats(val)
-        for key, value in spec.params.items():
-            d[key] = float(value)
+        for key, value in spec.params.items():              # a number, or a list of them
+            d[key] = _floats(value) if np.ndim(value) else float(value)
         joints.append(d)
     if joints:
         out["joints"] = joints
@@ -127,6 +99,11 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         drivers.append(d)
     if drivers:
         out["drivers"] = drivers
+    couplers = [dict(name=c.name, type=c.type, joint1=c.joint1, joint2=c.joint2,
+                     **{k: float(v) for k, v in c.params.items()})
+                for c in (s.get("couplers") or {}).values()]
+    if couplers:
+        out["couplers"] = couplers
     from ..forces import FORCE_TYPES
     forces = []
     for k, spec in enumerate(s["forces"].values()):
@@ -184,7 +161,7 @@ _Dumper.add_representer(_Block, lambda dumper, data: dumper.represent_mapping(
 
 def _yaml_text(data: dict, header: Optional[str] = None) -> str:
     data = dict(data)
-    for key in ("bodies", "joints", "drivers", "forces"):
+    for key in ("bodies", "joints", "drivers", "couplers", "forces"):
         if key in data:
             data[key] = [_Block(d) for d in data[key]]
     if "analysis" in data:

@@ -21,7 +21,7 @@ from ..constraints import DRIVER_TYPES, JOINT_TYPES
 from ..constraints.drivers import COORDINATES
 from ..errors import ModelError
 from .. import rotations as rot
-from .specs import BodySpec, DriverSpec, ForceSpec, JointSpec
+from .specs import BodySpec, CouplerSpec, DriverSpec, ForceSpec, JointSpec
 
 GROUND = "ground"
 #: Euler parameters whose norm differs from 1 by less than this are normalised silently
@@ -131,6 +131,7 @@ class ModelBuilder:
         self.joints: dict[str, JointSpec] = {}
         self.drivers: dict[str, DriverSpec] = {}
         self.forces: dict[str, ForceSpec] = {}
+        self.couplers: dict[str, CouplerSpec] = {}
         self.ground_shapes: list = []
 
     # ----------------------------------------------------------------------------- bodies
@@ -310,6 +311,59 @@ class ModelBuilder:
         return name
 
     # ----------------------------------------------------------------------------- forces
+    def add_coupler(self, type: str, name: str, joint1: str, joint2: str, **params) -> str:
+        """Add a coupler ``type`` named ``name``: one equation between the coordinates of two
+        joints added before (constraints.couplers).
+
+        "gear": ratio (q2 = ratio q1, two revolute joints; external pair: -z1 / z2);
+        "rack_pinion": radius (m; x2 = radius theta1, a revolute then a translational joint);
+        "coupler": c1, c2, c0 (c1 q1 + c2 q2 = c0, any two joint coordinates, SI units).
+        """
+        from ..constraints.couplers import COORDINATE_OF, COUPLER_TYPES, NEEDS
+        what = f"couplers[{name!r}]"
+        if type not in COUPLER_TYPES:
+            raise ModelError(f"{what}: unknown coupler type {type!r}; use "
+                             + ", ".join(COUPLER_TYPES))
+        self._check_new_name(name, "coupler")
+        cls = COUPLER_TYPES[type]
+        allowed = {p.name for p in cls.parameters}
+        extra = set(params) - allowed
+        if extra:
+            raise ModelError(f"{what}: unknown parameter(s) {sorted(extra)} for a {type}; "
+                             f"allowed: {sorted(allowed)}")
+        cls.coefficients(params, what)
+        joints = []
+        for key, joint, need in zip(("joint1", "joint2"), (joint1, joint2), NEEDS[type]):
+            if joint not in self.joints:
+                raise ModelError(f"{what}.{key}: unknown joint {joint!r}; add it with add_joint "
+                                 f"first (joints: {', '.join(self.joints) or 'none'})")
+            kind = COORDINATE_OF.get(self.joints[joint].type)
+            if kind is None:
+                raise ModelError(f"{what}.{key}: joint {joint!r} is a "
+                                 f"{self.joints[joint].type}; couplers take "
+                                 f"{', '.join(COORDINATE_OF)} joints")
+            if need is not None and kind != need:
+                raise ModelError(f"{what}.{key}: a {type} needs a "
+                                 + ("revolute (turning)" if need == 0 else "translational")
+                                 + f" joint, got the {self.joints[joint].type} {joint!r}")
+            joints.append(self.joints[joint])
+        if joint1 == joint2:
+            raise ModelError(f"{what}: couples joint {joint1!r} with itself")
+        moving = []
+        for j in joints:
+            for body in (j.body_i, j.body_j):
+                if body != GROUND and body not in moving:
+                    moving.append(body)
+        if len(moving) > 2:
+            raise ModelError(f"{what}: the joints {joint1!r} and {joint2!r} move the bodies "
+                             f"{', '.join(moving)}; a coupler's equation may involve at most two "
+                             "moving bodies (both joints on the ground, or one on the ground "
+                             "and one on the same body), so a moving carrier is not supported "
+                             "yet; fix the carrier to the ground or couple other joints")
+        self.couplers[name] = CouplerSpec(type=type, name=name, joint1=joint1, joint2=joint2,
+                                          params=dict(params))
+        return name
+
     def add_force(self, type: str, name: str, **params) -> str:
         """Add a force element (see spatialmbd.forces.FORCE_TYPES for types and parameters)."""
         from ..forces import FORCE_TYPES
@@ -343,7 +397,8 @@ class ModelBuilder:
             raise ModelError(f"{kind} name {name!r}: '.' is not allowed in names (it separates "
                              "names in result columns)")
         for other, table in (("body", self.bodies), ("joint", self.joints),
-                             ("driver", self.drivers), ("force", self.forces)):
+                             ("driver", self.drivers), ("force", self.forces),
+                             ("coupler", getattr(self, "couplers", {}))):
             if name in table:
                 raise ModelError(f"duplicate name {name!r}: a {other} already has it; names of "
                                  "bodies, joints, drivers and forces must be unique")

@@ -166,6 +166,8 @@ def compile_model(builder):
                                    [index[s.body_j] for s in specs], JointGeometry.stack(geoms))
         groups.append(group)
 
+    groups += _coupler_groups(builder, index, joint_geometry)
+
     drivers_by_kind: dict[str, list] = {}
     for spec in builder.drivers.values():
         drivers_by_kind.setdefault(spec.kind, []).append(spec)
@@ -211,4 +213,44 @@ def _snapshot(builder) -> dict:
     return dict(name=builder.name, gravity=np.array(builder.gravity),
                 bodies=copy.deepcopy(builder.bodies), joints=copy.deepcopy(builder.joints),
                 drivers=copy.deepcopy(builder.drivers), forces=copy.copy(builder.forces),
+                couplers=copy.deepcopy(getattr(builder, "couplers", {})),
                 ground_shapes=copy.deepcopy(builder.ground_shapes))
+
+
+def _coupler_groups(builder, index: dict, joint_geometry: dict) -> list:
+    """One group per coupler type: the row on the (at most two) moving bodies of the two
+    joints, the joints' geometry and the coefficients in the parameter block."""
+    from ..constraints.couplers import COUPLER_TYPES, joint_block
+    couplers = getattr(builder, "couplers", {})
+    if not couplers:
+        return []
+    nb = len(builder.bodies)
+    q0 = np.array([np.concatenate([b.r, b.p]) for b in builder.bodies.values()])
+    by_type: dict[str, list] = {}
+    for spec in couplers.values():
+        by_type.setdefault(spec.type, []).append(spec)
+    groups = []
+    for ctype, specs in by_type.items():
+        cls = COUPLER_TYPES[ctype]
+        rows, params = [], []
+        for spec in specs:
+            what = f"couplers[{spec.name!r}]"
+            j1, j2 = builder.joints[spec.joint1], builder.joints[spec.joint2]
+            moving = []
+            for j in (j1, j2):
+                for body in (j.body_i, j.body_j):
+                    if index[body] < nb and index[body] not in moving:
+                        moving.append(index[body])
+            row = (moving + [nb, nb])[:2]
+            c1, c2, c0 = cls.coefficients(spec.params, what)
+            params.append(np.concatenate([
+                joint_block(j1, joint_geometry[j1.name], index, tuple(row), q0, what, "joint1"),
+                joint_block(j2, joint_geometry[j2.name], index, tuple(row), q0, what, "joint2"),
+                [c1, c2, c0]]))
+            rows.append(row)
+        n = len(specs)
+        geom = JointGeometry(np.zeros((n, 3)), np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)),
+                             np.tile(np.eye(3), (n, 1, 1)), np.array(params))
+        groups.append(cls([s.name for s in specs], [r[0] for r in rows], [r[1] for r in rows],
+                          geom))
+    return groups

@@ -71,6 +71,17 @@ class DriverSpec:
 
 
 @dataclass
+class CouplerSpec:
+    """A coupler (gear, rack_pinion, coupler) between the coordinates of two joints."""
+
+    type: str
+    name: str
+    joint1: str
+    joint2: str
+    params: dict
+
+
+@dataclass
 class ForceSpec:
     """A force element: ``type`` names the element class, ``params`` its keyword arguments."""
 

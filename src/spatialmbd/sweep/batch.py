@@ -6,7 +6,7 @@ initial states share the model's structure: the integer pack ``I`` of
 same, only the float pack ``F`` and the initial state differ. :func:`simulate_batch` stacks
 them -- F (B, nF), work arrays W (B, nW), states (B, n) -- and runs one compiled loop over the
 members that integrates each with the same compiled right-hand side as :func:`simulate`
-(:func:`..dynamics.system.rhs_standard` / ``stages_standard``):
+(:func:`..dynamics.standard.rhs_standard` / ``stages_standard``):
 
 * ``rk45``: Dormand-Prince 5(4) with per-member step control -- the same arithmetic as
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` (Hairer's starting step, the PI
@@ -38,6 +38,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..dynamics import system as cs
+from ..dynamics.projection import project
+from ..dynamics.standard import rhs_standard, stages_standard
 from ..errors import ModelError
 from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
                                                 dopri_interpolate)
@@ -87,7 +89,7 @@ def _outputs_at(t_out, Y, Yd, Lam, F, I, W, mp, nb, lam_off, m):
     n = Y.shape[1]
     ydot = np.empty(n)
     for k in range(t_out.size):
-        code = cs.rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp)
+        code = rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp)
         if code < 0:
             for j in range(6 * nb):
                 Yd[k, j] = np.nan
@@ -110,7 +112,7 @@ def _project(t, y, F, I, W, pp, nb, dx):
         return True
     for i in range(dx.size):
         dx[i] = 0.0
-    return cs.project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
+    return project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
 
 
 @njit
@@ -139,7 +141,7 @@ def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_step
         k_out = 1
     if k_out == nt:
         return OK, t
-    if cs.rhs_standard(t, y, K[0], F, I, W, mp) < 0:
+    if rhs_standard(t, y, K[0], F, I, W, mp) < 0:
         return RHS_FAILED, t
     counters[0] += 1
     # ---- starting step (Hairer, Norsett & Wanner II.4), as controller.initial_step
@@ -152,7 +154,7 @@ def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_step
     for i in range(n):
         y_new[i] = y[i] + h0 * K[0, i]
     f1 = np.empty(n)
-    if cs.rhs_standard(t + h0, y_new, f1, F, I, W, mp) < 0:
+    if rhs_standard(t + h0, y_new, f1, F, I, W, mp) < 0:
         return RHS_FAILED, t
     counters[0] += 1
     for i in range(n):
@@ -180,7 +182,7 @@ def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_step
             if hs < h_min:
                 return UNDERFLOW, t
             t_new = t_end if hs == t_end - t else t + hs
-            done = cs.stages_standard(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, K, 1, 7, y_new, t_new,
+            done = stages_standard(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, K, 1, 7, y_new, t_new,
                                       F, I, W, mp)
             counters[0] += 6
             if done < 7:
@@ -218,7 +220,7 @@ def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_step
             for i in range(n):
                 Kd[j, i] = K[j, i]                   # the stages of the interpolant
         if pp[0] != 0.0 and changed:                 # FSAL derivative at the projected state
-            if cs.rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
+            if rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
                 return RHS_FAILED, t_new
             counters[0] += 1
         if not _finite(y_new):
@@ -268,19 +270,19 @@ def _rk4_member(y0, F, I, W, mp, pp, t0, t_out, h, nb, Y, counters):
                 t_new = to if i == m else t_start + i * h
                 hh = t_new - t
                 half = 0.5 * hh
-                if cs.rhs_standard(t, y, k1, F, I, W, mp) < 0:
+                if rhs_standard(t, y, k1, F, I, W, mp) < 0:
                     return RHS_FAILED, t
                 for j in range(n):
                     tmp[j] = y[j] + half * k1[j]
-                if cs.rhs_standard(t + half, tmp, k2, F, I, W, mp) < 0:
+                if rhs_standard(t + half, tmp, k2, F, I, W, mp) < 0:
                     return RHS_FAILED, t
                 for j in range(n):
                     tmp[j] = y[j] + half * k2[j]
-                if cs.rhs_standard(t + half, tmp, k3, F, I, W, mp) < 0:
+                if rhs_standard(t + half, tmp, k3, F, I, W, mp) < 0:
                     return RHS_FAILED, t
                 for j in range(n):
                     tmp[j] = y[j] + hh * k3[j]
-                if cs.rhs_standard(t + hh, tmp, k4, F, I, W, mp) < 0:
+                if rhs_standard(t + hh, tmp, k4, F, I, W, mp) < 0:
                     return RHS_FAILED, t
                 for j in range(n):                   # Eq. (13.14), (13.19)
                     y[j] = y[j] + (hh / 6.0) * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
@@ -405,6 +407,12 @@ class BatchSetup:
         if any(g.rheonomic for g in model.constraint_groups):
             raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
                              "motion laws); use engine='simulate'")
+        couplers = [n for g in model.constraint_groups if getattr(g, "coupler", False)
+                    for n in g.names]
+        if couplers:
+            raise ModelError(f"batch integration: model {model.name!r} has couplers "
+                             f"({', '.join(couplers)}), whose angles are unwrapped per step by "
+                             "simulate(); use engine='simulate'")
 
     @staticmethod
     def _signature(model):

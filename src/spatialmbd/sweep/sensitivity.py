@@ -188,7 +188,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     """
     import xarray as xr
     from .batch import BatchSetup
-    from ..dynamics import system as cs
+    from ..dynamics.standard import rhs_standard
     from ..simulate import output_times
     nominal = _nominal(model, params)
     names = list(nominal)
@@ -228,7 +228,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
 
     def f(t, y, F):
         out = np.empty(n)
-        if cs.rhs_standard(t, np.ascontiguousarray(y), out, F, I, W, mpar) < 0:
+        if rhs_standard(t, np.ascontiguousarray(y), out, F, I, W, mpar) < 0:
             raise ModelError(f"t = {t:.6g} s: the right-hand side failed during the forward "
                              "sensitivity integration")
         return out

@@ -37,7 +37,7 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
               "adams_spherical_case02", "adams_universal_case01", "adams_universal_case02",
               "free_symmetric", "free_asymmetric", "heavy_top", "slider_crank_kinematics",
               "iftomm_a01", "iftomm_a02", "iftomm_a04", "iftomm_a05", "spatial_slider_crank",
-              "double_pendulum", "robot_arm")
+              "double_pendulum", "robot_arm", "hertz_impact", "cam_follower")
 
 
 def run_validation(full: bool = False, out=None, cases: Optional[Iterable[str]] = None,

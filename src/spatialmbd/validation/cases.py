@@ -7,6 +7,7 @@ Reference values and their provenance: validation/data/references.json (:mod:`.r
 """
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -46,9 +47,13 @@ def _angular_momentum(res, point=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 
 def _energy_checks(case, res, what="energy balance (T + V - W_nc)(t) - (T + V)(0)"):
+    """Energy balance within the integration bound. Its scale s is the first-order size of the
+    energy error a relative state error rtol causes: T and the elastic energy are quadratic in
+    the state (dT = 2 T dv/v), the gravitational energy and the work integral linear, so
+    s = 2 max T + max |V_g| + 2 max V_e + max |W_nc|."""
     en = res.energy()
-    scale = float(np.abs(en["kinetic"]).max() + np.abs(en["gravitational"]).max()
-                  + np.abs(en["elastic"]).max() + np.abs(en["work_nonconservative"]).max())
+    scale = float(2 * np.abs(en["kinetic"]).max() + np.abs(en["gravitational"]).max()
+                  + 2 * np.abs(en["elastic"]).max() + np.abs(en["work_nonconservative"]).max())
     return compare_history(case, what, en["error"], np.zeros_like(en["error"]),
                            integration_bound(res, scale), bound_basis(res, scale, "J"), "J",
                            t=res.t)
@@ -434,6 +439,94 @@ def case_robot_arm(full: bool) -> CaseResult:
 
 
 #: name -> case function(full) (the ADAMS cases are expanded in run_validation)
+# ------------------------------------------------------------------------------ contact
+def case_hertz_impact(full: bool) -> CaseResult:
+    """A sphere on a rigid flat at v0, no gravity, the Hertz law from the materials: the
+    indentation where the sphere stops, the force there, the contact duration and the
+    rebound speed against Hertz's impact theory."""
+    from scipy.integrate import quad
+    ref = references()["hertz_impact"]
+    case = CaseResult("Hertz impact of a sphere on a rigid flat", "steel sphere at 1 m/s, "
+                      "Hertz law from E and nu: indentation, peak force, contact duration, "
+                      "rebound", f"{ref['source']}; {ref['how']}; {ref['precision']}")
+    R, m, E, nu, v0 = (ref[k] for k in ("radius_m", "mass_kg", "young_Pa", "poisson", "v0_m_s"))
+    K = 4.0 / 3.0 * E / (1 - nu ** 2) * math.sqrt(R)                      # Hertz stiffness
+    dmax = (5.0 * m * v0 ** 2 / (4.0 * K)) ** 0.4
+    T = 2.0 * dmax / v0 * quad(lambda x: 1.0 / math.sqrt(1.0 - x ** 2.5), 0, 1)[0]
+    gap0 = 1e-4
+    b = ModelBuilder("hertz_impact", gravity=(0, 0, 0))
+    J = 0.4 * m * R ** 2
+    b.add_body("ball", m, (J, J, J), r=(0, 0, R + gap0), rdot=(0, 0, -v0))
+    b.add_force("contact", "floor", body_i="ground", body_j="ball",
+                shape_i={"type": "plane", "normal": (0, 0, 1.0)},
+                shape_j={"type": "sphere", "radius": R}, law="hertz", young_j=E, poisson_j=nu)
+    model = b.compile()
+
+    def turn(t, s):                     # the sphere stops: vertical velocity crosses zero
+        return s.rdot[0, 2]
+    turn.direction, turn.name = 1.0, "turn"
+
+    def separation(t, s):
+        return s.r[0, 2] - R
+    separation.direction, separation.name = 1.0, "separation"
+    t_touch = gap0 / v0
+    rtol = 1e-11 if full else 1e-9
+    res = simulate(model, t_touch + 1.5 * T, method="projection", rtol=rtol, atol=rtol * 1e-4,
+                   output_step=T / 50, events=[turn, separation], event_tol=1e-15)
+    if not res.success:
+        raise RuntimeError(f"simulation failed: {res.message}")
+    ev = {e["name"]: e for e in res.events}
+    t_turn, t_sep = ev["turn"]["t"], ev["separation"]["t"]
+    names = [e["name"] for e in res.events]
+    z_turn = res.event_states[names.index("turn")][0][0, 2]     # located, not sampled
+    tol = integration_bound(res, 1.0)               # relative: N (rtol + atol / scale)
+    basis = bound_basis(res, 1.0, "(relative)")
+    compare_value(case, "maximum indentation d_max", R - z_turn, dmax, tol * dmax, basis, "m")
+    compare_value(case, "peak force K d_max^(3/2)", K * (R - z_turn) ** 1.5, K * dmax ** 1.5,
+                  1.5 * tol * K * dmax ** 1.5, basis + " (x 3/2: F ~ d^(3/2))", "N")
+    compare_value(case, "contact duration", t_sep - t_touch, T, tol * T + 2e-15, basis, "s")
+    compare_value(case, "rebound speed (elastic: v0)", res.v[-1, 0, 2], v0, tol * v0, basis,
+                  "m/s")
+    case.notes.append(f"K = {K:.6g} N/m^1.5, {res.counters['steps']} steps")
+    return case
+
+
+def case_cam_follower(full: bool) -> CaseResult:
+    """A disc cam turning at 20 rad/s with a spring-loaded translating follower (the
+    point_on_cam sliding joint): the follower height against the profile, and the normal force
+    on the follower against Newton's law for it."""
+    from scipy.interpolate import CubicSpline
+    from ..constraints.point_curve import normal_force
+    ref = references()["cam_follower"]
+    case = CaseResult("Cam and translating follower", "point_on_cam joint, 20 rad/s: follower "
+                      "height and normal force", f"{ref['source']}; {ref['how']}; "
+                      f"{ref['precision']}")
+    w, m, k, preload = 20.0, 0.5, 500.0, 10.0
+    model = models.cam_follower(speed=w, preload=preload, stiffness=k,
+                                follower_mass=m).compile()
+    res = _sim(model, 2 * np.pi / w if full else np.pi / w, full, 1e-8, 1e-10,
+               method="projection", output_step=np.pi / w / 60)
+    radii = models.cam_profile()
+    theta = 2 * np.pi * np.arange(len(radii) + 1) / len(radii)
+    r = CubicSpline(theta, radii + radii[:1], bc_type="periodic")
+    th = (np.pi / 2 - w * res.t) % (2 * np.pi)
+    tol = integration_bound(res, 0.07)
+    compare_history(case, "follower height y = r(pi/2 - w t)", res.q[:, 1, 1], r(th), tol,
+                    bound_basis(res, 0.07, "m"), "m", t=res.t)
+    R, R1, R2 = r(th), r(th, 1), r(th, 2)
+    spring = k * (0.2 - R - (0.2 - r(np.pi / 2) + preload / k))
+    tx, ty = R1 * np.cos(th) - R * np.sin(th), R1 * np.sin(th) + R * np.cos(th)
+    nx, ny = ty, -tx
+    phi = w * res.t
+    n_y = (np.sin(phi) * nx + np.cos(phi) * ny) / np.hypot(nx, ny)
+    N_ref = (m * w * w * R2 - spring) / n_y
+    scale = float(np.abs(N_ref).max())
+    compare_history(case, "normal force (m y'' - F_spring) / n_y", normal_force(res, "contact"),
+                    N_ref, integration_bound(res, scale) * w * w,
+                    bound_basis(res, scale, "N") + " x w^2 (an acceleration)", "N", t=res.t)
+    return case
+
+
 CASES = {
     **{f"adams_{n.lower()}": (lambda full, n=n: adams_case(n, full)) for n in ADAMS_CASES},
     "free_symmetric": case_free_symmetric,
@@ -447,6 +540,8 @@ CASES = {
     "spatial_slider_crank": case_spatial_slider_crank,
     "double_pendulum": case_double_pendulum,
     "robot_arm": case_robot_arm,
+    "hertz_impact": case_hertz_impact,
+    "cam_follower": case_cam_follower,
 }
 
 

@@ -216,6 +216,24 @@ def derive(adams_dir: Path) -> dict:
         "how": "closed-form slider position, velocity, acceleration at constant crank speed",
         "precision": "closed form",
     }
+    refs["hertz_impact"] = {
+        "source": ("Hertz contact theory: K = 4/3 E* sqrt(R), E* = E / (1 - nu^2) for a sphere on "
+                   "a rigid flat; impact of elastic bodies (K. L. Johnson, Contact Mechanics, "
+                   "Cambridge 1985, ch. 11)"),
+        "how": ("energy balance m v0^2 / 2 = 2/5 K d_max^(5/2) gives d_max and the peak force "
+                "K d_max^(3/2); the duration T = 2 (d_max / v0) int_0^1 dx / sqrt(1 - x^(5/2)) "
+                "= 2.94 d_max / v0 (quadrature); elastic: rebound at v0"),
+        "precision": "closed form, evaluated in double precision",
+        "radius_m": 0.1, "mass_kg": 1.0, "young_Pa": 2.0e11, "poisson": 0.3, "v0_m_s": 1.0,
+    }
+    refs["cam_follower"] = {
+        "source": "constructed (models.cam_follower, models.cam_profile)",
+        "how": ("the follower's height is the profile r(pi/2 - w t), r SciPy's periodic cubic "
+                "spline through the same radii (an independent implementation); Newton's law "
+                "for the follower along its guide, m y'' = F_spring + N n_y, gives the normal "
+                "force N, n the outward profile normal turned by the cam angle"),
+        "precision": "closed form, evaluated in double precision",
+    }
     return refs
 
 

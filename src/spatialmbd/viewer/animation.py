@@ -21,7 +21,10 @@ shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x,
              "p": [e0, e1, e2, e3] (optional)}``, ``{"type": "cylinder", "radius", "length",
              "center", "axis"}``, ``{"type": "sphere", "radius", "center"}``, ``{"type":
              "capsule", "radius", "length" (between the caps' centres), "center", "axis"}`` (drawn
-             as a cylinder and two spheres); each may carry its own ``"color"``.
+             as a cylinder and two spheres), ``{"type": "mesh", "vertices": (n, 3), "faces":
+             (m, 3)}`` or ``{"type": "mesh", "file": path}`` (optional "scale", "center", "p";
+             :mod:`spatialmbd.meshes`; embedded as flat vertex and index lists); each may carry
+             its own ``"color"``.
 ``joints``   optional list of ``{"name", "type", "body": index or -1 (ground), "point_local"}``.
 ``springs``  optional list of force elements drawn between two attachment points:
              ``{"name", "kind": "spring" | "damper" | "spring_damper" | "link", "body_i",
@@ -153,9 +156,16 @@ def _shape(shape: Any, what: str) -> dict:
         out["axis"] = _unit(shape.get("axis", (0.0, 0.0, 1.0)), 3, what + ".axis")
     elif kind == "sphere":
         out["radius"] = _positive(shape.get("radius"), what + ".radius")
+    elif kind == "mesh":
+        from ..meshes import mesh_arrays
+        V, F = mesh_arrays(shape, what)           # scaled vertices, checked faces
+        out["vertices"] = _rounded(V, what + ".vertices")
+        out["faces"] = [int(i) for i in F.ravel()]
+        if shape.get("p") is not None:
+            out["p"] = _unit(shape["p"], 4, what + ".p")
     else:
         raise ValueError(f"{what}: unknown shape type {kind!r} (use 'box', 'cylinder', "
-                         "'sphere' or 'capsule')")
+                         "'sphere', 'capsule' or 'mesh')")
     out["center"] = _vec(shape.get("center", (0.0, 0.0, 0.0)), 3, what + ".center")
     if shape.get("color") is not None:
         out["color"] = _color(shape["color"], what + ".color")

@@ -163,6 +163,16 @@
       R = basisWithAxis(shape.axis || [0, 0, 1]);
     } else if (shape.type === 'sphere') {
       geo = sphereGeometry(shape.radius, 10, 18);
+    } else if (shape.type === 'mesh') {
+      // a triangle mesh: its own winding says which side is outside (it need not be convex)
+      geo = { verts: [], faces: [], wound: true };
+      for (var v = 0; v + 2 < shape.vertices.length; v += 3) {
+        geo.verts.push([shape.vertices[v], shape.vertices[v + 1], shape.vertices[v + 2]]);
+      }
+      for (var f = 0; f + 2 < shape.faces.length; f += 3) {
+        geo.faces.push([shape.faces[f], shape.faces[f + 1], shape.faces[f + 2]]);
+      }
+      if (shape.p) { R = matFromP(shape.p); }
     } else {
       return null;
     }
@@ -183,7 +193,10 @@
       }
       fc = scale(fc, 1 / idx.length);
       nrm = normalize(nrm);
-      if (dot(nrm, sub(fc, centroid)) < 0) { nrm = scale(nrm, -1); idx = idx.slice().reverse(); }
+      if (!geo.wound && dot(nrm, sub(fc, centroid)) < 0) {
+        nrm = scale(nrm, -1);
+        idx = idx.slice().reverse();
+      }
       return { idx: idx, n: nrm, edges: [] };
     });
     // edge table: sharp edges (dihedral > ~30 deg) are always outlined, smooth ones only

@@ -94,10 +94,32 @@
       return new THREE.Matrix4().compose(pos, q, scale);
     }
 
+    // triangle meshes: one THREE.Mesh each (their own geometry), placed like the instances
+    var meshShapes = [];
+    function addTriangleMesh(s, body, color) {
+      var geometry = new THREE.BufferGeometry();
+      geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(s.vertices), 3));
+      geometry.setIndex(s.faces);
+      geometry.computeVertexNormals();
+      var mesh = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial(
+        { color: new THREE.Color(s.color || color), roughness: 0.62, metalness: 0.05,
+          flatShading: true, side: THREE.DoubleSide }));
+      var q = new THREE.Quaternion();
+      if (s.p) { q.set(s.p[1], s.p[2], s.p[3], s.p[0]).normalize(); }
+      var local = new THREE.Matrix4().compose(new THREE.Vector3().fromArray(s.center || [0, 0, 0]),
+                                              q, new THREE.Vector3(1, 1, 1));
+      mesh.matrixAutoUpdate = false;
+      mesh.matrix.copy(local);
+      mesh.frustumCulled = false;
+      scene.add(mesh);
+      meshShapes.push({ body: body, local: local, mesh: mesh });
+    }
+
     // instances: [{type, body (index or -1), local (Matrix4), color}]
     var instances = { box: [], cylinder: [], sphere: [] };
     function collect(shapes, body, color) {
       (shapes || []).forEach(function (s) {
+        if (s.type === 'mesh') { addTriangleMesh(s, body, color); return; }
         var m = shapeMatrix(s);
         if (m) { instances[s.type].push({ body: body, local: m, color: s.color || color }); }
       });
@@ -240,6 +262,16 @@
           any = true;
         });
         if (any) { entry.mesh.instanceMatrix.needsUpdate = true; }
+      });
+      meshShapes.forEach(function (entry) {
+        if (entry.body < 0) { return; }
+        var ps = poses[entry.body], A = ps.A;
+        bodyM.set(A[0], A[1], A[2], ps.pos[0],
+                  A[3], A[4], A[5], ps.pos[1],
+                  A[6], A[7], A[8], ps.pos[2],
+                  0, 0, 0, 1);
+        entry.mesh.matrix.multiplyMatrices(bodyM, entry.local);
+        entry.mesh.matrixWorldNeedsUpdate = true;
       });
       drawExtras(extras);
       renderer.render(scene, camera);

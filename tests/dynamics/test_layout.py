@@ -26,3 +26,31 @@ def test_every_compiled_view_is_its_declared_field():
             seen.add((fname, name))
     assert len(seen) == len(layout.FIELDS) + len(layout.KFIELDS)
     assert layout.field_view(layout.FIELDS, F, I, W, "fkind").size == 2     # two springs
+
+
+def test_the_compile_cache_key_covers_subpackages():
+    """The cache directory is named after a hash of every hot-path source, subpackages
+    included: an edit to forces/contact/ must compile afresh, not load stale machine code."""
+    import os
+    from spatialmbd import jit
+    files = set(jit.hot_path_files())
+    assert os.path.join("forces", "contact", "element.py") in files
+    assert os.path.join("constraints", "point_curve.py") in files
+    pkg = os.path.dirname(jit.__file__)
+    for entry in ("constraints", "forces", "dynamics", "integrators"):
+        for root, _, names in os.walk(os.path.join(pkg, entry)):
+            for f in names:
+                if f.endswith(".py"):
+                    assert os.path.relpath(os.path.join(root, f), pkg) in files
+
+
+def test_cache_is_warm_looks_where_the_cache_will_be(tmp_path, monkeypatch):
+    """With NUMBA_CACHE_DIR set, the compiled code goes there: an empty one is a cold cache
+    (the first run says it is compiling) even when the package's own cache is warm."""
+    from spatialmbd import jit
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    assert not jit.cache_is_warm()
+    root = tmp_path / f"spatialmbd-{jit._stamp()}"
+    root.mkdir()
+    (root / "system.stage_state-1.py311.nbi").write_bytes(b"")
+    assert jit.cache_is_warm()

@@ -51,6 +51,12 @@ def angle_well_defined(group, q0):
 
 @pytest.mark.parametrize("name", sorted(CONSTRAINT_TYPES))
 def test_jacobian_and_gamma_match_finite_differences(name):
+    if any(par.size > 1 for par in CONSTRAINT_TYPES[name].parameters):
+        pytest.skip("list parameters (spline values) need consistent derived columns: checked "
+                    "by the type's own test (test_point_curve.py)")
+    if getattr(CONSTRAINT_TYPES[name], "coupler", False):
+        pytest.skip("a coupler's block holds two joints' geometry: checked by "
+                    "test_couplers.py on coupled joints")
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     for trial in range(20):
         group = make_group(name, rng)

@@ -20,7 +20,7 @@ from spatialmbd.motion import (Constant, ConstantVelocity, Harmonic, MotionLaw, 
                                SmoothStep, UserFunction)
 from spatialmbd.results import Results
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES_DIR = ROOT / "examples"
 FORMATS = ("yaml", "json")
 
@@ -386,7 +386,9 @@ BAD = [
 
 
 @pytest.mark.parametrize("path, value, start, fragment", BAD,
-                         ids=[".".join(map(str, b[0])) + f"={b[1]!r}"[:30] for b in BAD])
+                         ids=[".".join(map(str, b[0]))
+                              + ("=<deleted>" if b[1] is DELETE else f"={b[1]!r}"[:30])
+                              for b in BAD])
 def test_bad_input_names_the_place(path, value, start, fragment):
     data = base_dict()
     _set(data, path, value)

@@ -136,10 +136,29 @@ def test_docs_worked_example_runs():
     import contextlib
     import io
     from pathlib import Path
-    text = (Path(__file__).resolve().parents[1] / "docs" / "integrators.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "integrators.md").read_text()
     code = text.split("```python\n", 1)[1].split("```", 1)[0]
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         exec(compile(code, "docs/integrators.md", "exec"), {})
     lines = out.getvalue().splitlines()
     assert lines[0].startswith("event [{'t': 0.678") and lines[1] == "True"
+
+
+def test_event_states_are_the_located_states():
+    """results.event_states holds the state at each event (located, not sampled): a body
+    falling from rest reaches z = 0 with the speed sqrt(2 g h) there."""
+    import math
+    from spatialmbd import ModelBuilder
+    from spatialmbd.simulate import simulate
+    b = ModelBuilder("fall", gravity=(0, 0, -9.81))
+    b.add_body("ball", 1.0, (0.1, 0.1, 0.1), r=(0, 0, 0.8))
+
+    def floor(t, s):
+        return s.r[0, 2]
+    floor.terminal, floor.direction = True, -1
+    res = simulate(b.compile(), 2.0, output_step=0.1, events=[floor], rtol=1e-10, atol=1e-12)
+    q, v = res.event_states[0]
+    assert abs(q[0, 2]) < 1e-10
+    assert v[0, 2] == pytest.approx(-math.sqrt(2 * 9.81 * 0.8), rel=1e-9)
+    assert res.events[0]["t"] == pytest.approx(math.sqrt(2 * 0.8 / 9.81), rel=1e-10)

@@ -269,4 +269,4 @@ def test_validate_passes_from_an_installed_wheel(tmp_path):
     out = subprocess.run([str(py), "-m", "spatialmbd", "validate"], cwd=tmp_path,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
-    assert "all 17 validation cases passed" in out.stdout
+    assert "all 19 validation cases passed" in out.stdout

@@ -14,7 +14,7 @@ from spatialmbd.sweep import (forward_sensitivities, grid, latin_hypercube, pars
 
 xr = pytest.importorskip("xarray")
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 PENDULUM = EXAMPLES / "pendulum_ch15.yaml"
 
 # compound pendulum of chapter 15: 1 m solid cylinder, pivot at one end (ERRATA reading)

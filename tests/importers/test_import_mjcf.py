@@ -30,7 +30,7 @@ from spatialmbd.importers.mjcf import MJCFImportWarning  # noqa: E402
 from spatialmbd.io.modelfile import load_builder, model_to_dict, save_model  # noqa: E402
 from spatialmbd.simulate import simulate  # noqa: E402
 
-EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples" / "mjcf"
+EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples" / "mjcf"
 H_MUJOCO = 1e-4
 
 
@@ -190,7 +190,7 @@ BAD = """<mujoco><worldbody>
   </worldbody>
   <tendon><spatial name="cable" stiffness="10"><site site="sa"/><site site="sb"/></spatial></tendon>
   <actuator><motor name="motor_a" joint="ja"/></actuator>
-  <equality><joint name="couple" joint1="ja" joint2="jb"/></equality>
+  <equality><joint name="couple" joint1="ja" joint2="jb" polycoef="0 1 0.5 0 0"/></equality>
   <contact><pair name="touch" geom1="ga" geom2="gb"/></contact>
 </mujoco>"""
 

@@ -719,3 +719,27 @@ def test_browser_instancing_draw_calls_do_not_grow_with_bodies(browser, tmp_path
     # 200 boxes in one instanced mesh, plus the grid (2), the ground axes (3) and the pools of
     # line-like items: a dozen calls, where one mesh per body would need 200
     assert 0 < calls <= 12, calls
+
+
+# ----------------------------------------------------------------------------------------------
+# triangle meshes (spatialmbd.meshes) in both renderers
+# ----------------------------------------------------------------------------------------------
+def _mesh_pendulum_scene():
+    from test_meshes import cube_mesh
+    scene = double_pendulum_scene()
+    V, F = cube_mesh(1.0)
+    link = {"type": "mesh", "vertices": V * [1.0, 0.08, 0.12], "faces": F}
+    for body in scene["bodies"]:
+        body["shapes"] = [link]
+    return scene
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("renderer", ["webgl", "canvas"])
+def test_browser_draws_meshes(browser, tmp_path, renderer):
+    path = write_animation_html(tmp_path / f"mesh_{renderer}.html", _mesh_pendulum_scene())
+    session = _load(browser, path, "#t=0.5",
+                    init_script=_NO_WEBGL if renderer == "canvas" else None)
+    _check_scene_shown(browser, session, renderer, f"mesh_{renderer}")
+    assert browser.errors(session) == []
+    browser.close_page(session)

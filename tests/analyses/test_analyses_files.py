@@ -10,7 +10,7 @@ from spatialmbd.cli import main
 from spatialmbd.io import load_model
 from spatialmbd.io.modelfile import Analysis, ModelFileError
 
-FOLDER = Path(__file__).resolve().parents[1] / "examples" / "analyses"
+FOLDER = Path(__file__).resolve().parents[2] / "examples" / "analyses"
 FILES = sorted(FOLDER.glob("*.yaml"))
 
 

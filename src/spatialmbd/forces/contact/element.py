@@ -1,0 +1,417 @@
+"""The ``contact`` force element: a pair of contact shapes on two bodies (or the ground), a
+normal-force law and a friction law, compiled into the fused right-hand side.
+
+Shapes (dicts, in the body's axes; ``center`` a 3-vector or a point name of the body, default
+the centre of mass; ``axes`` a 3x3 rotation, shape -> body axes, default identity):
+
+* ``{"type": "sphere", "radius": R}``
+* ``{"type": "plane", "normal": n, "point": p}``  the half-space behind the plane (n outward)
+* ``{"type": "box", "half_extents": (a, b, c)}``
+* ``{"type": "capsule", "radius": R, "half_length": L, "axis": u}``  segment of length 2L
+* ``{"type": "socket", "radius": R}``  spherical cavity (ball-in-socket clearance joint)
+* ``{"type": "bearing", "radius": R, "axis": u}``  cylindrical bore; with a ``journal``
+  (``{"type": "journal", "radius": R}``, a circle in the bearing's plane) the radial-clearance
+  revolute joint
+
+Pairs: plane-sphere, plane-box (8 vertex contacts), plane-capsule (2 end contacts), sphere /
+capsule pairs, box-sphere, socket-sphere, bearing-journal. One element may stand for several
+contact points (a box's vertices): its instances are named ``name``, or ``name[0]``, ...
+
+Parameters: see :mod:`.laws` for the laws; ``stiffness`` K (N/m^n) given or, for sphere
+shapes, from Hertz theory K = 4/3 E* sqrt(R*) with ``young_i``, ``poisson_i``, ``young_j``,
+``poisson_j`` (Pa, -; a side without them is rigid); ``exponent`` n (default 1.5, 1 for
+linear); ``damping`` c (N s/m, linear law); ``restitution`` e in (0, 1] (hysteresis laws);
+``min_impact_velocity`` (m/s, default 1e-3: the floor of v0 in the hysteresis term);
+``friction`` (none, coulomb, stribeck, viscous), ``mu`` (or ``mu_static``, ``mu_dynamic``),
+``stribeck_velocity`` (m/s), ``creep_velocity`` v_eps (m/s, default 1e-4), ``viscous`` c_v
+(N s/m).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...constraints.primitives import v_cross, v_dot, v_scale, v_sub
+from ...errors import ModelError
+from ...jit import njit
+from ..base import ForceType, check_body, check_unknown, register
+from ..kernel_tools import add_wrench
+from . import geometry as geo
+from . import laws as L
+
+SHAPES = ("sphere", "plane", "box", "capsule", "socket", "bearing", "journal")
+#: details columns (:func:`details`)
+DETAIL_COLUMNS = ("gap", "gap_rate", "impact_velocity", "normal_force", "friction_x",
+                  "friction_y", "friction_z", "slip_x", "slip_y", "slip_z", "point_x",
+                  "point_y", "point_z", "normal_x", "normal_y", "normal_z", "active")
+
+
+@njit(inline="always")
+def evaluate_pair(S, G, k):
+    """(gap, gap rate, v0, f_N, f_t, v_t, P, n, elastic part, elastic energy) of instance k."""
+    gap, n, P, vrel = geo.pair_geometry(S, G, k)
+    gd = v_dot(n, vrel)
+    vt = v_sub(vrel, v_scale(gd, n))
+    v0 = G.law[k, 0]
+    if gap >= 0.0:
+        return gap, gd, v0, 0.0, (0.0, 0.0, 0.0), vt, P, n, 0.0, 0.0
+    fN, el, energy = L.normal_force(G.param, k, -gap, -gd, v0)
+    s = math.sqrt(v_dot(vt, vt))
+    a, cv = L.friction_factor(G.param, k, fN, s)
+    ft = v_scale(-(a + cv), vt)
+    return gap, gd, v0, fN, ft, vt, P, n, el, energy
+
+
+@njit
+def kernel(S, G, k, g, energy, power, D):
+    """Normal and friction force of contact k on both bodies at the contact point, its elastic
+    energy and the power of its dissipative parts (f_N - K delta^n) g' + f_t . v_t <= 0."""
+    gap, gd, v0, fN, ft, vt, P, n, el, e = evaluate_pair(S, G, k)
+    energy[k] = e
+    power[k] = 0.0
+    if gap >= 0.0:
+        return
+    F = (fN * n[0] + ft[0], fN * n[1] + ft[1], fN * n[2] + ft[2])      # on body j
+    i, j = G.bi[k], G.bj[k]
+    r = S[0]
+    aj = (P[0] - r[j, 0], P[1] - r[j, 1], P[2] - r[j, 2])
+    ai = (P[0] - r[i, 0], P[1] - r[i, 1], P[2] - r[i, 2])
+    tj, ti = v_cross(aj, F), v_cross(ai, F)
+    add_wrench(g, j, F[0], F[1], F[2], tj[0], tj[1], tj[2])
+    add_wrench(g, i, -F[0], -F[1], -F[2], -ti[0], -ti[1], -ti[2])
+    power[k] = (fN - el) * gd + v_dot(ft, vt)
+
+
+@njit
+def details(S, G, out):
+    """out[k] = the :data:`DETAIL_COLUMNS` of every instance k."""
+    for k in range(out.shape[0]):
+        gap, gd, v0, fN, ft, vt, P, n, el, e = evaluate_pair(S, G, k)
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = gap, gd, v0, fN
+        for c in range(3):
+            out[k, 4 + c] = ft[c]
+            out[k, 7 + c] = vt[c]
+            out[k, 10 + c] = P[c]
+            out[k, 13 + c] = n[c]
+        out[k, 16] = 1.0 if gap < 0.0 else 0.0
+
+
+@njit
+def gaps(S, G, out):
+    for k in range(out.size):
+        out[k] = geo.pair_geometry(S, G, k)[0]
+
+
+# ------------------------------------------------------------------------------ parsing
+def _err(name, key, text):
+    return ModelError(f"forces[{name!r}].{key}: {text}")
+
+
+def _number(name, key, value, lo=None, lo_open=False, hi=None):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise _err(name, key, f"expected a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise _err(name, key, f"must be finite, got {value!r}")
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        raise _err(name, key, f"must be {'>' if lo_open else '>='} {lo}, got {x:g}")
+    if hi is not None and x > hi:
+        raise _err(name, key, f"must be <= {hi}, got {x:g}")
+    return x
+
+
+def _vec(name, key, value, default):
+    if value is None:
+        return np.array(default, dtype=float)
+    arr = np.array(value, dtype=float).reshape(-1)
+    if arr.size != 3 or not np.all(np.isfinite(arr)):
+        raise _err(name, key, f"expected 3 numbers, got {value!r}")
+    return arr
+
+
+def _axes_from_z(u):
+    z = u / np.linalg.norm(u)
+    t = np.array([1.0, 0, 0]) if abs(z[0]) < 0.9 else np.array([0, 1.0, 0])
+    x = np.cross(t, z)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def parse_shape(name, key, shape, builder, body):
+    """(type, centre (3,), axes (3, 3), radius, half_length, half_extents (3,)) in body axes."""
+    if not isinstance(shape, dict) or "type" not in shape:
+        raise _err(name, key, f"expected a shape dict with a 'type' ({', '.join(SHAPES)}), got "
+                              f"{shape!r}")
+    kind = shape["type"]
+    if kind not in SHAPES:
+        raise _err(name, key + ".type", f"unknown shape {kind!r}; valid: {', '.join(SHAPES)}")
+    allowed = {"type", "center", "axes", "radius", "half_length", "half_extents", "axis",
+               "normal", "point"}
+    extra = set(shape) - allowed
+    if extra:
+        raise _err(name, key, f"unknown shape key(s) {sorted(extra)}; allowed: {sorted(allowed)}")
+    where = shape.get("center", shape.get("point"))
+    if isinstance(where, str):
+        pts = {} if body == "ground" else builder.bodies[body].points
+        if where not in pts:
+            raise _err(name, key + ".center", f"body {body!r} has no point named {where!r}")
+        centre = np.array(pts[where], dtype=float)
+    else:
+        centre = _vec(name, key + ".center", where, (0.0, 0.0, 0.0))
+    axes = np.eye(3)
+    if shape.get("axes") is not None:
+        axes = np.array(shape["axes"], dtype=float).reshape(3, 3)
+        if not np.allclose(axes.T @ axes, np.eye(3), atol=1e-9) or np.linalg.det(axes) < 0:
+            raise _err(name, key + ".axes", "must be a 3x3 rotation matrix (shape -> body axes)")
+    direction = shape.get("normal", shape.get("axis"))
+    if direction is not None:
+        u = _vec(name, key + ".normal" if "normal" in shape else key + ".axis", direction, None)
+        if not np.linalg.norm(u) > 0:
+            raise _err(name, key, "the normal / axis must not be zero")
+        axes = _axes_from_z(u)
+    radius = half_length = 0.0
+    half = np.zeros(3)
+    if kind in ("sphere", "capsule", "socket", "bearing", "journal"):
+        radius = _number(name, key + ".radius", shape.get("radius", float("nan")), 0.0, True)
+    if kind == "capsule":
+        half_length = _number(name, key + ".half_length", shape.get("half_length", float("nan")),
+                              0.0)
+    if kind == "box":
+        half = _vec(name, key + ".half_extents", shape.get("half_extents"), (np.nan,) * 3)
+        if not np.all(half > 0):
+            raise _err(name, key + ".half_extents", f"must be 3 positive numbers (m), got "
+                                                    f"{shape.get('half_extents')!r}")
+    return kind, centre, axes, radius, half_length, half
+
+
+def _pairing(name, a, b):
+    """(pair kind, swap): which geometry kernel, and whether shape j comes first."""
+    table = {("plane", "sphere"): geo.PLANE_POINT, ("plane", "box"): geo.PLANE_POINT,
+             ("plane", "capsule"): geo.PLANE_POINT, ("plane", "journal"): geo.PLANE_POINT,
+             ("sphere", "sphere"): geo.SEGMENTS, ("capsule", "capsule"): geo.SEGMENTS,
+             ("capsule", "sphere"): geo.SEGMENTS, ("box", "sphere"): geo.BOX_SPHERE,
+             ("socket", "sphere"): geo.SOCKET_BALL, ("bearing", "journal"): geo.BEARING_JOURNAL,
+             ("bearing", "sphere"): geo.BEARING_JOURNAL}
+    if (a, b) in table:
+        return table[(a, b)], False
+    if (b, a) in table:
+        return table[(b, a)], True
+    pairs = sorted(f"{x}-{y}" for x, y in table)
+    raise ModelError(f"forces[{name!r}]: no contact geometry for a {a}-{b} pair; available: "
+                     f"{', '.join(pairs)}")
+
+
+def _law_params(spec, radii, kinds):
+    """(law id, K, n, c, vmin, mu_d, mu_s, v_s, v_eps, c_v) of a spec (checked)."""
+    name, p = spec.name, spec.params
+    law = p.get("law", "hunt_crossley")
+    if law not in L.NORMAL_LAWS:
+        raise _err(name, "law", f"unknown normal law {law!r}; valid: {', '.join(L.NORMAL_LAWS)}")
+    n = _number(name, "exponent", p.get("exponent", 1.0 if law == "linear" else 1.5), 0.0, True)
+    if "stiffness" in p:
+        K = _number(name, "stiffness", p["stiffness"], 0.0, True)
+    else:
+        K = _hertz_stiffness(spec, radii, kinds)
+        if law != "linear" and "exponent" not in p:
+            n = 1.5
+    c = 0.0
+    if law == "linear":
+        c = _number(name, "damping", p.get("damping", 0.0), 0.0)
+    elif law in L.HYSTERESIS:
+        if "restitution" not in p:
+            raise _err(name, "restitution", f"the {law} law needs a coefficient of restitution "
+                                             "in (0, 1]")
+        e = _number(name, "restitution", p["restitution"])
+        if not 0.0 < e <= 1.0:
+            raise _err(name, "restitution", f"must be in (0, 1], got {e:g}")
+        c = L.CHI[law](e)
+    for key in ("damping", "restitution"):
+        if key in p and not (law == "linear" if key == "damping" else law in L.HYSTERESIS):
+            raise _err(name, key, f"not a parameter of the {law} law")
+    vmin = _number(name, "min_impact_velocity", p.get("min_impact_velocity", 1e-3), 0.0, True)
+    fr = p.get("friction", "none" if not any(k in p for k in ("mu", "mu_dynamic")) else
+               "coulomb")
+    if fr not in L.FRICTION_LAWS:
+        raise _err(name, "friction", f"unknown friction law {fr!r}; valid: "
+                                     f"{', '.join(L.FRICTION_LAWS)}")
+    mud = mus = vs = cv = 0.0
+    veps = _number(name, "creep_velocity", p.get("creep_velocity", 1e-4), 0.0, True)
+    if fr == "coulomb":
+        mud = mus = _number(name, "mu", p.get("mu", p.get("mu_dynamic", float("nan"))), 0.0)
+    elif fr == "stribeck":
+        mud = _number(name, "mu_dynamic", p.get("mu_dynamic", float("nan")), 0.0)
+        mus = _number(name, "mu_static", p.get("mu_static", float("nan")), 0.0)
+        vs = _number(name, "stribeck_velocity", p.get("stribeck_velocity", float("nan")), 0.0,
+                     True)
+    if fr in ("viscous", "coulomb", "stribeck"):
+        cv = _number(name, "viscous", p.get("viscous", 0.0), 0.0)
+    return (L.NORMAL_LAWS.index(law), K, n, c, vmin, mud, mus, vs, veps, cv)
+
+
+def _hertz_stiffness(spec, radii, kinds):
+    name, p = spec.name, spec.params
+    inv = 0.0
+    for side in ("i", "j"):
+        if f"young_{side}" in p:
+            E = _number(name, f"young_{side}", p[f"young_{side}"], 0.0, True)
+            nu = _number(name, f"poisson_{side}", p.get(f"poisson_{side}", 0.3), -1.0, True, 0.5)
+            inv += (1.0 - nu * nu) / E
+    if inv == 0.0:
+        raise _err(name, "stiffness", "give a stiffness (N/m^n) or the materials (young_i / "
+                                      "young_j in Pa, poisson_i / poisson_j)")
+    ki, kj = kinds
+    ri, rj = radii
+    curv = {"sphere": 1.0, "socket": -1.0, "plane": 0.0}
+    if ki not in curv or kj not in curv or (ki, kj) in (("socket", "socket"),):
+        raise _err(name, "stiffness", f"Hertz stiffness from materials needs spheres, planes "
+                                      f"or a socket, not a {ki}-{kj} pair: give a stiffness")
+    k = (curv[ki] / ri if curv[ki] else 0.0) + (curv[kj] / rj if curv[kj] else 0.0)
+    if not k > 0:
+        raise _err(name, "stiffness", "the pair has no positive relative curvature")
+    return 4.0 / 3.0 / inv * math.sqrt(1.0 / k)
+
+
+@register
+class Contact(ForceType):
+    """Contact between two shapes on two bodies: a normal-force law and friction."""
+
+    name = "contact"
+    kernel = staticmethod(kernel)
+    n_param = L.N_COLUMNS
+    required = ("body_i", "body_j", "shape_i", "shape_j")
+    parameters = {"body_i": "body", "body_j": "body", "shape_i": "any", "shape_j": "any",
+                  "law": "string", "stiffness": "number", "exponent": "number",
+                  "damping": "number", "restitution": "number", "young_i": "number",
+                  "poisson_i": "number", "young_j": "number", "poisson_j": "number",
+                  "min_impact_velocity": "number", "friction": "string", "mu": "number",
+                  "mu_static": "number", "mu_dynamic": "number",
+                  "stribeck_velocity": "number", "creep_velocity": "number",
+                  "viscous": "number"}
+
+    def __init__(self, names, element, bi, bj, s_i, s_j, R_i, R_j, param, size):
+        super().__init__(names)
+        self.element = list(element)          # the element name of each instance
+        self.bi = np.asarray(bi, dtype=np.intp)
+        self.bj = np.asarray(bj, dtype=np.intp)
+        self.s_i, self.s_j = np.asarray(s_i, float), np.asarray(s_j, float)
+        self.R_i, self.R_j = np.asarray(R_i, float), np.asarray(R_j, float)
+        self.param = np.asarray(param, dtype=float).reshape(-1, L.N_COLUMNS)
+        self.size = np.asarray(size, dtype=float)
+
+    @classmethod
+    def validate(cls, spec, builder):
+        cls._instances(spec, builder)
+
+    @classmethod
+    def _instances(cls, spec, builder):
+        """The expanded instances of one element: list of (bi name, bj name, s_i, s_j, R_i,
+        R_j, param row, size)."""
+        check_unknown(spec, cls.allowed)
+        p = spec.params
+        bodies = [check_body(spec, builder, key, ground_ok=True) for key in ("body_i", "body_j")]
+        if bodies[0] == bodies[1]:
+            raise ModelError(f"forces[{spec.name!r}]: both shapes are on body {bodies[0]!r}")
+        for b in bodies:
+            if b != "ground" and not builder.bodies[b].mass > 0:
+                raise ModelError(f"forces[{spec.name!r}]: body {b!r} has no mass; a contact "
+                                 "shape needs a body with mass (or the ground)")
+        sh = [parse_shape(spec.name, key, p.get(key), builder, b)
+              for key, b in (("shape_i", bodies[0]), ("shape_j", bodies[1]))]
+        pair, swap = _pairing(spec.name, sh[0][0], sh[1][0])
+        if swap:
+            sh, bodies = sh[::-1], bodies[::-1]
+        (ki, ci, Ai, rad_i, li, hi), (kj, cj, Aj, rad_j, lj, hj) = sh
+        law = _law_params(spec, (rad_i, rad_j), (ki, kj))
+        row = np.zeros(L.N_COLUMNS)
+        row[geo.C_PAIR] = pair
+        row[geo.C_RI], row[geo.C_RJ] = rad_i, rad_j
+        row[geo.C_LI], row[geo.C_LJ] = li, lj
+        row[geo.C_HX:geo.C_HZ + 1] = hi
+        row[L.C_LAW:] = law
+        if pair == geo.SOCKET_BALL and not rad_j < rad_i:
+            raise _err(spec.name, "shape_j.radius", f"the ball (radius {rad_j:g} m) must be "
+                                                    f"smaller than the socket ({rad_i:g} m)")
+        if pair == geo.BEARING_JOURNAL and not rad_j < rad_i:
+            raise _err(spec.name, "shape_j.radius", f"the journal (radius {rad_j:g} m) must "
+                                                    f"be smaller than the bearing ({rad_i:g} m)")
+        out = []
+        if pair == geo.PLANE_POINT and kj == "box":
+            for sx in (-1, 1):
+                for sy in (-1, 1):
+                    for sz in (-1, 1):
+                        v = cj + Aj @ (hj * np.array([sx, sy, sz]))
+                        r = row.copy()
+                        r[geo.C_RJ] = 0.0
+                        out.append((v, r, float(hj.min())))
+        elif pair == geo.PLANE_POINT and kj == "capsule":
+            for sz in (-1, 1):
+                out.append((cj + sz * lj * Aj[:, 2], row.copy(), rad_j))
+        else:
+            sizes = [x for x in (rad_i, rad_j) if x > 0] + list(hi[hi > 0])
+            if pair in (geo.SOCKET_BALL, geo.BEARING_JOURNAL):
+                sizes = [rad_i - rad_j]
+            out.append((cj, row, float(min(sizes))))
+        return [(bodies[0], bodies[1], ci, s, Ai, Aj, r, size) for s, r, size in out]
+
+    @classmethod
+    def build(cls, specs, ctx):
+        names, element, bi, bj, s_i, s_j, R_i, R_j, param, size = ([] for _ in range(10))
+        for spec in specs:
+            inst = cls._instances(spec, ctx.builder)
+            for m, (b1, b2, c1, c2, A1, A2, row, sz) in enumerate(inst):
+                names.append(spec.name if len(inst) == 1 else f"{spec.name}[{m}]")
+                element.append(spec.name)
+                bi.append(ctx.index[b1])
+                bj.append(ctx.index[b2])
+                s_i.append(c1)
+                s_j.append(c2)
+                R_i.append(A1)
+                R_j.append(A2)
+                param.append(row)
+                size.append(sz)
+        group = cls(names, element, bi, bj, s_i, s_j, R_i, R_j, param, size)
+        group._check_initial(ctx)
+        return group
+
+    def _check_initial(self, ctx):
+        """Deep interpenetration at the initial configuration: penetration above half the
+        smallest shape size (then the contact normal is meaningless) is an error."""
+        from ...state import BodyState
+        nb = ctx.nb
+        q = np.zeros((nb, 7))
+        for name, b in ctx.index.items():
+            if name != "ground" and b < nb:
+                spec = ctx.builder.bodies[name]
+                q[b, :3], q[b, 3:] = spec.r, spec.p
+        state = BodyState.from_qv(q, None)
+        g = self.gaps(state)
+        for k in np.flatnonzero(-g > 0.5 * self.size):
+            raise ModelError(f"forces[{self.element[k]!r}]: the shapes interpenetrate by "
+                             f"{-g[k]:.4g} m at the initial configuration (instance "
+                             f"{self.names[k]!r}; more than half the shape size "
+                             f"{self.size[k]:.4g} m); move the bodies apart")
+
+    def columns(self):
+        return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,
+                    R_j=self.R_j, param=self.param)
+
+    def table(self, memory=None):
+        from ..kernels import ForceTable
+        t = ForceTable([self], only_compiled=False)
+        if memory is not None:
+            t.law[:, 0] = memory
+        return t
+
+    def gaps(self, state) -> np.ndarray:
+        out = np.zeros(self.n)
+        gaps(state.arrays(), self.table().G, out)
+        return out
+
+    def details(self, state, memory=None) -> np.ndarray:
+        """(n, len(DETAIL_COLUMNS)) of every instance at ``state`` (memory: recorded impact
+        speeds, m/s)."""
+        out = np.zeros((self.n, len(DETAIL_COLUMNS)))
+        details(state.arrays(), self.table(memory).G, out)
+        return out

@@ -1,0 +1,107 @@
+"""Triangle meshes of display and mass shapes: ``{"type": "mesh", ...}``.
+
+A mesh shape gives its triangles inline (``vertices`` (n, 3) in m, ``faces`` (m, 3) vertex
+indices, counter-clockwise seen from outside) or a ``file`` (STL, OBJ, PLY, OFF, GLB: any format
+`trimesh <https://trimesh.org>`_ reads; the optional extra ``pip install 'spatialmbd[mesh]'``),
+with an optional ``scale`` (one number or three, applied to the vertices first), and like every
+shape a ``center`` (m) and an orientation ``p`` (Euler parameters) in the axes of its body.
+
+:func:`mesh_arrays` returns the scaled vertices and the faces, checked (finite, indices in
+range); files are read once per (path, modification time).
+"""
+from __future__ import annotations
+
+import os
+from typing import Optional
+
+import numpy as np
+
+from .errors import ModelError
+
+_CACHE: dict = {}
+
+
+def _trimesh():
+    try:
+        import trimesh
+    except ImportError:
+        raise ModelError("reading a mesh file needs trimesh: pip install 'spatialmbd[mesh]' "
+                         "(or give the mesh's vertices and faces inline)") from None
+    return trimesh
+
+
+def resolve_file(file, base_dir: Optional[str] = None) -> str:
+    """The absolute path of a mesh file given relative to ``base_dir`` (the model file's
+    directory) or the working directory; ModelError when it does not exist."""
+    path = os.path.expanduser(str(file))
+    if not os.path.isabs(path) and base_dir is not None:
+        path = os.path.join(str(base_dir), path)
+    path = os.path.abspath(path)
+    if not os.path.isfile(path):
+        raise ModelError(f"mesh file {file!r} not found (looked for {path}); give a path "
+                         "relative to the model file or an absolute one")
+    return path
+
+
+def read_file(path) -> tuple:
+    """(vertices (n, 3), faces (m, 3)) of a mesh file, through trimesh."""
+    path = resolve_file(path)
+    key = (path, os.path.getmtime(path))
+    if key not in _CACHE:
+        trimesh = _trimesh()
+        try:
+            tm = trimesh.load(path, force="mesh")
+        except Exception as exc:        # trimesh raises many types for unreadable files
+            raise ModelError(f"mesh file {path}: cannot be read ({exc}); give an STL, OBJ, PLY "
+                             "or OFF file") from None
+        V = np.asarray(getattr(tm, "vertices", ()), dtype=float).reshape(-1, 3)
+        F = np.asarray(getattr(tm, "faces", ()), dtype=np.int64).reshape(-1, 3)
+        if F.shape[0] == 0:
+            raise ModelError(f"mesh file {path}: no triangles found")
+        _CACHE[key] = (V, F)
+    V, F = _CACHE[key]
+    return V.copy(), F.copy()
+
+
+def _scale(shape: dict, what: str) -> np.ndarray:
+    s = np.asarray(shape.get("scale", 1.0), dtype=float).reshape(-1)
+    if s.size == 1:
+        s = np.repeat(s, 3)
+    if s.size != 3 or not np.all(np.isfinite(s)) or np.any(s <= 0):
+        raise ModelError(f"{what}.scale: expected one or three positive numbers, got "
+                         f"{shape.get('scale')!r}")
+    return s
+
+
+def mesh_arrays(shape: dict, what: str = "mesh") -> tuple:
+    """(vertices (n, 3) scaled, in the shape's axes; faces (m, 3) int) of a mesh shape."""
+    has_inline = shape.get("vertices") is not None or shape.get("faces") is not None
+    if shape.get("file") is not None and has_inline:
+        raise ModelError(f"{what}: give either a file or vertices and faces, not both")
+    if shape.get("file") is not None:
+        V, F = read_file(shape["file"])
+    elif shape.get("vertices") is not None and shape.get("faces") is not None:
+        try:
+            V = np.asarray(shape["vertices"], dtype=float)
+            F = np.asarray(shape["faces"])
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: vertices must be (n, 3) numbers and faces (m, 3) "
+                             "integers") from None
+        if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 3:
+            raise ModelError(f"{what}.vertices: expected (n, 3) numbers with n >= 3, got shape "
+                             f"{V.shape}")
+        if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] < 1 or not (
+                np.issubdtype(F.dtype, np.integer) or np.all(F == np.round(F))):
+            raise ModelError(f"{what}.faces: expected (m, 3) vertex indices (integers), got "
+                             f"shape {F.shape}")
+        F = F.astype(np.int64)
+    else:
+        raise ModelError(f"{what}: a mesh needs a file or vertices and faces")
+    if not np.all(np.isfinite(V)):
+        raise ModelError(f"{what}.vertices: non-finite coordinates")
+    bad = (F < 0) | (F >= V.shape[0])
+    if np.any(bad):
+        k = int(np.argwhere(bad)[0][0])
+        raise ModelError(f"{what}.faces[{k}]: vertex index {F[k].tolist()} out of range "
+                         f"0..{V.shape[0] - 1}")
+    return V * _scale(shape, what), F
