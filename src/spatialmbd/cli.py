@@ -245,7 +245,8 @@ def _run_analysis(model, analysis, progress: bool, budget=None):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         start = time.perf_counter()
-        if budget is not None and getattr(analysis, "type", "dynamic") == "dynamic":
+        if budget is not None and getattr(analysis, "type", "dynamic") in ("dynamic",
+                                                                             "kinematic"):
             results = analysis.run(model, progress=progress, budget=budget)
         else:
             results = analysis.run(model, progress=progress)

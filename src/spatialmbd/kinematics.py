@@ -322,15 +322,25 @@ def point_kinematics(state: BodyState, vdot: np.ndarray, body: int, local: np.nd
 
 
 def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] = None,
-                       tol: float = 1e-10, max_iter: int = 30) -> KinematicResults:
+                       tol: float = 1e-10, max_iter: int = 30, *, budget=None,
+                       max_steps: Optional[int] = None,
+                       max_wall_time: Optional[float] = None) -> KinematicResults:
     """Positions, velocities and accelerations of a fully driven mechanism at the times t.
+
+    budget / max_steps / max_wall_time: the same caps as :func:`spatialmbd.simulate`
+    (a :class:`spatialmbd.budget.Budget`, a dict, or the keywords; max_steps counts solved
+    instants, max_wall_time is in s and is checked before every Newton solve). A run stopped
+    by its budget returns the instants solved so far with ``status == "budget"``.
 
     The drivers must take up every degree of freedom: rank D = 6 nb (checked at the first
     instant, with the joints named if not). Each instant starts Newton from a second-order
     prediction q + v dt + vdot dt^2 / 2 of the previous solution.
     """
+    from .budget import Budget, BudgetExceeded, BudgetGuard
     from .checks import check_times
     t = check_times(t)
+    limits = Budget.make(budget, max_steps, max_wall_time)
+    guard = BudgetGuard(limits) if limits.active else None
     nb = model.nb
     q = np.array(model.q0 if q_guess is None else q_guess, dtype=float).reshape(nb, 7)
     model.assembler.reset_couplers()           # gear angles measured from the assembled zero
@@ -364,8 +374,9 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
     try:
         for k, tk in enumerate(t):
             if k > 0:
+                if guard is not None:
+                    guard(t[k - 1])                    # one solved instant = one step
                 asm.advance_couplers(Q[k - 1])   # gear angles unwrapped from instant to instant
-            if k > 0:
                 dt = tk - t[k - 1]
                 guess = apply_correction(Q[k - 1], (V[k - 1] * dt + 0.5 * VD[k - 1] * dt * dt))
                 q, info = solve_positions(model, guess, tk, tol, max_iter)
@@ -383,6 +394,8 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
                     r, rd, rdd = point_kinematics(state, VD[k], body, local)
                     pts[name]["r"][k], pts[name]["rdot"][k], pts[name]["rddot"][k] = r, rd, rdd
             done = k + 1
+    except BudgetExceeded as exc:
+        status, message = exc.status, str(exc)
     except (ConvergenceError, SingularMatrixError) as exc:
         status, message = "failed", str(exc)
     sl = slice(0, done)

@@ -9,14 +9,15 @@ from ..errors import ModelError
 def run_analysis(analysis, model, progress=False, budget=None):
     """Results (dynamic) or KinematicResults (kinematic) of ``analysis`` on ``model``; the
     result objects of spatialmbd.analyses for the engineering types. budget: a
-    :class:`spatialmbd.budget.Budget` (or dict) for dynamic runs."""
+    :class:`spatialmbd.budget.Budget` (or dict) for dynamic and kinematic runs."""
     a = analysis
     if a.type == "kinematic":
         from ..kinematics import kinematic_analysis
         from ..outputs import parse_outputs
         from ..simulate import output_times
         requests = parse_outputs(model, a.outputs)
-        res = kinematic_analysis(model, output_times(a.t_end, a.output_step, a.t_eval))
+        res = kinematic_analysis(model, output_times(a.t_end, a.output_step, a.t_eval),
+                                 budget=budget)
         res.output_requests = requests
         return res
     if a.type != "dynamic":
