@@ -98,7 +98,7 @@ def test_the_budget_and_streaming_examples_of_docs_reliability_run(tmp_path, mon
                                                                    capsys):
     import re
     from pathlib import Path
-    text = (Path(__file__).resolve().parents[1] / "docs" / "reliability.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "reliability.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)[1:]
     assert len(blocks) == 2
     monkeypatch.chdir(tmp_path)
