@@ -38,8 +38,8 @@ import numpy as np
 from ..errors import ModelError
 from ..jit import njit
 from .base import ConstraintType, Param, register
-from .primitives import ZERO3, add_dot_row, clear_row, dot_gamma, dot_rate, dot_value, \
-    kin_sub, rotate, row3, v_add, v_cross
+from .primitives import add_dot_row, clear_row, dot_gamma, dot_rate, dot_value, kin_sub, \
+    point_at, vector_at
 
 #: parameter columns of one joint: s_i (3), s_j (3), R_i (9), R_j (9), side_i, side_j,
 #: body_i, body_j, kind (0 angle, 1 translation), x0 (the assembled translation)
@@ -50,34 +50,14 @@ KIND_ANGLE, KIND_TRANSLATION = 0, 1
 # ------------------------------------------------------------------------------ kernel
 @njit
 def _point(S, b, P, off, side):
-    """Kin of the point P[off:off+3] (body axes) of body b; side -1: no Jacobian (ground)."""
-    r, A, rdot, omega = S[0], S[1], S[2], S[3]
-    sg = rotate(A, b, P[off], P[off + 1], P[off + 2])
-    w = row3(omega, b)
-    sd = v_cross(w, sg)
-    x = v_add(row3(r, b), sg)
-    xd = v_add(row3(rdot, b), sd)
-    xa = v_cross(w, sd)
-    if side == 0:
-        return (x, xd, xa, 1.0, sg, 0.0, ZERO3)
-    if side == 1:
-        return (x, xd, xa, 0.0, ZERO3, 1.0, sg)
-    return (x, xd, xa, 0.0, ZERO3, 0.0, ZERO3)
+    """Kin of the point P[off:off+3] (body axes) of body b (side -1: the ground's)."""
+    return point_at(S, b, P[off], P[off + 1], P[off + 2], side)
 
 
 @njit
 def _vector(S, b, P, off, col, side):
     """Kin of column col of the triad P[off:off+9] (row-major, body axes) fixed on body b."""
-    A, omega = S[1], S[3]
-    a = rotate(A, b, P[off + col], P[off + 3 + col], P[off + 6 + col])
-    w = row3(omega, b)
-    ad = v_cross(w, a)
-    aa = v_cross(w, ad)
-    if side == 0:
-        return (a, ad, aa, 0.0, a, 0.0, ZERO3)
-    if side == 1:
-        return (a, ad, aa, 0.0, ZERO3, 0.0, a)
-    return (a, ad, aa, 0.0, ZERO3, 0.0, ZERO3)
+    return vector_at(S, b, P[off + col], P[off + 3 + col], P[off + 6 + col], side)
 
 
 @njit

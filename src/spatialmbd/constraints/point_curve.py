@@ -98,21 +98,6 @@ def periodic_spline_moments(y: np.ndarray, h: float) -> np.ndarray:
 
 
 @njit
-def _piece(P, v0, m0, k0, k1, t, h):
-    """Value, first and second derivative of the cubic between knots k0 and k1 at offset t
-    (0 <= t <= h) from knot k0; values at P[v0 + k], moments at P[m0 + k]."""
-    y0, y1 = P[v0 + k0], P[v0 + k1]
-    M0, M1 = P[m0 + k0], P[m0 + k1]
-    s = h - t
-    val = (M0 * s**3 + M1 * t**3) / (6.0 * h) + (y0 / h - M0 * h / 6.0) * s \
-        + (y1 / h - M1 * h / 6.0) * t
-    d1 = (-M0 * s * s + M1 * t * t) / (2.0 * h) - (y0 / h - M0 * h / 6.0) \
-        + (y1 / h - M1 * h / 6.0)
-    d2 = (M0 * s + M1 * t) / h
-    return val, d1, d2
-
-
-@njit
 def spline_eval(vals, moms, x0, h, x):
     """Value, first and second derivative at x of the natural cubic spline with values
     ``vals`` and second derivatives ``moms`` (1-D arrays of n >= 2) at x0 + k h, continued along
@@ -162,7 +147,8 @@ def cam_eval(P, theta):
     u = theta / h
     u -= n * math.floor(u / n)                    # into [0, n)
     k = min(int(u), n - 1)
-    return _piece(P, v0, m0, k, (k + 1) % n, (u - k) * h, h)
+    k1 = (k + 1) % n
+    return _cubic(P[v0 + k], P[v0 + k1], P[m0 + k], P[m0 + k1], (u - k) * h, h)
 
 
 # ------------------------------------------------------------------------------ kernels

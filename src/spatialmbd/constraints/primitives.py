@@ -86,8 +86,15 @@ def row3(X, b):
 @njit
 def point(S, b, s, k, side):
     """Kin of the point s[k] (body axes) of body b, Eq. (8.1); side 0 = body i, 1 = body j."""
+    return point_at(S, b, s[k, 0], s[k, 1], s[k, 2], side)
+
+
+@njit
+def point_at(S, b, s0, s1, s2, side):
+    """Kin of the point (s0, s1, s2) (body axes) of body b; side 0 = body i, 1 = body j, -1 =
+    neither (a constant of the row: its Jacobian is left out, e.g. a point of the ground)."""
     r, A, rdot, omega = S[0], S[1], S[2], S[3]
-    sg = rotate(A, b, s[k, 0], s[k, 1], s[k, 2])
+    sg = rotate(A, b, s0, s1, s2)
     w = row3(omega, b)
     sd = v_cross(w, sg)                                        # (5.9)
     x = v_add(row3(r, b), sg)
@@ -95,20 +102,30 @@ def point(S, b, s, k, side):
     xa = v_cross(w, sd)
     if side == 0:
         return (x, xd, xa, 1.0, sg, 0.0, ZERO3)
-    return (x, xd, xa, 0.0, ZERO3, 1.0, sg)
+    if side == 1:
+        return (x, xd, xa, 0.0, ZERO3, 1.0, sg)
+    return (x, xd, xa, 0.0, ZERO3, 0.0, ZERO3)
 
 
 @njit
 def vector(S, b, R, k, col, side):
     """Kin of the vector R[k][:, col] (body axes) fixed on body b, Eq. (8.3)."""
+    return vector_at(S, b, R[k, 0, col], R[k, 1, col], R[k, 2, col], side)
+
+
+@njit
+def vector_at(S, b, a0, a1, a2, side):
+    """Kin of the vector (a0, a1, a2) (body axes) fixed on body b; sides as :func:`point_at`."""
     A, omega = S[1], S[3]
-    a = rotate(A, b, R[k, 0, col], R[k, 1, col], R[k, 2, col])
+    a = rotate(A, b, a0, a1, a2)
     w = row3(omega, b)
     ad = v_cross(w, a)                                         # (5.7)
     aa = v_cross(w, ad)
     if side == 0:
         return (a, ad, aa, 0.0, a, 0.0, ZERO3)
-    return (a, ad, aa, 0.0, ZERO3, 0.0, a)
+    if side == 1:
+        return (a, ad, aa, 0.0, ZERO3, 0.0, a)
+    return (a, ad, aa, 0.0, ZERO3, 0.0, ZERO3)
 
 
 @njit

@@ -249,28 +249,27 @@
       camera.position.fromArray(view.C);
       camera.lookAt(view.C[0] + view.f[0], view.C[1] + view.f[1], view.C[2] + view.f[2]);
 
-      Object.keys(meshes).forEach(function (type) {
-        var entry = meshes[type], any = false;
-        entry.list.forEach(function (inst, k) {
-          if (inst.body < 0) { return; }
-          var ps = poses[inst.body], A = ps.A;
-          bodyM.set(A[0], A[1], A[2], ps.pos[0],
-                    A[3], A[4], A[5], ps.pos[1],
-                    A[6], A[7], A[8], ps.pos[2],
-                    0, 0, 0, 1);
-          entry.mesh.setMatrixAt(k, world.multiplyMatrices(bodyM, inst.local));
-          any = true;
-        });
-        if (any) { entry.mesh.instanceMatrix.needsUpdate = true; }
-      });
-      meshShapes.forEach(function (entry) {
-        if (entry.body < 0) { return; }
-        var ps = poses[entry.body], A = ps.A;
+      /* world matrix of a shape of body b: the body's pose times the shape's local matrix */
+      function placed(b, local, out) {
+        var ps = poses[b], A = ps.A;
         bodyM.set(A[0], A[1], A[2], ps.pos[0],
                   A[3], A[4], A[5], ps.pos[1],
                   A[6], A[7], A[8], ps.pos[2],
                   0, 0, 0, 1);
-        entry.mesh.matrix.multiplyMatrices(bodyM, entry.local);
+        return out.multiplyMatrices(bodyM, local);
+      }
+      Object.keys(meshes).forEach(function (type) {
+        var entry = meshes[type], any = false;
+        entry.list.forEach(function (inst, k) {
+          if (inst.body < 0) { return; }
+          entry.mesh.setMatrixAt(k, placed(inst.body, inst.local, world));
+          any = true;
+        });
+        if (any) { entry.mesh.instanceMatrix.needsUpdate = true; }
+      });
+      meshShapes.forEach(function (entry) {      // triangle meshes: one THREE.Mesh each
+        if (entry.body < 0) { return; }
+        placed(entry.body, entry.local, entry.mesh.matrix);
         entry.mesh.matrixWorldNeedsUpdate = true;
       });
       drawExtras(extras);
