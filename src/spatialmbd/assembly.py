@@ -51,7 +51,7 @@ def coupler_slices(groups) -> list:
     whose law columns hold their angle references."""
     out, start = [], 0
     for g in groups:
-        if getattr(g, "coupler", False):
+        if g.coupler:
             out.append((g, slice(start, start + g.n)))
         start += g.n
     return out

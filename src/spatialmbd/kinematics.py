@@ -398,6 +398,8 @@ def kinematic_analysis(model, t: Sequence[float], q_guess: Optional[np.ndarray] 
         status, message = exc.status, str(exc)
     except (ConvergenceError, SingularMatrixError) as exc:
         status, message = "failed", str(exc)
+    finally:
+        asm.reset_couplers()                # the shared assembler left as it was found
     sl = slice(0, done)
     return KinematicResults(model=model, t=t[sl], q=Q[sl], v=V[sl], vdot=VD[sl],
                             points={n: {k: a[sl] for k, a in d.items()} for n, d in pts.items()},

@@ -172,13 +172,16 @@ class Results:
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
         asm.reset_couplers()                  # gear angles unwrapped along the outputs
-        for k in range(nt):
-            if k:
-                asm.advance_couplers(self.q[k - 1])
-            cv = asm.evaluate(self.q[k], self.v[k], self.t[k])
-            sq[k] = float(cv.phi @ cv.phi)
-            pos[k] = np.sqrt(sq[k])
-            vel[k] = float(np.linalg.norm(cv.D @ self.v[k].reshape(-1) - cv.nu))
+        try:
+            for k in range(nt):
+                if k:
+                    asm.advance_couplers(self.q[k - 1])
+                cv = asm.evaluate(self.q[k], self.v[k], self.t[k])
+                sq[k] = float(cv.phi @ cv.phi)
+                pos[k] = np.sqrt(sq[k])
+                vel[k] = float(np.linalg.norm(cv.D @ self.v[k].reshape(-1) - cv.nu))
+        finally:
+            asm.reset_couplers()              # the shared assembler left as it was found
         return dict(position=pos, phi_squared=sq, velocity=vel)
 
     # ---------------------------------------------------------------------------- contacts

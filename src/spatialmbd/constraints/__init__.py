@@ -22,7 +22,7 @@ class _RegistryView(Mapping):
 
     def _mine(self, cls) -> bool:
         # couplers (constraints.couplers) relate two joints, not two bodies: neither view
-        return cls.rheonomic == self._drivers and not getattr(cls, "coupler", False)
+        return cls.rheonomic == self._drivers and not cls.coupler
 
     def __getitem__(self, name):
         cls = CONSTRAINT_TYPES[canonical_name(name)]

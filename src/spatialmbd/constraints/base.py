@@ -149,6 +149,8 @@ class ConstraintType:
     rheonomic: ClassVar[bool] = False
     #: the equations use the relative joint angle (see primitives.angle_row)
     angle_based: ClassVar[bool] = False
+    #: an equation between two joints' coordinates (constraints.couplers), not a joint
+    coupler: ClassVar[bool] = False
     #: the compiled kernel of one instance, kernel(S, G, k, row, out) (None: override evaluate)
     kernel: ClassVar[Optional[Callable]] = None
 

@@ -114,7 +114,7 @@ class Coupler(ConstraintType):
     """The equation c1 q1 + c2 q2 = c0 between the coordinates of two joints."""
 
     name = "coupler"
-    coupler = True
+    coupler = True                   # relates two joints: not in JOINT_TYPES nor DRIVER_TYPES
     n_eq = 1
     eq_labels = ("coupling",)
     parameters = (Param("c1", "SI/q1", "coefficient of the first joint's coordinate"),
@@ -204,17 +204,6 @@ def joint_block(jspec, geom, index: dict, row_bodies: tuple, q0: np.ndarray, wha
         r_j, A_j = pose(bj)
         d = r_j + A_j @ geom.s_j[0] - r_i - A_i @ geom.s_i[0]
         out[29] = float((A_i @ geom.R_i[0][:, 0]) @ d)
-    return out
-
-
-def coordinates(group, state) -> np.ndarray:
-    """(n, 2) joint coordinates q1, q2 of every instance at ``state``, angles unwrapped about
-    the references of the group's evaluation table (the assembled zero by default)."""
-    from .kernels import _table
-    table = _table(group)
-    out = np.empty((group.n, 2))
-    _coordinates(state.arrays(), np.ascontiguousarray(group.geometry.param), table.law[:, :2]
-                 .copy(), out)
     return out
 
 

@@ -407,7 +407,7 @@ class BatchSetup:
         if any(g.rheonomic for g in model.constraint_groups):
             raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
                              "motion laws); use engine='simulate'")
-        couplers = [n for g in model.constraint_groups if getattr(g, "coupler", False)
+        couplers = [n for g in model.constraint_groups if g.coupler
                     for n in g.names]
         if couplers:
             raise ModelError(f"batch integration: model {model.name!r} has couplers "
