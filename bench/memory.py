@@ -2,7 +2,9 @@
 
 Each measurement runs in a fresh subprocess: the one-body pendulum of examples/pendulum_ch15.yaml
 over T s with N output rows, then (optionally) the results written as the CLI does
-(io.results_io.save_all: CSV and HDF5, the table computed and written in chunks). The peak
+(io.results_io.save_all: CSV and HDF5, the table computed and written in chunks), or
+streamed to those files while it runs (io.stream.simulate_to_file, the CLI's way above
+--stream-rows). The peak
 resident memory (ru_maxrss) of two runs with N1 < N2 rows gives the memory per output row,
 (peak2 - peak1) / (N2 - N1), free of the fixed cost (Python, NumPy, Numba kernels).
 
@@ -30,10 +32,15 @@ from spatialmbd.simulate import simulate
 model, _ = load_model({model!r})
 t_end, rows, write = {t_end!r}, {rows!r}, {write!r}
 start = time.perf_counter()
-res = simulate(model, t_end, output_step=t_end / (rows - 1))
+if write == "stream":
+    from spatialmbd.io.stream import simulate_to_file
+    res, _ = simulate_to_file(model, t_end, [{csv!r}, {h5!r}], output_step=t_end / (rows - 1))
+    res.t = list(range(rows))             # rows written (the tail holds the last chunk)
+else:
+    res = simulate(model, t_end, output_step=t_end / (rows - 1))
 run = time.perf_counter() - start
 after_run = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-if write:
+if write is True:
     save_all(res, [{csv!r}, {h5!r}])
 total = time.perf_counter() - start
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -61,11 +68,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     n1, n2 = args.rows
     print(f"pendulum_ch15, {args.t_end:g} s simulated, rows {n1} and {n2}")
-    for write in (False, True):
+    for write in (False, True, "stream"):
         a, b = measure(n1, args.t_end, write), measure(n2, args.t_end, write)
         key = "peak_kb"
         per_row = (b[key] - a[key]) * 1024 / (b["rows"] - a["rows"])
-        label = "simulate + write CSV and HDF5" if write else "simulate only"
+        label = {False: "simulate only", True: "simulate + write CSV and HDF5",
+                 "stream": "streamed to CSV and HDF5"}[write]
         print(f"{label:32s} peak {a[key] / 1024:7.1f} MB / {b[key] / 1024:7.1f} MB, "
               f"{per_row:7.0f} bytes per output row; wall {a['total_s']:.2f} s / "
               f"{b['total_s']:.2f} s")

@@ -96,6 +96,28 @@ def test_run_writes_csv_and_hdf5(tmp_path, pendulum_file, capsys):
     pd.testing.assert_frame_equal(loaded.table, df, check_exact=False, rtol=1e-14)
 
 
+def test_run_streams_long_runs_to_the_same_files(tmp_path, pendulum_file, capsys):
+    """Above --stream-rows the outputs go to the files in chunks during the run; the files
+    equal those written from memory (one continuous run)."""
+    a, b = [tmp_path / "a.csv", tmp_path / "a.h5"], [tmp_path / "b.csv", tmp_path / "b.h5"]
+    assert main(["run", str(pendulum_file), "-q", "-o", str(a[0]), "-o", str(a[1])]) == 0
+    assert main(["run", str(pendulum_file), "--stream-rows", "5", "-o", str(b[0]), "-o",
+                 str(b[1])]) == 0
+    out = capsys.readouterr().out
+    assert "16 output rows: written to the files in chunks of 5" in out
+    assert f"results written to {b[1]} (16 rows" in out
+    for x, y in zip(a, b):
+        X, Y = load_results(x), load_results(y)
+        pd.testing.assert_frame_equal(X.table, Y.table, check_exact=True)
+    assert load_results(b[1]).metadata["counters"]["outputs"] == 16
+    # a budget stop: status, partial rows and exit status 1, streamed as well
+    assert main(["run", str(pendulum_file), "--stream-rows", "0", "--max-steps", "3", "-o",
+                 str(b[1])]) == 1
+    err = capsys.readouterr().err
+    assert "results up to t =" in err and "nan" not in err
+    assert load_results(b[1]).metadata["status"] == "budget"
+
+
 def test_run_options_override_the_file(tmp_path, pendulum_file, capsys):
     h5 = tmp_path / "o.h5"
     code = main(["run", str(pendulum_file), "--method", "baumgarte", "--integrator", "rk4",

@@ -113,6 +113,18 @@ class Assembler:
     def advance_couplers(self, q) -> None:
         advance_couplers(self.couplers, self.table.law, q, self.nb)
 
+    def coupler_references(self) -> list:
+        """The couplers' angle references now (copies; [] without couplers)."""
+        return [self.table.law[sl, :2].copy() for _, sl in self.couplers]
+
+    def set_coupler_references(self, refs) -> None:
+        """Set the references (from :meth:`coupler_references`; None: the assembled zero)."""
+        if refs is None:
+            self.reset_couplers()
+            return
+        for (_, sl), ref in zip(self.couplers, refs):
+            self.table.law[sl, :2] = ref
+
     # ---------------------------------------------------------------------------------------
     def blocks(self, state: BodyState, t: float):
         """Evaluate every group: lists of ConstraintEval in group order."""

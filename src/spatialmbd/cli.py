@@ -240,13 +240,15 @@ def _apply_overrides(analysis, args):
     return dataclasses.replace(analysis, **changes), notes
 
 
-def _run_analysis(model, analysis, progress: bool, budget=None):
+def _run_analysis(model, analysis, progress: bool, budget=None, stream=None):
     """Run; return (results, wall time, warning texts)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         start = time.perf_counter()
-        if budget is not None and getattr(analysis, "type", "dynamic") in ("dynamic",
-                                                                             "kinematic"):
+        if stream is not None:
+            results = analysis.run(model, progress=progress, budget=budget, stream=stream)
+        elif budget is not None and getattr(analysis, "type", "dynamic") in ("dynamic",
+                                                                               "kinematic"):
             results = analysis.run(model, progress=progress, budget=budget)
         else:
             results = analysis.run(model, progress=progress)
@@ -296,8 +298,9 @@ def _output_paths(args, stem: str, default_suffix: str, allowed: Sequence[str]) 
     return outs
 
 
-def _failure_line(results) -> str:
-    t = results.t[-1] if len(results.t) else float("nan")
+def _failure_line(results, t=None) -> str:
+    if t is None:
+        t = results.t[-1] if len(results.t) else float("nan")
     return (f"error: the analysis failed; results up to t = {t:.6g} s were written. "
             f"{results.message}").rstrip()
 
@@ -318,23 +321,62 @@ def cmd_run(args) -> int:
         for note in notes:
             print(f"note: {note}")
     budget = _budget_of(args)
-    results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet,
-                                                 budget=budget)
+    writer = _stream_writer(args, analysis, outs)
+    try:
+        results, wall, warning_texts = _run_analysis(model, analysis, progress=not args.quiet,
+                                                     budget=budget, stream=writer)
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
     if getattr(analysis, "type", "dynamic") in ENGINEERING_TYPES:
         return _write_engineering(results, analysis, outs, wall, warning_texts, args.quiet)
-    from .io.results_io import save_all
-    written = save_all(results, outs, analysis=analysis)
+    t_last = results.t[-1] if len(results.t) else float("nan")
+    if writer is not None:
+        if writer.error is not None:            # a file could not be written: none changed
+            raise writer.error
+        t_last = writer.t_written if not len(results.t) else t_last
+        written = writer.finish(results)
+    else:
+        from .io.results_io import save_all
+        written = save_all(results, outs, analysis=analysis)
     if not args.quiet:
         print(_summary(results, wall, warning_texts))
         for out, (rows, columns) in written.items():
             print(f"results written to {out} ({rows} rows, {columns} columns)")
     if results.status == "interrupted":
-        _err(_failure_line(results).replace("the analysis failed", "interrupted"))
+        _err(_failure_line(results, t_last).replace("the analysis failed", "interrupted"))
         return 130
     if results.status != "success":
-        _err(_failure_line(results))
+        _err(_failure_line(results, t_last))
         return 1
     return 0
+
+
+#: a dynamic run with more output times than this streams them to its files (--stream-rows)
+STREAM_ROWS = 100_000
+
+
+def _stream_writer(args, analysis, outs):
+    """A ResultsWriter when the dynamic run has more output rows than --stream-rows (its
+    outputs then go to the files in chunks, with bounded memory), else None."""
+    if getattr(analysis, "type", "dynamic") != "dynamic":
+        return None
+    limit = getattr(args, "stream_rows", None)
+    limit = STREAM_ROWS if limit is None else limit
+    from .simulate import output_times
+    try:
+        n = output_times(analysis.t_end, analysis.output_step, analysis.t_eval).size
+    except Exception:  # noqa: BLE001 - bad output settings: simulate reports them
+        return None
+    if n <= limit:
+        return None
+    from .io.stream import DEFAULT_CHUNK_ROWS, ResultsWriter
+    chunk = max(1, min(DEFAULT_CHUNK_ROWS, limit)) if limit else DEFAULT_CHUNK_ROWS
+    if not args.quiet:
+        print(f"note: {n:,} output rows: written to the files in chunks of {chunk:,} as the "
+              "run goes (bounded memory; --stream-rows sets the threshold)")
+    return ResultsWriter(outs, analysis=analysis, chunk_rows=chunk)
 
 
 def _budget_of(args):
@@ -344,6 +386,16 @@ def _budget_of(args):
         return None
     from .budget import Budget
     return Budget(max_steps=steps, max_wall_time=wall)
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more, got {text!r}")
+    return value
 
 
 def _positive_int(text: str) -> int:
@@ -715,6 +767,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "such as joint:pivot, force:spring, imu:link.tip (docs/outputs.md)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress bar, no summary (errors are still reported)")
+    p.add_argument("--stream-rows", type=_non_negative_int, metavar="N",
+                   help=f"a dynamic run with more than N output times (default {STREAM_ROWS:,};"
+                        " 0: always) writes them to its files in chunks while it runs, with "
+                        "bounded memory")
     g = p.add_argument_group("budget (a run that reaches it stops with its results so far, "
                              "status 'budget', exit status 1)")
     g.add_argument("--max-steps", type=_positive_int, metavar="N",

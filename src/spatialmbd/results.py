@@ -8,6 +8,7 @@ lam follows the convention of dynamics/eom.py: D^T lam are the reaction forces o
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -63,6 +64,13 @@ class Results:
     events: list = field(default_factory=list)
     #: the state at each located event: (q (nb, 7), v (nb, 6)), in the order of ``events``
     event_states: list = field(default_factory=list)
+    #: the contacts' impact-velocity records (t, instance, v0) of the run
+    #: (:mod:`spatialmbd.forces.contact.memory`); None: not recorded
+    contact_log: Optional[list] = None
+    #: the couplers' angle references at the first output (None: the assembled zero, as at
+    #: the start of a run); see :meth:`constraint_violation`
+    coupler_references: Optional[list] = None
+    coupler_references_end: Optional[list] = None
 
     # ----------------------------------------------------------------------------------------
     @classmethod
@@ -167,11 +175,16 @@ class Results:
 
     # ---------------------------------------------------------------------------- violation
     def constraint_violation(self) -> dict:
-        """|Phi| (2-norm), Phi^T Phi (as in Fig. 15.2) and |D v - nu| at every output (nt,)."""
+        """|Phi| (2-norm), Phi^T Phi (as in Fig. 15.2) and |D v - nu| at every output (nt,).
+
+        Couplers' angles are unwrapped along the outputs, from ``coupler_references`` (the
+        references at the first output: None, the assembled zero, for a whole run; a later
+        chunk of a run starts from its predecessor's ``coupler_references_end``, which this
+        sets)."""
         asm = self.model.assembler
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
-        asm.reset_couplers()                  # gear angles unwrapped along the outputs
+        asm.set_coupler_references(self.coupler_references)
         try:
             for k in range(nt):
                 if k:
@@ -180,6 +193,9 @@ class Results:
                 sq[k] = float(cv.phi @ cv.phi)
                 pos[k] = np.sqrt(sq[k])
                 vel[k] = float(np.linalg.norm(cv.D @ self.v[k].reshape(-1) - cv.nu))
+            if nt and asm.couplers:
+                asm.advance_couplers(self.q[nt - 1])
+                self.coupler_references_end = asm.coupler_references()
         finally:
             asm.reset_couplers()              # the shared assembler left as it was found
         return dict(position=pos, phi_squared=sq, velocity=vel)

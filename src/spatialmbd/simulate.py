@@ -16,6 +16,7 @@ factorisation of D D^T shows that its rows are independent.
 """
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from typing import Optional, Sequence
@@ -85,7 +86,7 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
              correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
              progress=False, t0: float = 0.0, outputs=None, budget=None,
              max_steps: Optional[int] = None, max_wall_time: Optional[float] = None,
-             events=None, event_tol: float = 1e-12) -> Results:
+             events=None, event_tol: float = 1e-12, stream=None) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
     method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
@@ -114,6 +115,12 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         only, < 0 falling only), ``name``; located to ``event_tol`` (s) on the dense output;
         listed in ``results.events`` (t, name, index, terminal), the state at each in
         ``results.event_states`` ((q (nb, 7), v (nb, 6)) per event, located, not sampled).
+
+    stream: a :class:`.io.stream.ResultsWriter`: every ``stream.chunk_rows`` outputs are
+        handed to it as Results (``stream.add``) and forgotten, so memory stays bounded; the
+        returned Results then hold only the rows after the last full chunk (with the whole
+        run's status and counters), for ``stream.finish`` -- or use
+        :func:`.io.stream.simulate_to_file`, which does both.
 
     Returns Results: status "success"; "event" (a terminal event stopped the run; its state is
     the last output); "failed" (with the cause, and a diagnosis at a singular
@@ -205,13 +212,36 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         integ_events = (integ_events or []) + [
             Event(gap, direction=-1.0, name=name, restart=touch, record=False)
             for name, gap, touch in contact_memory.triggers()]
+    settings = dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
+                    method=meth.name, method_options=meth.parameters(),
+                    integrator=integ.name, integrator_options=_integrator_options(integ),
+                    correct_initial=correct_initial)
+    eval_eom = eom if contact_memory is None else _AtTime(eom, contact_memory)
+
+    def chunk_results(times, outputs, status, message, counters, wall):
+        out = Results.from_integration(
+            model=model, eom=eval_eom, method=meth, integrator=integ, t=np.asarray(times),
+            y=np.asarray(outputs), status=status, message=message, counters=counters,
+            wall_time=wall, correction=correction, redundant_joints=redundant_joints,
+            messages=messages, settings=settings)
+        out.output_requests = requests
+        out.contact_log = contact_memory.log if contact_memory is not None else []
+        if contact_memory is not None:            # evaluating the outputs rewound the memory
+            contact_memory.restore(math.inf)
+        return out
+
+    sink = None
+    if stream is not None:
+        def sink(times, outputs):
+            stream.add(chunk_results(times, np.array(outputs), "running", "", {}, 0.0))
     start = time.perf_counter()
     try:
         # rhs uses p / |p|, so the normalisation alone never changes it
         problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
                              stages=stages, n_quadrature=1)   # W does not enter the rhs
         res = integ.integrate(problem, t0, y0, t_out, progress=callback,
-                              events=integ_events, event_tol=event_tol)
+                              events=integ_events, event_tol=event_tol, sink=sink,
+                              chunk=getattr(stream, "chunk_rows", 0))
     finally:
         if hasattr(callback, "close"):
             callback.close()
@@ -234,22 +264,12 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                         f"continued with alpha = {alpha:.3g}, max_iterations = {iters}")
     if res.status not in ("success", "event"):
         messages.append(res.message)
-    results = Results.from_integration(
-        model=model, eom=eom if contact_memory is None else _AtTime(eom, contact_memory),
-        method=meth, integrator=integ, t=res.t, y=res.y, status=res.status,
-        message=res.message, counters=_counters(res, meth), wall_time=wall,
-        correction=correction, redundant_joints=redundant_joints, messages=messages,
-        settings=dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
-                      method=meth.name, method_options=meth.parameters(),
-                      integrator=integ.name, integrator_options=_integrator_options(integ),
-                      correct_initial=correct_initial))
-    results.output_requests = requests
+    results = chunk_results(res.t, res.y, res.status, res.message, _counters(res, meth), wall)
     results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                       for e in res.events]
     results.event_states = [(np.asarray(e.y[:7 * nb], dtype=float).reshape(nb, 7),
                              np.asarray(e.y[7 * nb:13 * nb], dtype=float).reshape(nb, 6))
                             for e in res.events]
-    results.contact_log = contact_memory.log if contact_memory is not None else []
     return results
 
 

@@ -6,10 +6,12 @@ import numpy as np
 
 from ..errors import ModelError
 
-def run_analysis(analysis, model, progress=False, budget=None):
+def run_analysis(analysis, model, progress=False, budget=None, stream=None):
     """Results (dynamic) or KinematicResults (kinematic) of ``analysis`` on ``model``; the
     result objects of spatialmbd.analyses for the engineering types. budget: a
-    :class:`spatialmbd.budget.Budget` (or dict) for dynamic and kinematic runs."""
+    :class:`spatialmbd.budget.Budget` (or dict) for dynamic and kinematic runs. stream: a
+    :class:`spatialmbd.io.stream.ResultsWriter` receiving a dynamic run's outputs in chunks
+    (see ``simulate``)."""
     a = analysis
     if a.type == "kinematic":
         from ..kinematics import kinematic_analysis
@@ -28,7 +30,7 @@ def run_analysis(analysis, model, progress=False, budget=None):
                     atol=a.atol, method_options=dict(a.method_options),
                     integrator_options=dict(a.integrator_options),
                     correct_initial=a.correct_initial, hold=a.hold, progress=progress,
-                    outputs=list(a.outputs), budget=budget)
+                    outputs=list(a.outputs), budget=budget, stream=stream)
 
 
 def _run_engineering(a, model):

@@ -127,13 +127,16 @@ class Integrator(abc.ABC):
 
     def integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
                   progress: Optional[Callable[[float], None]] = None, events=None,
-                  event_tol: float = 1e-12) -> IntegrationResult:
+                  event_tol: float = 1e-12, sink: Optional[Callable] = None,
+                  chunk: int = 0) -> IntegrationResult:
         """Integrate from (t0, y0) and return the state at each time of ``t_eval``.
 
         t_eval: (n_out,) increasing, t_eval[0] >= t0. progress: called with the current time
         after accepted steps (for progress bars). events: zero crossings to locate (see
         :mod:`.driver`: callables g(t, y) or objects with ``function``, ``terminal``,
-        ``direction``); event_tol: their time tolerance (s).
+        ``direction``); event_tol: their time tolerance (s). sink / chunk: streaming -- every
+        ``chunk`` outputs are handed to ``sink(times, outputs)`` and forgotten; the result then
+        holds only the outputs after the last full chunk.
         """
         t_eval = np.asarray(t_eval, dtype=float)
         if t_eval.ndim != 1 or t_eval.size == 0:
@@ -144,7 +147,10 @@ class Integrator(abc.ABC):
         y0 = np.array(y0, dtype=float)
         if problem.project is not None:
             y0 = problem.project(t0, y0)
-        state = RunState()
+        if sink is not None and (isinstance(chunk, bool) or not isinstance(chunk, int)
+                                 or chunk < 1):
+            raise ValueError(f"chunk: expected a positive number of outputs, got {chunk!r}")
+        state = RunState(sink=sink, chunk=chunk)
         start = time.perf_counter()
         status, message, t_fail = "success", "", None
         try:
@@ -160,7 +166,7 @@ class Integrator(abc.ABC):
         except Exception as exc:  # noqa: BLE001 - a non-project error mid-run (e.g. LAPACK's
             # ValueError): the outputs computed so far are returned with the cause; before
             # the first evaluation it is a setting the integrator cannot use: raised
-            if counters.nfev == 0 and not state.outputs:
+            if counters.nfev == 0 and not state.n_outputs:
                 raise
             status = "failed"
             t_fail = getattr(exc, "t", None)
@@ -169,8 +175,9 @@ class Integrator(abc.ABC):
         outputs = state.outputs
         n_out = len(outputs)
         y = np.array(outputs) if n_out else np.empty((0, y0.size))
+        n_all = state.n_outputs
         if status != "success" and t_fail is None:
-            t_fail = float(t_eval[n_out]) if n_out < t_eval.size else float(t_eval[-1])
+            t_fail = float(t_eval[n_all]) if n_all < t_eval.size else float(t_eval[-1])
         if status != "success" and not message.startswith("t ="):
             message = f"t = {t_fail:.6g} s: {message}"
         if status == "success" and state.terminated is not None:

@@ -183,6 +183,34 @@ class RunState:
     events: List[EventRecord] = field(default_factory=list)
     terminated: Optional[EventRecord] = None
     last: Optional[tuple] = None          # (t, y) of the last accepted step (diagnostics)
+    #: streaming: sink(times, outputs) receives the outputs every ``chunk`` rows, after which
+    #: the lists are emptied, so a long run holds at most ``chunk`` outputs in memory
+    sink: Optional[Callable] = None
+    chunk: int = 0
+    drained: int = 0                      # outputs handed to the sink so far
+    t_last_out: Optional[float] = None    # time of the last output (drained or not)
+
+    def emit(self, t: float, y: np.ndarray) -> None:
+        """Record the output y(t); hand a full chunk to the sink."""
+        self.times.append(t)
+        self.outputs.append(y)
+        self.t_last_out = t
+        if self.sink is not None and len(self.outputs) >= self.chunk:
+            self.drain()
+
+    def drain(self) -> None:
+        """Hand the outputs held so far to the sink and forget them."""
+        if self.sink is None or not self.outputs:
+            return
+        times, outputs = list(self.times), list(self.outputs)
+        del self.times[:], self.outputs[:]
+        self.drained += len(times)
+        self.sink(times, outputs)
+
+    @property
+    def n_outputs(self) -> int:
+        """Outputs recorded so far, drained or held."""
+        return self.drained + len(self.outputs)
 
 
 def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
@@ -200,11 +228,9 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
     n_out = len(touts)
     t_end = touts[-1] if t_end is None else float(t_end)
     span = t_end - t0
-    times, outputs = state.times, state.outputs
     k_out = 0
     while k_out < n_out and touts[k_out] == t0:
-        times.append(t0)
-        outputs.append(y0)
+        state.emit(t0, y0)
         k_out += 1
     evs = [Event.coerce(e, i) for i, e in enumerate(events or ())]
     if k_out == n_out and not evs:
@@ -312,13 +338,11 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                     yo = dense(to)
                     if project is not None:
                         yo = project(to, yo)
-                times.append(to)
-                outputs.append(yo)
+                state.emit(to, yo)
                 k_out += 1
             if state.terminated is not None:
-                if not times or times[-1] != t_stop:
-                    times.append(t_stop)
-                    outputs.append(state.terminated.y)
+                if state.t_last_out != t_stop:
+                    state.emit(t_stop, state.terminated.y)
                 if progress is not None:
                     progress(t_stop)
                 return

@@ -47,11 +47,11 @@ class Analysis:
     time: float = 0.0
     frame_rate: Optional[list] = None
 
-    def run(self, model, progress=False, budget=None):
+    def run(self, model, progress=False, budget=None, stream=None):
         """Run this analysis of ``model`` (:func:`spatialmbd.analyses.run.run_analysis`: the
         IO package only describes analyses; running them belongs to the analyses layer)."""
         from ..analyses.run import run_analysis
-        return run_analysis(self, model, progress=progress, budget=budget)
+        return run_analysis(self, model, progress=progress, budget=budget, stream=stream)
 
     def to_dict(self) -> dict:
         """The ``analysis`` section of a model file (plain Python types)."""

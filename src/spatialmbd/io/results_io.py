@@ -263,14 +263,19 @@ def iter_table(results, chunk_rows: Optional[int] = None):
     """The rows of :func:`to_dataframe` in DataFrames of at most chunk_rows rows, so that a
     long run is written with bounded memory (the energy error keeps its reference, the
     total energy at the first output time)."""
-    n = len(results.t) if results_kind(results) != "loaded" else len(results.table)
+    kind = results_kind(results)
+    n = len(results.t) if kind != "loaded" else len(results.table)
     step = chunk_rows or _chunk_rows(results)
     if n <= step:
         yield to_dataframe(results)
         return
-    total0 = None
+    total0, refs = None, getattr(results, "coupler_references", None)
     for start in range(0, n, step):
-        df = to_dataframe(_slice(results, start, min(n, start + step)))
+        part = _slice(results, start, min(n, start + step))
+        if kind == "dynamic":        # couplers' angles unwrapped on from the previous chunk
+            part.coupler_references = refs
+        df = to_dataframe(part)
+        refs = getattr(part, "coupler_references_end", None)
         if "energy.total" in df.columns:
             if total0 is None:
                 total0 = float(df["energy.total"].iloc[0])
