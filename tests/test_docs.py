@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
 RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
-             "couplers.md", "sliding-joints.md")
+             "couplers.md", "sliding-joints.md", "rolling.md")
 
 
 def _mkdocs(config: Path, site: Path):

@@ -151,6 +151,10 @@ class ConstraintType:
     angle_based: ClassVar[bool] = False
     #: an equation between two joints' coordinates (constraints.couplers), not a joint
     coupler: ClassVar[bool] = False
+    #: equations (indices) that constrain velocities only -- nonholonomic rows such as rolling
+    #: without slip (constraints.rolling): their kernel writes phi = nu = 0, so position solves
+    #: carry them with zero residual and the velocity and acceleration levels use them in full
+    velocity_rows: ClassVar[tuple[int, ...]] = ()
     #: the compiled kernel of one instance, kernel(S, G, k, row, out) (None: override evaluate)
     kernel: ClassVar[Optional[Callable]] = None
 
@@ -262,6 +266,9 @@ def register(cls: type[ConstraintType]) -> type[ConstraintType]:
     if unknown:
         raise ModelError(f"{where} ({cls.name!r}): unknown inputs {sorted(unknown)}; use "
                          "point, axis, point2, axis2")
+    if any(not isinstance(r, int) or not 0 <= r < cls.n_eq for r in cls.velocity_rows):
+        raise ModelError(f"{where} ({cls.name!r}): velocity_rows {cls.velocity_rows!r} must be "
+                         f"equation indices below n_eq = {cls.n_eq}")
     names = [p.name for p in cls.parameters]
     if len(set(names)) != len(names):
         raise ModelError(f"{where} ({cls.name!r}): duplicate parameter names {names}")
