@@ -142,3 +142,21 @@ def test_bad_input_is_a_model_error():
     deep.add_force("sphere_set", "g", bodies=["a", "b"], radius=0.1, stiffness=1.0)
     with pytest.raises(ModelError, match="interpenetrate"):
         deep.compile()
+
+
+def test_spheres_in_box_example_settles_inside_the_box():
+    """examples/spheres_in_box.yaml (models.spheres_in_box, 64 spheres) with its own settings:
+    everything ends inside the box, resting (no sphere deeper into the floor than its static
+    compression under the whole pile), and energy + dissipated work is conserved."""
+    from spatialmbd import models
+    b = models.spheres_in_box()
+    model = b.compile()
+    res = simulate(model, 1.0, method="standard", integrator="rk45", rtol=1e-5, atol=1e-7,
+                   output_step=0.05)
+    assert res.status == "success"
+    z = res.q[-1, :, 2]
+    R, m, K = 0.02, 0.03, 2e4
+    assert z.min() > R - model.nb * m * 9.81 / K                 # within the floor's reach
+    assert np.abs(res.v[-1, :, :3]).max() < 0.05                   # settled
+    E = res.energy()
+    assert np.abs(E["error"]).max() < 1e-4 * abs(E["total"][0] - E["total"][-1])
