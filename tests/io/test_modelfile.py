@@ -48,6 +48,8 @@ def same_floats(a, b) -> bool:
 def same_value(a, b) -> bool:
     if isinstance(a, str) or isinstance(b, str):
         return a == b
+    if isinstance(a, (list, tuple)) and any(isinstance(x, (str, dict)) for x in a):
+        return plain(a) == plain(b)          # body names, wall dicts
     if isinstance(a, (MotionLaw, dict)) or isinstance(b, (MotionLaw, dict)):
         return plain(a) == plain(b)
     return same_floats(a, b)
