@@ -11,6 +11,9 @@ import sys
 import pytest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+# the CLI's cold-start race (a background compile and an interpreted child process) is tested
+# on its own in test_cli.py; everywhere else commands run in-process as they are
+os.environ["SPATIALMBD_NO_RACE"] = "1"
 
 
 def _warm_core():

@@ -5,6 +5,7 @@ import json
 import re
 import subprocess
 import sys
+import time
 from importlib import metadata
 
 import numpy as np
@@ -409,3 +410,42 @@ def test_warmup_and_the_cold_cache_notice(capsys):
     with compile_notice(stream=stream):            # warm: nothing said
         pass
     assert stream.getvalue() == ""
+
+
+# ---------------------------------------------------------------------------- cold start
+def test_cold_start_runs_interpreted_while_compiling(tmp_path, pendulum_file, monkeypatch,
+                                                     capsys):
+    """A cold cache: the command runs in a child with the kernels interpreted while the
+    compile goes on in the background; the interpreted result is the compiled one."""
+    monkeypatch.setattr(cli, "_cold", lambda args: True)
+    monkeypatch.setattr(cli, "WARMUP_ARGV", [sys.executable, "-c",
+                                             "import time; time.sleep(20)"])
+    monkeypatch.setattr("spatialmbd.jit.cache_is_warm", lambda: False)
+    fast, slow = tmp_path / "compiled.csv", tmp_path / "interpreted.csv"
+    assert main(["run", str(pendulum_file), "-q", "-o", str(fast)]) == 0
+    assert cli._cold(None) is True
+    monkeypatch.setenv("SPATIALMBD_NO_RACE", "")
+    assert main(["run", str(pendulum_file), "-o", str(slow)]) == 0
+    err = capsys.readouterr().err
+    assert "compiling the numerical kernels in the background" in err
+    assert "still being built in the background" in err
+    a, b = pd.read_csv(fast), pd.read_csv(slow)
+    assert list(a.columns) == list(b.columns) and len(a) == len(b) == 16
+    assert np.allclose(a.to_numpy(), b.to_numpy(), rtol=1e-9, atol=1e-12)
+
+
+def test_cold_start_switches_to_the_compiled_kernels_when_they_are_ready(
+        tmp_path, pendulum_file, monkeypatch, capsys):
+    monkeypatch.setattr(cli, "_cold", lambda args: True)
+    monkeypatch.setattr(cli, "WARMUP_ARGV", [sys.executable, "-c",
+                                             "import time; time.sleep(5)"])
+    start = time.perf_counter()
+    monkeypatch.setattr("spatialmbd.jit.cache_is_warm",
+                        lambda: time.perf_counter() - start > 0.5)
+    out = tmp_path / "out.csv"
+    assert main(["run", str(pendulum_file), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "compiled kernels ready after" in err and "running compiled" in err
+    assert len(pd.read_csv(out)) == 16
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name != "pendulum.yaml") == \
+        ["out.csv"]                                     # the stopped child left nothing

@@ -645,11 +645,13 @@ def cmd_demo(args) -> int:
     outdir = pathlib.Path(args.outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     try:
-        out = run_study(outdir, quick=args.quick)
+        echo = None if args.quiet else (lambda line: print(line, flush=True))
+        out = run_study(outdir, quick=args.quick, echo=echo)
     except RuntimeError as exc:                 # a method of the study failed to integrate
         _err(f"error: the study failed: {exc}")
         return 1
     if not args.quiet:
+        print()
         if isinstance(out, dict) and isinstance(out.get("report"), str):
             print(out["report"])
         elif isinstance(out, dict) and type(out).__str__ is dict.__str__:
@@ -956,7 +958,7 @@ def cmd_warmup(args) -> int:
     """Compile every kernel now (each method, the integrators' fused stages, kinematics, the
     force elements), so that later runs start at once."""
     import time
-    from .jit import cache_is_warm, compile_notice
+    from .jit import cache_is_warm, compile_notice, mark_warm, warmup_lock
     from . import models
     from .kinematics import kinematic_analysis
     from .simulate import simulate
@@ -971,11 +973,12 @@ def cmd_warmup(args) -> int:
     steps.append(("fixed-step and implicit integrators", lambda: [
         simulate(fly, 2e-3, integrator=i, step=1e-3) for i in ("rk4", "bdf4")]))
     steps.append(("batch engine of sweeps", _warm_batch))                  # issue 15
-    with compile_notice(force=not warm and not args.quiet, every=10.0):
+    with warmup_lock(), compile_notice(force=not warm and not args.quiet, every=10.0):
         for k, (what, run) in enumerate(steps):
             if not args.quiet:
                 print(f"[{k + 1}/{len(steps)}] {what}", flush=True)
             run()
+        mark_warm()
     if not args.quiet:
         print(f"ready in {time.perf_counter() - start:.1f} s"
               + (" (the cache was already warm)" if warm else ""))
@@ -986,8 +989,83 @@ def cmd_warmup(args) -> int:
 _COMPUTING = (cmd_run, cmd_demo, cmd_validate)
 
 
+#: environment variable set in the interpreted child of a cold start (see :func:`_race`)
+INTERPRETED_ENV = "SPATIALMBD_INTERPRETED"
+#: exit status of an interpreted child that met an internal error (the compiled run decides)
+INTERPRETED_FAILED = 3
+#: the background compile of a cold start
+WARMUP_ARGV = [sys.executable, "-m", "spatialmbd", "warmup", "--quiet"]
+
+
+def _cold(args) -> bool:
+    """Whether this command should race (see :func:`_race`): a computing command, a cold
+    compile cache, Numba enabled, not already the interpreted child, not switched off with
+    SPATIALMBD_NO_RACE=1."""
+    import os
+    if getattr(args, "func", None) not in _COMPUTING or os.environ.get(INTERPRETED_ENV) or \
+            os.environ.get("SPATIALMBD_NO_RACE"):
+        return False
+    from . import jit
+    return jit.ENABLED and not jit.cache_is_warm()
+
+
+def _race(argv, args) -> int:
+    """First run on a machine (cold compile cache): compile the kernels in a background
+    process (``spatialmbd warmup``) and meanwhile run this command in a child process with the
+    kernels interpreted (``NUMBA_DISABLE_JIT=1``: the same functions as plain Python, one to
+    two orders of magnitude slower). Whichever finishes first wins: a small model's result
+    comes from the interpreted run in seconds; for a large one, once the compiled kernels are
+    ready the interpreted run is stopped and the command runs compiled. The background compile
+    always completes, so the next run starts at once."""
+    import os
+    import subprocess
+    quiet = getattr(args, "quiet", False)
+    start = time.perf_counter()
+
+    def say(text):
+        if not quiet:
+            print(text, file=sys.stderr, flush=True)
+
+    from . import jit
+    devnull = subprocess.DEVNULL
+    warm = subprocess.Popen(WARMUP_ARGV, stdin=devnull, stdout=devnull, stderr=devnull,
+                            start_new_session=True)
+    say("first run on this machine: compiling the numerical kernels in the background (about "
+        "a minute, once); meanwhile this run uses them interpreted, and switches to the "
+        "compiled ones if they are ready first")
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1", **{INTERPRETED_ENV: "1"})
+    child = subprocess.Popen([sys.executable, "-m", "spatialmbd", *argv], env=env)
+    try:
+        while True:
+            code = child.poll()
+            if code is not None and code != INTERPRETED_FAILED:
+                if warm.poll() is None:
+                    say("(the compiled kernels are still being built in the background for "
+                        "the next run)")
+                return code
+            if code == INTERPRETED_FAILED:
+                say("the interpreted run could not finish; waiting for the compiled kernels")
+                warm.wait()
+                break
+            if warm.poll() not in (None, 0) and not jit.cache_is_warm():
+                return child.wait()                    # no compiled kernels: keep interpreting
+            if jit.cache_is_warm():
+                child.terminate()
+                child.wait()
+                say(f"compiled kernels ready after {time.perf_counter() - start:.0f} s: "
+                    "running compiled")
+                break
+            time.sleep(0.05)
+    except KeyboardInterrupt:
+        child.wait()                                   # it has written its partial results
+        raise
+    return args.func(args)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the command line ``argv`` (default sys.argv[1:]); return the exit status."""
+    import os
+    argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -999,6 +1077,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     debug = getattr(args, "debug", False)
     file_error = _model_file_error()
     try:
+        if _cold(args):
+            return _race(argv, args)
         if getattr(args, "func", None) in _COMPUTING and not getattr(args, "quiet", False):
             from .jit import compile_notice
             with compile_notice():
@@ -1032,6 +1112,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if isinstance(exc, OSError):
             _err(f"error: {exc}")
             return 2
+        if os.environ.get(INTERPRETED_ENV):         # the compiled run of the parent decides
+            return INTERPRETED_FAILED
         raise
 
 

@@ -209,20 +209,63 @@ if ENABLED:
     _install_cache_locator()
 
 
+#: written into the cache directory by a completed ``spatialmbd warmup``
+COMPLETE = "warmup-complete"
+
+
+def cache_root():
+    """The directory the cache locator uses for the current sources (the first candidate that
+    is or can be made writable), or None."""
+    for root, _ in _roots():
+        if _usable(root):
+            return root
+    return None
+
+
 def cache_is_warm() -> bool:
-    """True when compiled code of the current sources is on disk, so a new process loads it in
-    about a second instead of compiling (tens of seconds, once per machine and version)."""
+    """True when the whole hot path of the current sources is compiled on disk (a completed
+    ``spatialmbd warmup`` left its mark), so a new process loads it in about a second instead
+    of compiling (about a minute, once per machine and version)."""
     if not ENABLED:
         return True
-    for root, _ in _roots():                # the directory the cache locator will use:
-        if not _usable(root):               # the first one that is or can be made writable
-            continue
+    root = cache_root()
+    return root is not None and os.path.exists(os.path.join(root, COMPLETE))
+
+
+def mark_warm() -> None:
+    """Record that the hot path is compiled (after ``spatialmbd warmup``)."""
+    root = cache_root()
+    if root is None:
+        return
+    os.makedirs(root, exist_ok=True)
+    tmp = os.path.join(root, f".{COMPLETE}.{os.getpid()}")
+    with open(tmp, "w") as fh:
+        fh.write("compiled by spatialmbd warmup\n")
+    os.replace(tmp, os.path.join(root, COMPLETE))
+
+
+class warmup_lock:
+    """Context manager: one ``spatialmbd warmup`` at a time per cache directory (a second one
+    waits for the first, then loads what it compiled). A no-op where ``fcntl`` is missing."""
+
+    def __enter__(self):
+        self._fh = None
+        root = cache_root()
         try:
-            names = os.listdir(root)
-        except OSError:
-            names = []
-        return any(n.startswith("system.") and n.endswith(".nbi") for n in names)
-    return False
+            import fcntl
+        except ImportError:                 # pragma: no cover - Windows
+            return self
+        if root is None:
+            return self
+        os.makedirs(root, exist_ok=True)
+        self._fh = open(os.path.join(root, ".warmup.lock"), "w")
+        fcntl.flock(self._fh, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        if self._fh is not None:
+            self._fh.close()                # releases the lock
+        return False
 
 
 def _usable(root: str) -> bool:

@@ -209,11 +209,22 @@ def _tables(outdir: Path, rows: list) -> tuple[Path, Path, str]:
     return csv_path, md_path, md
 
 
-def run_study(outdir, quick: bool = False, methods=None) -> StudyReport:
+_INTERPRETED_NOTE = ("; INTERPRETED: this run did not wait for the compiled kernels, so its "
+                     "wall times are not representative -- run it again once they are built")
+
+
+def _jit_enabled() -> bool:
+    from . import jit
+    return jit.ENABLED
+
+
+def run_study(outdir, quick: bool = False, methods=None, echo=None) -> StudyReport:
     """Run the chapter 15 study; write the figure and tables to ``outdir``.
 
     quick=True simulates 2 s instead of 10 s (for CI). ``methods``: a subset of the method
-    keys (default all five). Returns a :class:`StudyReport` (dict; ``print`` it).
+    keys (default all five). echo: called with a line of text as each method's run finishes
+    (its figures, before the full report). Returns a :class:`StudyReport` (dict; ``print``
+    it).
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
@@ -256,6 +267,12 @@ def run_study(outdir, quick: bool = False, methods=None) -> StudyReport:
                          final_phi_squared=float(viol["phi_squared"][-1]),
                          text_nfev=None if quick else text_nfev,
                          text_time=None if quick else text_time))
+        if echo is not None:
+            r = rows[-1]
+            echo(f"{label}: {r['nfev']} function evaluations, {r['steps']} steps, max "
+                 f"Phi^T Phi {r['max_phi_squared']:.3g}, angle error "
+                 f"{phys['checks']['angle'][0]:.2e} rad against the exact solution"
+                 + ("" if quick else f" (text: {text_nfev} evaluations)"))
     fig = _figure(outdir, runs, t_end)
     fig2 = _physics_figure(outdir, runs, pend)
     csv_path, md_path, md = _tables(outdir, rows)
@@ -268,7 +285,8 @@ def run_study(outdir, quick: bool = False, methods=None) -> StudyReport:
              f"{SETTINGS['output_step']} s, {t_end:g} s; Baumgarte alpha = beta = 5; penalty "
              "and augmented Lagrangian alpha = 1e7, omega = 10, mu = 1.", "",
              "Table 15.3 (ours; the text's figures beside; wall time = integration only, "
-             "after a warm-up run):", md,
+             "after a warm-up run" + (_INTERPRETED_NOTE if not _jit_enabled() else "") + "):",
+             md,
              "", f"Exact solution: I_O = {pend.I_O:.7f} kg m^2, omega0 = {pend.omega0:.9f} rad/s, "
              f"period T = 4 K(1/2) / omega0 = {pend.period:.9f} s; perturbation growth over "
              f"the run G = {growth:.3g}.",
