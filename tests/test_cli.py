@@ -330,7 +330,7 @@ def test_demo_calls_the_study(tmp_path, monkeypatch, capsys):
     study = pytest.importorskip("spatialmbd.study_ch15")
     seen = {}
 
-    def fake(outdir, quick=False):
+    def fake(outdir, quick=False, echo=None):
         seen.update(outdir=outdir, quick=quick)
         return {"report": "study report", "figure": str(outdir / "fig.png")}
 
@@ -339,7 +339,7 @@ def test_demo_calls_the_study(tmp_path, monkeypatch, capsys):
     assert seen == {"outdir": tmp_path / "d", "quick": True}
     assert "study report" in capsys.readouterr().out
 
-    def failing(outdir, quick=False):
+    def failing(outdir, quick=False, echo=None):
         return {"report": "study report", "passed": False}
 
     monkeypatch.setattr(study, "run_study", failing)

@@ -212,7 +212,8 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         integ_events = (integ_events or []) + [
             Event(gap, direction=-1.0, name=name, restart=touch, record=False)
             for name, gap, touch in contact_memory.triggers()]
-    settings = dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
+    def settings():             # after the run: the method's options as adapted in it
+        return dict(t0=t0, t_end=float(t_out[-1]), n_output=int(t_out.size),
                     method=meth.name, method_options=meth.parameters(),
                     integrator=integ.name, integrator_options=_integrator_options(integ),
                     correct_initial=correct_initial)
@@ -223,7 +224,7 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
             model=model, eom=eval_eom, method=meth, integrator=integ, t=np.asarray(times),
             y=np.asarray(outputs), status=status, message=message, counters=counters,
             wall_time=wall, correction=correction, redundant_joints=redundant_joints,
-            messages=messages, settings=settings)
+            messages=messages, settings=settings())
         out.output_requests = requests
         out.contact_log = contact_memory.log if contact_memory is not None else []
         if contact_memory is not None:            # evaluating the outputs rewound the memory

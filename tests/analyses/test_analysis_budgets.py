@@ -105,5 +105,5 @@ def test_the_budget_and_streaming_examples_of_docs_reliability_run(tmp_path, mon
     for code in blocks:
         exec(compile(code, "docs/reliability.md", "exec"), {})
     out = capsys.readouterr().out.split("\n")
-    assert out[0] == "budget 4" and out[1] == "success 10001 4"
+    assert out[0] == "budget 4" and out[1] == "success 10001"
     assert (tmp_path / "long.h5").exists()

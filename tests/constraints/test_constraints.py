@@ -54,6 +54,9 @@ def test_jacobian_and_gamma_match_finite_differences(name):
     if any(par.size > 1 for par in CONSTRAINT_TYPES[name].parameters):
         pytest.skip("list parameters (spline values) need consistent derived columns: checked "
                     "by the type's own test (test_point_curve.py)")
+    if CONSTRAINT_TYPES[name].velocity_rows:
+        pytest.skip("rows without Phi (nonholonomic): d(D v)/dt = -gamma is checked by the "
+                    "type's own test (test_rolling.py)")
     if getattr(CONSTRAINT_TYPES[name], "coupler", False):
         pytest.skip("a coupler's block holds two joints' geometry: checked by "
                     "test_couplers.py on coupled joints")

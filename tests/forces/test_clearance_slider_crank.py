@@ -4,8 +4,10 @@ follows the ideal mechanism within what the clearance allows."""
 import math
 
 import numpy as np
+import pytest
 
 from spatialmbd import models
+from spatialmbd.errors import RedundantConstraintsWarning
 from spatialmbd.simulate import simulate
 
 
@@ -14,8 +16,9 @@ def test_clearance_joint_follows_the_ideal_mechanism_within_the_clearance():
     T = 2 * math.pi / speed
     opts = dict(output_step=T / 200, rtol=1e-8, atol=1e-10)
     res = simulate(models.slider_crank_clearance(c, speed).compile(), T, **opts)
-    ideal = simulate(models.slider_crank_clearance(c, speed, ideal=True).compile(), T,
-                     **opts)
+    with pytest.warns(RedundantConstraintsWarning):   # planar, built from spatial joints
+        ideal = simulate(models.slider_crank_clearance(c, speed, ideal=True).compile(), T,
+                         **opts)
     assert res.status == "success" and ideal.status == "success"
     hist = res.contacts()["C"]
     fN = hist["normal_force"]
