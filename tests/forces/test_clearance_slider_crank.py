@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from spatialmbd import models
-from spatialmbd.errors import RedundantConstraintsWarning
+from spatialmbd.simulate import RedundantConstraintsWarning
 from spatialmbd.simulate import simulate
 
 
