@@ -174,6 +174,20 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
         for j in range(n):
             vdot[j] = g[j] - alpha * k.dtc[j]
         spc.solve(sym, k.KLx, vdot, k.yk)
+        # one step of iterative refinement: with a large alpha and light bodies M + alpha D^T D
+        # is ill-conditioned (cond ~ alpha |D|^2 / m_min), and the round-off of one solve,
+        # cond eps relative, is noise in the right-hand side that implicit integrators'
+        # Newton iterations cannot converge through; the residual of the solve, corrected
+        # once, brings it to the level of the data
+        m_all(M, vdot, t6)                                            # M x
+        for a in range(m):
+            lam[a] = alpha * row_times(R, a, vdot) if k.rowblk[a, 3] >= 0 else 0.0
+        add_transpose_times(R, lam, t6)                               # + alpha D^T D x
+        for j in range(n):
+            t6[j] = g[j] - alpha * k.dtc[j] - t6[j]                   # residual
+        spc.solve(sym, k.KLx, t6, k.yk)
+        for j in range(n):
+            vdot[j] += t6[j]
         for a in range(m):
             lam[a] = (-alpha * (row_times(R, a, vdot) + k.ck[a]) if k.rowblk[a, 3] >= 0
                       else 0.0)
