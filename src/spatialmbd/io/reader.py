@@ -293,7 +293,8 @@ def _parse(P, data, default_name="model"):
         params = [p.name for p in COUPLER_TYPES[ctype].parameters] \
             if _member(ctype, COUPLER_TYPES) else ["ratio", "radius", "c1", "c2", "c0"]
         if not _mapping(P, path, d, ("name", "type", "joint1", "joint2") + tuple(params),
-                        ("name", "type", "joint1", "joint2")):
+                        ("name", "type", "joint1", "joint2")) or \
+                not all(k in d for k in ("name", "type", "joint1", "joint2")):
             continue
         n0 = len(P)
         _string(P, path + ("name",), d["name"], "a coupler name (string)")
