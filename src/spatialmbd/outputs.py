@@ -518,11 +518,15 @@ def _force(results, model, element: str, states=None) -> dict:
             cols["energy"][k] = 0.5 * (g.Kt[i] @ delta ** 2 + g.Kr[i] @ theta ** 2)
         elif kind == "*":
             # the only element of its type: its generalized forces on every body, Eq. (10.6)
-            gen = np.zeros((state.r.shape[0], 6))
-            g.evaluate(state, t, gen)
+            z = getattr(results, "force_states", None)        # LuGre bristles
+            st = None
+            if z is not None:
+                from .forces.kernels import states_by_group
+                st = states_by_group(results.model.force_groups, z[k]).get(id(g))
+            gen, energies, _ = g._run(state, t, st)
             v = np.concatenate([state.rdot, state.omega], axis=1)
             cols["power"][k] = float(np.sum(gen[:-1] * v[:-1]))
-            cols["energy"][k] = g.potential_energy(state, t)
+            cols["energy"][k] = float(np.sum(energies))
         elif kind == "user":
             f, n = g.functions[i](t, results.q[k], results.v[k])
             v = np.asarray(results.v[k])

@@ -71,6 +71,9 @@ class Results:
     #: the start of a run); see :meth:`constraint_violation`
     coupler_references: Optional[list] = None
     coupler_references_end: Optional[list] = None
+    #: the force elements' internal states at the outputs (nt, n) -- LuGre bristle
+    #: deflections, 3 per contact, m -- or None without such elements
+    force_states: Optional[np.ndarray] = None
 
     # ----------------------------------------------------------------------------------------
     @classmethod
@@ -85,11 +88,14 @@ class Results:
         q[:, :, 3:] /= np.linalg.norm(q[:, :, 3:], axis=2, keepdims=True)
         v = y[:, n_q:n_q + n_v].reshape(nt, nb, 6) if nt else np.zeros((0, nb, 6))
         work = y[:, -1].copy() if nt else np.zeros(0)
+        z = y[:, n_q + n_v:-1] if nt else np.zeros((0, 0))     # force elements' states
         vdot = np.zeros((nt, nb, 6))
         lam = np.zeros((nt, model.n_eq))
         from .errors import SpatialMBDError
         for k in range(nt):
             try:
+                if z.shape[1]:
+                    eom.system.set_force_states(z[k])
                 ev = eom.evaluate(t[k], q[k], v[k].reshape(-1))
                 out = method.accelerations(ev, t[k])
             except (SpatialMBDError, np.linalg.LinAlgError, ValueError, FloatingPointError):
@@ -102,7 +108,8 @@ class Results:
         return cls(model=model, t=np.asarray(t), q=q, v=v, vdot=vdot, lam=lam, work=work,
                    status=status, message=message, counters=counters, wall_time=wall_time,
                    correction=correction, redundant_joints=list(redundant_joints),
-                   messages=list(messages), settings=settings)
+                   messages=list(messages), settings=settings,
+                   force_states=np.array(z) if z.shape[1] else None)
 
     @property
     def success(self) -> bool:
@@ -227,8 +234,13 @@ class Results:
         gravity = -np.einsum("n,tni,i->t", m, self.q[:, :, :3], model.gravity)
         elastic = np.zeros(len(self.t))
         if model.force_groups:
+            z = self.force_states
+            if z is not None:
+                from .forces.kernels import states_by_group
             for k, state in enumerate(self.states()):
-                elastic[k] = sum(g.potential_energy(state, self.t[k]) for g in model.force_groups)
+                st = {} if z is None else states_by_group(model.force_groups, z[k])
+                elastic[k] = sum(g.potential_energy(state, self.t[k], st.get(id(g)))
+                                 for g in model.force_groups)
         total = kinetic + gravity + elastic
         error = total - (total[0] if total.size else 0.0) - self.work
         return dict(kinetic=kinetic, gravitational=gravity, elastic=elastic,

@@ -1,9 +1,10 @@
 """Forward dynamics driver: initial-condition correction, the time loop, saving and counters.
 
 Data flows one way (STYLE.md): model -> state (t, q, v) -> assembly -> method (vdot, lam) ->
-integrator -> results. The integrator advances y = [q (7 nb), v (6 nb), W] with
+integrator -> results. The integrator advances y = [q (7 nb), v (6 nb), z, W] with
     qdot = T(q) v (rdot as is, pdot = 1/2 G^T omega, Eq. 5.12),  vdot from the method,
-    Wdot = power of non-conservative forces and drivers (for the energy balance).
+    zdot = the rates of the force elements' internal states (LuGre bristles; usually none),
+    Wdot = power of non-conservative forces and drivers (for the energy balance; last).
 Euler parameters: the right-hand side uses p / |p| (so A(p) is always a rotation) and every
 accepted step renormalises p; since p^T pdot = 0 exactly, this only removes integration error
 (a projection onto the unit sphere, which does not lower the integrator's order).
@@ -177,7 +178,12 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     track_work = bool(model.force_groups) or driver_rows.size > 0
     rhs = _compiled_rhs(model, eom, meth, track_work)
     compiled = rhs is not None
+    n_z = eom.system.force_table.n_states
     if rhs is None:
+        if n_z:
+            raise ModelError(f"{_stateful(model)}: LuGre friction integrates its bristle "
+                             "states in the compiled right-hand sides only; use a built-in "
+                             "method without solver='kkt'")
         rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
 
     couplers = coupler_slices(model.constraint_groups)
@@ -196,7 +202,7 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
             advance_couplers(couplers, eom.system.law, y[:n_q], nb)
         return y
 
-    y0 = np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
+    y0 = np.concatenate([q.reshape(-1), v.reshape(-1), np.zeros(n_z), [0.0]])  # [q, v, z, W]
     _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, model.n_eq)
     last_state = guards.LastState()
     rhs = last_state.wrap(rhs)
@@ -287,6 +293,13 @@ class _AtTime:
 
     def __getattr__(self, name):
         return getattr(self._eom, name)
+
+
+def _stateful(model) -> str:
+    """The force elements with internal states, for messages ("forces['a'], ...")."""
+    names = [g.element[k] if hasattr(g, "element") else g.names[k]
+             for g in model.force_groups for k in np.flatnonzero(g.state_rows())]
+    return ", ".join(f"forces[{n!r}]" for n in dict.fromkeys(names))
 
 
 def _contact_memory(model, eom, compiled, t0, y0):
@@ -392,7 +405,8 @@ def _structural_redundancy(model, eom, q, v, t0, mob):
 def right_hand_side(model, method="standard", method_options: Optional[dict] = None):
     """The y' = f(t, y) that :func:`simulate` integrates, and its initial state y0.
 
-    y = [q (7 nb), v (6 nb), W] (see the module docstring). For benchmarks and for driving the
+    y = [q (7 nb), v (6 nb), z, W] (see the module docstring; z: the internal states of force
+    elements such as LuGre friction, usually none). For benchmarks and for driving the
     equations of motion with an integrator of one's own (W is a quadrature: the rhs does not
     depend on it; declare it with ``ODEProblem(rhs, n_quadrature=1)`` for the implicit ones). No initial-condition correction and
     no redundancy analysis: every constraint row enters the multiplier solve.
@@ -406,7 +420,8 @@ def right_hand_side(model, method="standard", method_options: Optional[dict] = N
     if rhs is None:
         rhs = _python_rhs(model, eom, meth, track_work, driver_rows)
     y0 = np.concatenate([normalize_q(np.asarray(model.q0, dtype=float)).reshape(-1),
-                         np.asarray(model.v0, dtype=float).reshape(-1), [0.0]])
+                         np.asarray(model.v0, dtype=float).reshape(-1),
+                         np.zeros(eom.system.force_table.n_states), [0.0]])
     return rhs, y0
 
 

@@ -387,3 +387,54 @@ def test_clearance_joints_conserve_energy_when_elastic():
         assert len(res.contact_log) >= 1
         assert abs(en["error"]).max() < 1e-6 * abs(en["gravitational"][0])
         assert res.contacts()["gap"]["active"].any()
+
+
+# ------------------------------------------------------------------ LuGre friction
+def _lugre_block(mu, th, sigma0=1e5):
+    m = 2.0
+    return block(gravity=(G * math.sin(th), 0, -G * math.cos(th)), m=m, friction="lugre",
+                 mu=mu, bristle_stiffness=sigma0,
+                 bristle_damping=2 * math.sqrt(sigma0 * m / 4))
+
+
+def test_lugre_block_on_incline_sticks_without_creep():
+    """mu = 1.1 tan(theta): with bristles the block stops dead -- no creep velocity, unlike the
+    regularised Coulomb law -- held by the bristles' deflection: sum sigma_0 z = m g sin."""
+    th, m, sigma0 = math.radians(20.0), 2.0, 1e5
+    model = _lugre_block(1.1 * math.tan(th), th, sigma0)
+    res = simulate(model, 1.0, output_step=0.05, rtol=1e-9, atol=1e-11)
+    assert res.status == "success"
+    half = res.t >= 0.5
+    assert np.abs(res.v[half, 0, :3]).max() < 1e-9                   # at rest, no creep
+    assert np.ptp(res.q[half, 0, 0]) < 1e-10
+    z = res.force_states[-1].reshape(-1, 3)                          # one per box vertex
+    assert sigma0 * z[:, 0].sum() == pytest.approx(m * G * math.sin(th), rel=1e-6)
+    c = res.contacts()
+    fN = {k: v["normal_force"][-1] for k, v in c.items() if k != "n_active"}
+    for k, zk in enumerate(z):                                       # each under its limit
+        assert sigma0 * abs(zk[0]) <= 1.1 * math.tan(th) * fN[f"c[{k}]"] + 1e-12
+    E = res.energy()
+    assert np.abs(E["error"]).max() < 1e-8 * abs(E["total"][0]) + 1e-9
+
+
+def test_lugre_block_on_incline_slides_at_coulomb_deceleration():
+    """mu = 0.9 tan(theta): after the presliding instant the block slides with
+    a = g (sin - mu cos); the friction of the four contacts sums to mu m g cos."""
+    th, m = math.radians(20.0), 2.0
+    mu = 0.9 * math.tan(th)
+    res = simulate(_lugre_block(mu, th), 1.0, output_step=0.05, rtol=1e-9, atol=1e-11)
+    a = (res.v[-1, 0, 0] - res.v[10, 0, 0]) / (res.t[-1] - res.t[10])
+    assert a == pytest.approx(G * (math.sin(th) - mu * math.cos(th)), rel=1e-5)
+    c = res.contacts()
+    friction = sum(v["friction"][-1, 0] for k, v in c.items() if k != "n_active")
+    assert friction == pytest.approx(-mu * m * G * math.cos(th), rel=1e-5)
+    E = res.energy()
+    assert E["work_nonconservative"][-1] < -0.5
+    assert np.abs(E["error"]).max() < 1e-8 * abs(E["work_nonconservative"][-1])
+
+
+def test_lugre_bad_input():
+    with pytest.raises(ModelError, match="bristle_stiffness"):
+        block(friction="lugre", mu=0.3)
+    with pytest.raises(ModelError, match="bristle_damping.*lugre"):
+        block(friction="coulomb", mu=0.3, bristle_damping=1.0)

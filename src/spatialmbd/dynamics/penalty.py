@@ -104,7 +104,7 @@ from . import sparse as spc
 from ..jit import njit
 from .system import (NOT_CONVERGED, NOT_FINITE, OK, SINGULAR, _M, _R, _write_ydot,
                      add_transpose_times, body_views, cons_views, copy, copy_v, fill, finite,
-                     m_all, minv_all, row_times, stage_state)  # noqa: E402
+                     force_views, m_all, minv_all, row_times, stage_state)  # noqa: E402
 
 
 @njit
@@ -226,7 +226,7 @@ def rhs_penalty(t, y, ydot, F, I, W, KI, KW, mp):
 @njit
 def after_state_penalty(y, ydot, F, I, W, KI, KW, mp):
     return _after_penalty(y, ydot, body_views(F, I, W), cons_views(F, I, W),
-                          unpack_k(KI, KW), mp)
+                          force_views(F, I, W), unpack_k(KI, KW), mp)
 
 
 @njit
@@ -244,11 +244,11 @@ def stages_penalty(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, i
 
 
 @njit(inline="always")
-def _after_penalty(y, ydot, bo, co, k, mp):
+def _after_penalty(y, ydot, bo, co, fo, k, mp):
     copy_v(y, bo.v)
     it = penalty_solve(_M(bo), _R(co), co.phi, co.nu, co.gamma, bo.g, bo.v, k, mp, co.lam,
                        bo.vdot, bo.t6)
     if it < 0:
         return it
-    _write_ydot(bo, co, ydot)
+    _write_ydot(bo, co, fo, ydot)
     return it if finite(ydot) else NOT_FINITE

@@ -190,8 +190,8 @@ class Standard(Method):
 from ..integrators.explicit import rk_combine
 from ..jit import njit
 from .system import (NOT_FINITE, OK, SINGULAR, _M, _P, _R, _write_ydot, baumgarte_rhs, body_views,
-                     cons_views, copy_v, finish, finite, schur_views, solve_multipliers,
-                     stage_state)  # noqa: E402
+                     cons_views, copy_v, finish, finite, force_views, schur_views,
+                     solve_multipliers, stage_state)  # noqa: E402
 
 
 @njit
@@ -213,18 +213,18 @@ def rhs_standard(t, y, ydot, F, I, W, mp):
 def after_state_standard(y, ydot, F, I, W, mp):
     """The standard / Baumgarte solve after :func:`stage_state` (and the Python stage)."""
     return _after_standard(y, ydot, body_views(F, I, W), cons_views(F, I, W),
-                           schur_views(F, I, W), mp)
+                           schur_views(F, I, W), force_views(F, I, W), mp)
 
 
 @njit(inline="always")
-def _after_standard(y, ydot, bo, co, sc, mp):
+def _after_standard(y, ydot, bo, co, sc, fo, mp):
     copy_v(y, bo.v)
     R = _R(co)
     baumgarte_rhs(R, co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
     if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg, co.lam, sc.bs, bo.t6, bo.u6,
                              bo.vdot):
         return SINGULAR
-    _write_ydot(bo, co, ydot)
+    _write_ydot(bo, co, fo, ydot)
     return OK if finite(ydot) else NOT_FINITE
 
 
@@ -246,5 +246,5 @@ def fallback_finish(y, ydot, F, I, W):
     """vdot and ydot after a fallback solve that has put lam into co.lam."""
     bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
     finish(_M(bo), _R(co), bo.g, co.lam, bo.t6, bo.vdot)
-    _write_ydot(bo, co, ydot)
+    _write_ydot(bo, co, force_views(F, I, W), ydot)
     return OK if finite(ydot) else NOT_FINITE

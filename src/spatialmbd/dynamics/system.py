@@ -124,9 +124,35 @@ def stage_state(t, y, normalize, F, I, W):
 
     normalize (a float, 1.0 or 0.0): use p / |p|. Returns False if g is not finite."""
     bo = body_views(F, I, W)
+    fo = force_views(F, I, W)
     _state(t, y, normalize, bo, cons_views(F, I, W))
-    _forces(bo, force_views(F, I, W))
+    _force_states_in(y, bo.mass.size, fo)
+    _forces(bo, fo)
     return finite(bo.g)
+
+
+@njit(inline="always")
+def _force_states_in(y, nb, fo):
+    """The force elements' internal states z (y = [q, v, z, work]) into their law columns 3:
+    (forces.kernels); a y without them (13 nb long: an evaluation at a given q, v) leaves what
+    was set there (:meth:`System.set_force_states`)."""
+    base = 13 * nb
+    for k in range(fo.fcoord.size):
+        o = fo.fcoord[k]
+        if o >= 0 and base + o + 3 < y.size:
+            for c in range(3):
+                fo.flaw[k, 3 + c] = y[base + o + c]
+
+
+@njit(inline="always")
+def _force_states_out(nb, fo, ydot):
+    """Their rates z', which the kernels left in the same columns, into ydot."""
+    base = 13 * nb
+    for k in range(fo.fcoord.size):
+        o = fo.fcoord[k]
+        if o >= 0 and base + o + 3 < ydot.size:
+            for c in range(3):
+                ydot[base + o + c] = fo.flaw[k, 3 + c]
 
 
 @njit(inline="always")
@@ -320,8 +346,8 @@ def copy_v(y, v):
 
 @njit(inline="always")
 def write_ydot(p, omega, rdot, vdot, lam, nu, drv, g_power, ydot):
-    """ydot = [qdot (5.12), vdot, power of the drivers lam^T nu and of the compiled force
-    elements' non-conservative parts]."""
+    """ydot = [qdot (5.12), vdot, (the force states' rates, written by _write_ydot), power of
+    the drivers lam^T nu and of the compiled force elements' non-conservative parts (last)]."""
     nb = vdot.size // 6
     qdot_into(p, omega, rdot, array_view(ydot, 0, (nb, 7)))
     for j in range(6 * nb):
@@ -330,12 +356,13 @@ def write_ydot(p, omega, rdot, vdot, lam, nu, drv, g_power, ydot):
     for k in range(drv.size):
         power += lam[drv[k]] * nu[drv[k]]
     if ydot.size > 13 * nb:
-        ydot[13 * nb] = power
+        ydot[ydot.size - 1] = power
 
 
 @njit(inline="always")
-def _write_ydot(bo, co, ydot):
+def _write_ydot(bo, co, fo, ydot):
     write_ydot(bo.p, bo.omega, bo.rdot, bo.vdot, co.lam, co.nu, co.drv, bo.g_power, ydot)
+    _force_states_out(bo.mass.size, fo, ydot)
 
 
 #: status codes of the compiled right-hand sides (>= 0: success; the augmented Lagrangian
@@ -602,6 +629,14 @@ class System:
         if len(shape) == 1:
             return W[o:o + size]
         return W[o:o + size].reshape(shape)
+
+    def set_force_states(self, z, W=None) -> None:
+        """The force elements' internal states (``force_table.n_states``, in the order of y)
+        for evaluations at a given q, v (whose y does not carry them)."""
+        flaw = self.fields(self.W if W is None else W, "flaw")
+        coord = self.force_table.G.coord
+        for k in np.flatnonzero(coord >= 0):
+            flaw[k, 3:6] = z[coord[k]:coord[k] + 3]
 
     def state_of(self, W) -> BodyState:
         f = lambda name: self.fields(W, name)  # noqa: E731

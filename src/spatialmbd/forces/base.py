@@ -53,6 +53,11 @@ class ForceType(abc.ABC):
     #: the motion laws of the instances (MotionLawSet), or None
     laws = None
 
+    def state_rows(self) -> np.ndarray:
+        """(n,) bool: the instances that carry internal states (integrated with the bodies;
+        see :mod:`.kernels`). None by default."""
+        return np.zeros(self.n, dtype=bool)
+
     @property
     def time_dependent(self) -> bool:
         """True if a law of an instance changes with time (then it is set at every time)."""
@@ -67,9 +72,9 @@ class ForceType(abc.ABC):
             out[:, 0], out[:, 1], out[:, 2] = self.laws(t)
         return out
 
-    def _run(self, state, t):
+    def _run(self, state, t, states=None):
         from .kernels import evaluate_group
-        return evaluate_group(self, state, t)
+        return evaluate_group(self, state, t, states)
 
     @classmethod
     def allowed(cls) -> tuple:
@@ -103,11 +108,12 @@ class ForceType(abc.ABC):
         the kernel; others override this)."""
         g += self._run(state, t)[0]
 
-    def potential_energy(self, state: BodyState, t: float) -> float:
-        """Potential energy stored in the elements (J)."""
+    def potential_energy(self, state: BodyState, t: float, states=None) -> float:
+        """Potential energy stored in the elements (J); states: (n, 3) internal states of the
+        instances (LuGre bristles; default zero)."""
         if type(self).kernel is None:
             return 0.0
-        return float(np.sum(self._run(state, t)[1]))
+        return float(np.sum(self._run(state, t, states)[1]))
 
     def nonconservative_power(self, state: BodyState, t: float) -> float:
         """Power delivered to the bodies by non-conservative parts (W)."""

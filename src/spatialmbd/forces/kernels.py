@@ -9,6 +9,13 @@ last), ``G`` the force table (:class:`~spatialmbd.constraints.kernels.JointRows`
 points, triads, the type's parameters and its law values f, f', f'' at the current time) and
 ``D`` a (1, 12) scratch row.
 
+Internal states (a LuGre bristle deflection): an instance whose group marks it in
+``state_rows()`` owns STATE_WIDTH entries of the integrated state y = [q, v, z, work];
+``G.coord[k]`` is its offset among the z (-1 without). Before the kernels run, the
+stage copies the instance's state into ``G.law[k, 3:]``; the kernel reads it there and writes
+its rate in its place, which goes into ydot (:func:`spatialmbd.dynamics.system.stage_state`,
+``_write_ydot``).
+
 As for the constraints, :func:`evaluate_forces` is generated from the registry (one branch per
 compiled type of the package) and cached like any source; :class:`ForceTable` concatenates the
 groups of a model; the Python methods of a group (``evaluate``, ``potential_energy``,
@@ -26,6 +33,9 @@ from ..constraints.kernels import JointRows
 from ..jit import njit
 from .base import FORCE_TYPES
 
+
+#: internal states per stateful force instance (a vector in global axes; see ForceTable)
+STATE_WIDTH = 3
 
 #: the compiled force kinds (types of the package with a kernel), by name
 KINDS = tuple(sorted(n for n, c in FORCE_TYPES.items() if getattr(c, "kernel", None) is not None))
@@ -51,9 +61,14 @@ class ForceTable:
         s_i, s_j = np.zeros((n, 3)), np.zeros((n, 3))
         R_i, R_j = np.tile(np.eye(3), (n, 1, 1)), np.tile(np.eye(3), (n, 1, 1))
         param = np.zeros((n, N_PARAM))
-        self.law = np.zeros((n, 3))
+        # law columns: f, f', f'' of a motion law (or a contact's impact speed in column 0),
+        # then STATE_WIDTH columns through which an instance with internal states (a LuGre
+        # bristle) receives its state z and returns its rate z' (see the module docstring)
+        self.law = np.zeros((n, 3 + STATE_WIDTH))
+        coord = np.full(n, -1, dtype=np.int64)
         self._laws = []
         start = 0
+        n_states = 0
         for g in groups:
             sl = slice(start, start + g.n)
             cols = g.columns()
@@ -67,9 +82,15 @@ class ForceTable:
             if g.time_dependent:
                 self._laws.append((sl, g))
             else:
-                self.law[sl] = g.law_values(0.0)
+                self.law[sl, :3] = g.law_values(0.0)
+            rows = np.flatnonzero(np.asarray(g.state_rows(), dtype=bool))
+            coord[start + rows] = n_states + STATE_WIDTH * np.arange(rows.size)
+            n_states += STATE_WIDTH * rows.size
             start += g.n
-        self.G = JointRows(bi, bj, s_i, s_j, R_i, R_j, param, self.law, np.zeros(n, np.int64))
+        #: internal states of the instances (STATE_WIDTH per stateful instance; coord holds
+        #: each one's offset among them, -1 for instances without)
+        self.n_states = n_states
+        self.G = JointRows(bi, bj, s_i, s_j, R_i, R_j, param, self.law, coord)
         self.has_laws = bool(self._laws)
 
     @property
@@ -80,14 +101,31 @@ class ForceTable:
         """The law values (f, f', f'') of the time-dependent groups at t (into ``law``)."""
         law = self.law if law is None else law
         for sl, g in self._laws:
-            law[sl] = g.law_values(t)
+            law[sl, :3] = g.law_values(t)
 
 
 _TABLES = threading.local()
 
 
-def evaluate_group(group, state, t: float):
-    """(g (nb+1, 6), energy (n,), power (n,)) of one compiled force group at (state, t)."""
+def states_by_group(groups, z) -> dict:
+    """{id(group): (n, STATE_WIDTH) internal states} of the groups with states, from a row z
+    of the integrated states (in the order of ``ForceTable(groups)``)."""
+    table = ForceTable(groups)
+    out, start = {}, 0
+    for g in table.groups:
+        coord = table.G.coord[start:start + g.n]
+        if np.any(coord >= 0):
+            st = np.zeros((g.n, STATE_WIDTH))
+            for k in np.flatnonzero(coord >= 0):
+                st[k] = z[coord[k]:coord[k] + STATE_WIDTH]
+            out[id(g)] = st
+        start += g.n
+    return out
+
+
+def evaluate_group(group, state, t: float, states=None):
+    """(g (nb+1, 6), energy (n,), power (n,)) of one compiled force group at (state, t);
+    states: (n, STATE_WIDTH) internal states of its instances (default zero)."""
     registry = getattr(_TABLES, "registry", None)      # one table per group and thread
     if registry is None:
         registry = _TABLES.registry = weakref.WeakKeyDictionary()
@@ -95,6 +133,7 @@ def evaluate_group(group, state, t: float):
     if table is None:
         table = registry[group] = ForceTable([group], only_compiled=False)
     table.set_time(t)
+    table.law[:, 3:] = 0.0 if states is None else states
     nb1 = state.r.shape[0]
     g = np.zeros(6 * nb1)
     energy, power = np.zeros(group.n), np.zeros(group.n)

@@ -254,9 +254,10 @@ def _slice(results, start: int, stop: int):
                     for k, d in results.points.items()},
             newton_iterations=np.asarray(results.newton_iterations)[sl],
             residual=np.asarray(results.residual)[sl])
+    z = getattr(results, "force_states", None)
     return dataclasses.replace(results, t=results.t[sl], q=results.q[sl], v=results.v[sl],
                                vdot=results.vdot[sl], lam=results.lam[sl],
-                               work=results.work[sl])
+                               work=results.work[sl], force_states=None if z is None else z[sl])
 
 
 def iter_table(results, chunk_rows: Optional[int] = None):

@@ -407,6 +407,11 @@ class BatchSetup:
         if any(g.rheonomic for g in model.constraint_groups):
             raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
                              "motion laws); use engine='simulate'")
+        stateful = [g.name for g in model.force_groups if np.any(g.state_rows())]
+        if stateful:
+            raise ModelError(f"batch integration: model {model.name!r} has force elements "
+                             "with internal states (LuGre friction), which the batch "
+                             "engine does not integrate; use engine='simulate'")
         couplers = [n for g in model.constraint_groups if g.coupler
                     for n in g.names]
         if couplers:

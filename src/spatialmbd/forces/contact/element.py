@@ -49,27 +49,47 @@ DETAIL_COLUMNS = ("gap", "gap_rate", "impact_velocity", "normal_force", "frictio
 
 @njit(inline="always")
 def evaluate_pair(S, G, k):
-    """(gap, gap rate, v0, f_N, f_t, v_t, P, n, elastic part, elastic energy) of instance k."""
+    """(gap, gap rate, v0, f_N, f_t, v_t, P, n, elastic part, energy, pb) of instance k:
+    energy = elastic energy of the contact and of its LuGre bristles, pb = the rate of the
+    bristles' energy (its part of the dissipated power). A LuGre contact reads its bristle
+    deflection z from G.law[k, 3:] and writes its rate z' there (forces.kernels)."""
     gap, n, P, vrel = geo.pair_geometry(S, G, k)
     gd = v_dot(n, vrel)
     vt = v_sub(vrel, v_scale(gd, n))
     v0 = G.law[k, 0]
+    lugre = G.param[k, L.C_FRICTION] == L.LUGRE
+    eb, pb = 0.0, 0.0
+    if lugre:
+        z = (G.law[k, 3], G.law[k, 4], G.law[k, 5])
+        z = v_sub(z, v_scale(v_dot(z, n), n))          # the bristles bend in the tangent plane
     if gap >= 0.0:
-        return gap, gd, v0, 0.0, (0.0, 0.0, 0.0), vt, P, n, 0.0, 0.0
+        if lugre:                                      # open: the bristles relax
+            r = 1.0 / G.param[k, L.C_RELAX]
+            for c in range(3):
+                G.law[k, 3 + c] = -r * z[c]
+            eb = 0.5 * G.param[k, L.C_SIGMA0] * v_dot(z, z)
+            pb = -2.0 * r * eb
+        return gap, gd, v0, 0.0, (0.0, 0.0, 0.0), vt, P, n, 0.0, eb, pb
     fN, el, energy = L.normal_force(G.param, k, -gap, -gd, v0)
+    if lugre:
+        ft, zd, pb, eb = L.lugre(G.param, k, fN, vt, z)
+        for c in range(3):
+            G.law[k, 3 + c] = zd[c]
+        return gap, gd, v0, fN, ft, vt, P, n, el, energy + eb, pb
     s = math.sqrt(v_dot(vt, vt))
     a, cv = L.friction_factor(G.param, k, fN, s)
     ft = v_scale(-(a + cv), vt)
-    return gap, gd, v0, fN, ft, vt, P, n, el, energy
+    return gap, gd, v0, fN, ft, vt, P, n, el, energy, 0.0
 
 
 @njit
 def kernel(S, G, k, g, energy, power, D):
     """Normal and friction force of contact k on both bodies at the contact point, its elastic
-    energy and the power of its dissipative parts (f_N - K delta^n) g' + f_t . v_t <= 0."""
-    gap, gd, v0, fN, ft, vt, P, n, el, e = evaluate_pair(S, G, k)
+    energy and the power of its dissipative parts (f_N - K delta^n) g' + f_t . v_t <= 0 (with
+    LuGre bristles: + sigma_0 z . z', their energy counted as elastic)."""
+    gap, gd, v0, fN, ft, vt, P, n, el, e, pb = evaluate_pair(S, G, k)
     energy[k] = e
-    power[k] = 0.0
+    power[k] = pb
     if gap >= 0.0:
         return
     F = (fN * n[0] + ft[0], fN * n[1] + ft[1], fN * n[2] + ft[2])      # on body j
@@ -80,14 +100,14 @@ def kernel(S, G, k, g, energy, power, D):
     tj, ti = v_cross(aj, F), v_cross(ai, F)
     add_wrench(g, j, F[0], F[1], F[2], tj[0], tj[1], tj[2])
     add_wrench(g, i, -F[0], -F[1], -F[2], -ti[0], -ti[1], -ti[2])
-    power[k] = (fN - el) * gd + v_dot(ft, vt)
+    power[k] = (fN - el) * gd + v_dot(ft, vt) + pb
 
 
 @njit
 def details(S, G, out):
     """out[k] = the :data:`DETAIL_COLUMNS` of every instance k."""
     for k in range(out.shape[0]):
-        gap, gd, v0, fN, ft, vt, P, n, el, e = evaluate_pair(S, G, k)
+        gap, gd, v0, fN, ft, vt, P, n, el, e, pb = evaluate_pair(S, G, k)
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = gap, gd, v0, fN
         for c in range(3):
             out[k, 4 + c] = ft[c]
@@ -245,9 +265,30 @@ def _law_params(spec, radii, kinds):
         mus = _number(name, "mu_static", p.get("mu_static", float("nan")), 0.0)
         vs = _number(name, "stribeck_velocity", p.get("stribeck_velocity", float("nan")), 0.0,
                      True)
-    if fr in ("viscous", "coulomb", "stribeck"):
+    sigma0 = sigma1 = 0.0
+    relax = 1e-3
+    if fr == "lugre":
+        # mu alone: Coulomb levels; mu_static, mu_dynamic, stribeck_velocity: a Stribeck curve
+        if "mu_static" in p or "mu_dynamic" in p:
+            mud = _number(name, "mu_dynamic", p.get("mu_dynamic", float("nan")), 0.0)
+            mus = _number(name, "mu_static", p.get("mu_static", float("nan")), 0.0)
+            vs = _number(name, "stribeck_velocity", p.get("stribeck_velocity", float("nan")),
+                         0.0, True)
+        else:
+            mud = mus = _number(name, "mu", p.get("mu", float("nan")), 0.0)
+        sigma0 = _number(name, "bristle_stiffness", p.get("bristle_stiffness", float("nan")),
+                         0.0, True)
+        sigma1 = _number(name, "bristle_damping", p.get("bristle_damping", 0.0), 0.0)
+        relax = _number(name, "bristle_relaxation", p.get("bristle_relaxation", 1e-3), 0.0,
+                        True)
+    else:
+        for key in ("bristle_stiffness", "bristle_damping", "bristle_relaxation"):
+            if key in p:
+                raise _err(name, key, f"a parameter of the lugre friction law, not of {fr!r}")
+    if fr in ("viscous", "coulomb", "stribeck", "lugre"):
         cv = _number(name, "viscous", p.get("viscous", 0.0), 0.0)
-    return (L.NORMAL_LAWS.index(law), K, n, c, vmin, mud, mus, vs, veps, cv)
+    return (L.NORMAL_LAWS.index(law), K, n, c, vmin, mud, mus, vs, veps, cv,
+            float(fr == "lugre"), sigma0, sigma1, relax)
 
 
 def _hertz_stiffness(spec, radii, kinds):
@@ -288,7 +329,8 @@ class Contact(ForceType):
                   "min_impact_velocity": "number", "friction": "string", "mu": "number",
                   "mu_static": "number", "mu_dynamic": "number",
                   "stribeck_velocity": "number", "creep_velocity": "number",
-                  "viscous": "number"}
+                  "viscous": "number", "bristle_stiffness": "number",
+                  "bristle_damping": "number", "bristle_relaxation": "number"}
 
     def __init__(self, names, element, bi, bj, s_i, s_j, R_i, R_j, param, size):
         super().__init__(names)
@@ -393,15 +435,21 @@ class Contact(ForceType):
                              f"{self.names[k]!r}; more than half the shape size "
                              f"{self.size[k]:.4g} m); move the bodies apart")
 
+    def state_rows(self) -> np.ndarray:
+        """The LuGre contacts carry their bristle deflection z as an internal state."""
+        return self.param[:, L.C_FRICTION] == L.LUGRE
+
     def columns(self):
         return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,
                     R_j=self.R_j, param=self.param)
 
-    def table(self, memory=None):
+    def table(self, memory=None, states=None):
         from ..kernels import ForceTable
         t = ForceTable([self], only_compiled=False)
         if memory is not None:
             t.law[:, 0] = memory
+        if states is not None:
+            t.law[:, 3:6] = states
         return t
 
     def gaps(self, state) -> np.ndarray:
@@ -409,9 +457,9 @@ class Contact(ForceType):
         gaps(state.arrays(), self.table().G, out)
         return out
 
-    def details(self, state, memory=None) -> np.ndarray:
+    def details(self, state, memory=None, states=None) -> np.ndarray:
         """(n, len(DETAIL_COLUMNS)) of every instance at ``state`` (memory: recorded impact
-        speeds, m/s)."""
+        speeds, m/s; states: (n, 3) LuGre bristle deflections, m)."""
         out = np.zeros((self.n, len(DETAIL_COLUMNS)))
-        details(state.arrays(), self.table(memory).G, out)
+        details(state.arrays(), self.table(memory, states).G, out)
         return out

@@ -26,6 +26,19 @@ Friction (tangential slip velocity v_t, slip speed s = |v_t|):
 tanh(s / v_eps) regularises the sign function: a contact "sticks" by creeping at the speed
 where the friction balances the tangential load, s = v_eps atanh(F_t / (mu f_N)) (creep
 velocity of the order of v_eps, m/s).
+
+``lugre`` (Canudas de Wit, Olsson, Astrom & Lischinsky, A new model for control of systems with
+friction, IEEE TAC 40, 1995): bristles of stiffness sigma_0 (N/m) and damping sigma_1 (N s/m)
+whose mean deflection z (m, a vector in the tangent plane, an internal state integrated with the
+bodies) obeys
+
+    z' = v_t - sigma_0 s z / g(s),   g(s) = f_N mu(s)   (the Stribeck curve above, in N)
+    f_t = -(sigma_0 z + sigma_1 z' + c_v v_t)
+
+A contact under a tangential load below mu_s f_N sticks: z settles at F_t / sigma_0 and the
+slip stops (no creep), the presliding displacement being that deflection; above it, z
+saturates at g(s) / sigma_0 and the friction tends to mu(s) f_N. While the contact is open the
+bristles relax, z' = -z / tau (tau = ``bristle_relaxation``, s).
 """
 from __future__ import annotations
 
@@ -38,7 +51,8 @@ NORMAL_LAWS = ("linear", "hertz", "hunt_crossley", "lankarani_nikravesh", "flore
 LINEAR, HERTZ = 0, 1
 HYSTERESIS = ("hunt_crossley", "lankarani_nikravesh", "flores", "gonthier",
               "carvalho_martins")
-FRICTION_LAWS = ("none", "coulomb", "stribeck", "viscous")
+FRICTION_LAWS = ("none", "coulomb", "stribeck", "viscous", "lugre")
+REGULARISED, LUGRE = 0, 1
 
 
 def chi_hunt_crossley(e: float) -> float:
@@ -92,7 +106,8 @@ def produced_restitution(chi: float) -> float:
 
 # parameter columns of the laws (after the geometry's 8)
 C_LAW, C_K, C_N, C_C, C_VMIN, C_MUD, C_MUS, C_VS, C_VEPS, C_CV = range(8, 18)
-N_COLUMNS = 18
+C_FRICTION, C_SIGMA0, C_SIGMA1, C_RELAX = range(18, 22)
+N_COLUMNS = 22
 
 
 @njit(inline="always")
@@ -129,3 +144,28 @@ def friction_factor(param, k, fN, s):
         x = s / veps
         a = mu * fN * (math.tanh(x) / s if x > 1e-8 else 1.0 / veps)
     return a, cv
+
+
+@njit(inline="always")
+def lugre(param, k, fN, vt, z):
+    """(f_t, z', sigma_0 z . z' (the rate of the bristles' energy), bristle energy) of the
+    LuGre law at normal force fN, slip velocity vt and bristle deflection z (both tangent;
+    3-tuples)."""
+    s0, s1, cv = param[k, C_SIGMA0], param[k, C_SIGMA1], param[k, C_CV]
+    s = math.sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2])
+    mud, mus, vs = param[k, C_MUD], param[k, C_MUS], param[k, C_VS]
+    mu = mud
+    if mus != mud and vs > 0.0:
+        mu = mud + (mus - mud) * math.exp(-(s / vs) ** 2)
+    g = mu * fN
+    if g > 0.0:
+        c = s0 * s / g
+        zd = (vt[0] - c * z[0], vt[1] - c * z[1], vt[2] - c * z[2])
+        ft = (-(s0 * z[0] + s1 * zd[0] + cv * vt[0]), -(s0 * z[1] + s1 * zd[1] + cv * vt[1]),
+              -(s0 * z[2] + s1 * zd[2] + cv * vt[2]))
+    else:                                       # unloaded: the bristles relax
+        r = 1.0 / param[k, C_RELAX]
+        zd = (-r * z[0], -r * z[1], -r * z[2])
+        ft = (-cv * vt[0], -cv * vt[1], -cv * vt[2])
+    zz = z[0] * z[0] + z[1] * z[1] + z[2] * z[2]
+    return ft, zd, s0 * (z[0] * zd[0] + z[1] * zd[1] + z[2] * zd[2]), 0.5 * s0 * zz

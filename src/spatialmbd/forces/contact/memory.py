@@ -122,6 +122,8 @@ def contact_table(results) -> dict:
             rows[id(g)] = start
         start += g.n
     nt = len(results.t)
+    z = getattr(results, "force_states", None)        # LuGre bristle deflections
+    coord = table.G.coord
     data = {id(g): np.zeros((nt, g.n, len(DETAIL_COLUMNS))) for g in groups}
     memory = np.zeros(start)
     li = 0
@@ -133,7 +135,13 @@ def contact_table(results) -> dict:
         state = BodyState.from_qv(results.q[it], results.v[it], t)
         for g in groups:
             s = rows[id(g)]
-            data[id(g)][it] = g.details(state, memory[s:s + g.n])
+            states = None
+            if z is not None:
+                states = np.zeros((g.n, 3))
+                for k in np.flatnonzero(coord[s:s + g.n] >= 0):
+                    o = coord[s + k]
+                    states[k] = z[it, o:o + 3]
+            data[id(g)][it] = g.details(state, memory[s:s + g.n], states)
     out = {}
     n_active = np.zeros(nt, dtype=int)
     for g in groups:

@@ -200,6 +200,10 @@ class SphereSet(ForceType):
                                     f"'hertz', not {law!r}: its pairs change as it runs, so "
                                     "the impact velocity the hysteresis laws need is not kept; "
                                     "declare 'contact' elements per pair for those")
+        if p.get("friction") == "lugre":
+            raise _err(name, "friction", "the lugre law keeps a bristle state per contact, and "
+                                         "a sphere set's pairs change as it runs: use coulomb "
+                                         "or stribeck here, or 'contact' elements per pair")
         if "stiffness" not in p:
             raise _err(name, "stiffness", "give the contact stiffness (N/m for linear, "
                                           "N/m^1.5 for hertz)")
