@@ -211,6 +211,9 @@ class Mobility:
     #: moved onto Phi = 0 before the rank was taken (0: it was assembled already)
     violation: float = 0.0
     correction: float = 0.0
+    #: equations that constrain velocities only (nonholonomic: rolling without slip); the
+    #: DoF above are velocity DoF, the configuration has dof + n_velocity_only
+    n_velocity_only: int = 0
 
     @property
     def n_redundant(self) -> int:
@@ -221,6 +224,10 @@ class Mobility:
                  f"constraint equations m: {self.n_equations}, rank of D: {self.rank}",
                  f"actual DoF (6 nb - rank D): {self.dof}",
                  f"redundant equations: {self.n_redundant}"]
+        if self.n_velocity_only:
+            lines.insert(3, f"  of which velocity-only (nonholonomic) equations: "
+                            f"{self.n_velocity_only}, so the configuration has "
+                            f"{self.dof + self.n_velocity_only} DoF and the velocities {self.dof}")
         for row, name, typ, lab in self.redundant:
             lines.append(f"  equation {row}: {name} ({typ}, {lab})")
         if self.correction:
@@ -274,7 +281,9 @@ def mobility(model, q: Optional[np.ndarray] = None, t: float = 0.0,
             redundant.append((int(row), name, typ, lab))
     return Mobility(grubler=6 * model.nb - m, rank=rank, dof=n - rank, n_equations=m,
                     redundant=redundant, singular_values=s, violation=violation,
-                    correction=correction)
+                    correction=correction,
+                    n_velocity_only=sum(g.n * len(g.velocity_rows)
+                                        for g in model.constraint_groups))
 
 
 #: a state with max |Phi| above this is assembled before its mobility is taken

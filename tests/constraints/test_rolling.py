@@ -168,3 +168,10 @@ def test_bad_input_is_a_model_error():
         b.add_joint("rolling_sphere", "roll", "ball", "ground", point=(0, 0, 0.1),
                     point2=(0, 0, 0), axis2=(0, 0, 1), radius=-0.1)
         b.compile()
+
+
+def test_mobility_reports_the_velocity_only_rows():
+    from spatialmbd.kinematics import mobility
+    mob = mobility(models.rolling_disc().compile())
+    assert (mob.dof, mob.n_velocity_only) == (3, 2)
+    assert "configuration has 5 DoF and the velocities 3" in mob.report()
