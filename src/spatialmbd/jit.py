@@ -222,14 +222,26 @@ def cache_root():
     return None
 
 
-def cache_is_warm() -> bool:
+def cache_is_warm(complete: bool = True) -> bool:
     """True when the whole hot path of the current sources is compiled on disk (a completed
     ``spatialmbd warmup`` left its mark), so a new process loads it in about a second instead
-    of compiling (about a minute, once per machine and version)."""
+    of compiling (about a minute, once per machine and version). complete=False: the core
+    kernels (the constraint stage) are there, whatever else is (what the compile notice of an
+    in-process run asks)."""
     if not ENABLED:
         return True
     root = cache_root()
-    return root is not None and os.path.exists(os.path.join(root, COMPLETE))
+    if root is None:
+        return False
+    if os.path.exists(os.path.join(root, COMPLETE)):
+        return True
+    if complete:
+        return False
+    try:
+        names = os.listdir(root)
+    except OSError:
+        return False
+    return any(n.startswith("system.") and n.endswith(".nbi") for n in names)
 
 
 def mark_warm() -> None:
@@ -289,7 +301,7 @@ class compile_notice:
         import sys
         self.stream = stream if stream is not None else sys.stderr
         self.every = every
-        self.active = force or not cache_is_warm()
+        self.active = force or not cache_is_warm(complete=False)
 
     def __enter__(self):
         if not self.active:

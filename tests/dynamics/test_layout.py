@@ -54,5 +54,6 @@ def test_cache_is_warm_looks_where_the_cache_will_be(tmp_path, monkeypatch):
     root.mkdir()
     (root / "system.stage_state-1.py311.nbi").write_bytes(b"")
     assert not jit.cache_is_warm()          # some kernels are not the whole hot path
+    assert jit.cache_is_warm(complete=False)  # but the core is there (no compile notice)
     jit.mark_warm()                         # what a completed `spatialmbd warmup` leaves
     assert (root / jit.COMPLETE).exists() and jit.cache_is_warm()
