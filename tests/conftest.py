@@ -16,16 +16,36 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 os.environ["SPATIALMBD_NO_RACE"] = "1"
 
 
-def _warm_core():
-    """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
-    kinematics, the standard and projection right-hand sides with the force dispatch."""
+def _warm_kinematics():
     from spatialmbd import models
     from spatialmbd.kinematics import kinematic_analysis
-    from spatialmbd.simulate import simulate
     kinematic_analysis(models.slider_crank(crank_speed=6.0).compile(), [0.0, 0.01])
+
+
+def _warm_dynamics():
+    from spatialmbd import models
+    from spatialmbd.simulate import simulate
     fly = models.flyball_governor().compile()
     for method in ("standard", "projection"):
         simulate(fly, 1e-3, method=method, integrator="rk45", output_step=1e-3)
+
+
+def _warm_core(parallel=False):
+    """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
+    kinematics, the standard and projection right-hand sides with the force dispatch. With
+    ``parallel`` (the controller of a parallel run, whose workers wait for it) the kinematics
+    compile in a second process at the same time (they share no compiled function)."""
+    if not parallel:
+        _warm_kinematics()
+        _warm_dynamics()
+        return
+    import subprocess
+    here = os.path.dirname(os.path.abspath(__file__))
+    child = subprocess.Popen([sys.executable, "-c", "import conftest; "
+                              "conftest._warm_kinematics()"], cwd=here)
+    _warm_dynamics()
+    if child.wait() != 0:                 # compile them here then (the error shows in tests)
+        _warm_kinematics()
 
 
 def _parallel(config) -> bool:
@@ -40,7 +60,7 @@ def pytest_sessionstart(session):
     needs them, while the other worker runs tests."""
     config = session.config
     if getattr(config, "workerinput", None) is None and _parallel(config):
-        _warm_core()
+        _warm_core(parallel=True)
 
 
 @pytest.fixture(scope="session", autouse=True)
