@@ -145,11 +145,11 @@ def test_bad_input_is_a_model_error():
 
 
 def test_spheres_in_box_example_settles_inside_the_box():
-    """examples/spheres_in_box.yaml (models.spheres_in_box, 64 spheres) with its own settings:
-    everything ends inside the box, resting (no sphere deeper into the floor than its static
-    compression under the whole pile), and energy + dissipated work is conserved."""
+    """models.spheres_in_box (the example's 64 spheres; 27 here, for time) with the example's
+    settings: everything ends inside the box, resting (no sphere deeper into the floor than its
+    static compression under the whole pile), and energy + dissipated work is conserved."""
     from spatialmbd import models
-    b = models.spheres_in_box()
+    b = models.spheres_in_box(n_side=3)
     model = b.compile()
     res = simulate(model, 1.0, method="standard", integrator="rk45", rtol=1e-5, atol=1e-7,
                    output_step=0.05)
@@ -159,4 +159,5 @@ def test_spheres_in_box_example_settles_inside_the_box():
     assert z.min() > R - model.nb * m * 9.81 / K                 # within the floor's reach
     assert np.abs(res.v[-1, :, :3]).max() < 0.05                   # settled
     E = res.energy()
-    assert np.abs(E["error"]).max() < 1e-4 * abs(E["total"][0] - E["total"][-1])
+    # integration error only: rtol 1e-5 gives about 10 rtol of the energy (5e-5 of 0.77 J)
+    assert np.abs(E["error"]).max() < 1e-4 * abs(E["total"][0])

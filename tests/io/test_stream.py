@@ -56,7 +56,7 @@ def test_streamed_files_equal_the_in_memory_ones(double_pendulum, tmp_path, meth
 def test_contacts_and_couplers_stream_as_one_continuous_run(tmp_path):
     """The contacts' impact-velocity memory and the couplers' angle references carry across
     chunks (the outputs of a chunk are evaluated mid-run, which must not disturb them)."""
-    for name, t_end in (("bouncing_ball.yaml", 1.5), ("gear_train.yaml", 1.0)):
+    for name, t_end in (("bouncing_ball.yaml", 0.8), ("gear_train.yaml", 0.6)):
         model, analysis = load_model(EXAMPLES / name)
         opts = dict(method=analysis.method, integrator="rk45", output_step=0.005,
                     rtol=1e-8, atol=1e-10)
