@@ -34,19 +34,15 @@ def _warm_core(parallel=False):
     """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
     kinematics, the standard and projection right-hand sides with the force dispatch. With
     ``parallel`` (the controller of a parallel run, whose workers wait for it) the kinematics
-    compile in a second process at the same time, then the batch engine of sweeps."""
+    compile in a second process at the same time (they share no compiled function)."""
     if not parallel:
         _warm_kinematics()
         _warm_dynamics()
         return
     import subprocess
     here = os.path.dirname(os.path.abspath(__file__))
-    # the kinematics take about half the time of the dynamics: the batch engine of sweeps
-    # (the next largest compile) follows them in the same process
     child = subprocess.Popen([sys.executable, "-c", "import conftest; "
-                              "conftest._warm_kinematics(); "
-                              "from spatialmbd.cli import _warm_batch; _warm_batch()"],
-                             cwd=here)
+                              "conftest._warm_kinematics()"], cwd=here)
     _warm_dynamics()
     if child.wait() != 0:                 # compile them here then (the error shows in tests)
         _warm_kinematics()
