@@ -22,11 +22,11 @@ def _warm_kinematics():
     kinematic_analysis(models.slider_crank(crank_speed=6.0).compile(), [0.0, 0.01])
 
 
-def _warm_dynamics():
+def _warm_dynamics(methods=("standard", "projection")):
     from spatialmbd import models
     from spatialmbd.simulate import simulate
     fly = models.flyball_governor().compile()
-    for method in ("standard", "projection"):
+    for method in methods:
         simulate(fly, 1e-3, method=method, integrator="rk45", output_step=1e-3)
 
 
@@ -34,7 +34,8 @@ def _warm_core(parallel=False):
     """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
     kinematics, the standard and projection right-hand sides with the force dispatch. With
     ``parallel`` (the controller of a parallel run, whose workers wait for it) the kinematics
-    compile in a second process at the same time (they share no compiled function)."""
+    and then the projection method compile in a second process while the standard method
+    compiles here (balanced by their compile times)."""
     if not parallel:
         _warm_kinematics()
         _warm_dynamics()
@@ -42,10 +43,12 @@ def _warm_core(parallel=False):
     import subprocess
     here = os.path.dirname(os.path.abspath(__file__))
     child = subprocess.Popen([sys.executable, "-c", "import conftest; "
-                              "conftest._warm_kinematics()"], cwd=here)
-    _warm_dynamics()
+                              "conftest._warm_kinematics(); "
+                              "conftest._warm_dynamics(('projection',))"], cwd=here)
+    _warm_dynamics(("standard",))
     if child.wait() != 0:                 # compile them here then (the error shows in tests)
         _warm_kinematics()
+        _warm_dynamics(("projection",))
 
 
 def _parallel(config) -> bool:
