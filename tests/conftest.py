@@ -34,8 +34,7 @@ def _warm_core(parallel=False):
     """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
     kinematics, the standard and projection right-hand sides with the force dispatch. With
     ``parallel`` (the controller of a parallel run, whose workers wait for it) the kinematics
-    and then the projection method compile in a second process while the standard method
-    compiles here (balanced by their compile times)."""
+    compile in a second process at the same time (they share no compiled function)."""
     if not parallel:
         _warm_kinematics()
         _warm_dynamics()
@@ -43,12 +42,10 @@ def _warm_core(parallel=False):
     import subprocess
     here = os.path.dirname(os.path.abspath(__file__))
     child = subprocess.Popen([sys.executable, "-c", "import conftest; "
-                              "conftest._warm_kinematics(); "
-                              "conftest._warm_dynamics(('projection',))"], cwd=here)
-    _warm_dynamics(("standard",))
+                              "conftest._warm_kinematics()"], cwd=here)
+    _warm_dynamics()
     if child.wait() != 0:                 # compile them here then (the error shows in tests)
         _warm_kinematics()
-        _warm_dynamics(("projection",))
 
 
 def _parallel(config) -> bool:

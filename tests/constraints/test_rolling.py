@@ -125,7 +125,9 @@ def test_ball_on_a_turntable_circles_at_two_sevenths_of_its_rate():
     assert res.constraint_violation()["velocity"].max() < 1e-10
 
 
-@pytest.mark.parametrize("method", ["projection", "baumgarte", "augmented_lagrangian"])
+@pytest.mark.parametrize("method", ["projection",
+                                    pytest.param("baumgarte", marks=pytest.mark.slow),
+                                    pytest.param("augmented_lagrangian", marks=pytest.mark.slow)])
 def test_coin_keeps_its_steady_circular_motion(method):
     """The steady motion of a coin (models.rolling_disc_steady): over one revolution its centre
     keeps its circle and height, its tilt stays, and it comes back to its start."""

@@ -237,6 +237,7 @@ def _wheel_venv(tmp_path):
     return py
 
 
+@pytest.mark.slow       # builds a wheel (13 s of CI); pytest -m slow runs it
 def test_validation_data_work_from_an_installed_wheel(tmp_path):
     """From a regular install (outside the source tree): the reference data are found and two
     validation cases pass (uncompiled, so the new install does not compile the kernels)."""

@@ -146,7 +146,7 @@ def friction_factor(param, k, fN, s):
     return a, cv
 
 
-@njit(inline="always")
+@njit
 def lugre(param, k, fN, vt, z):
     """(f_t, z', sigma_0 z . z' (the rate of the bristles' energy), bristle energy) of the
     LuGre law at normal force fN, slip velocity vt and bristle deflection z (both tangent;

@@ -46,7 +46,7 @@ C_FIRST, C_COUNT, C_RADIUS, C_NWALLS, C_WALLS = (L.N_COLUMNS + k for k in range(
 N_COLUMNS = C_WALLS + 6 * MAX_WALLS
 
 
-@njit(inline="always")
+@njit
 def _contact(S, G, k, bi, bj, P, n, delta, g):
     """Normal and friction force at P along n (from side i to side j) with penetration delta:
     applied to both bodies; returns (elastic energy, dissipated power)."""
