@@ -18,4 +18,4 @@ if [ -z "${SPATIALMBD_CHROMIUM:-}" ] && ! command -v chromium >/dev/null 2>&1; t
 fi
 # one worker per core (pytest-xdist); the kernels are compiled once, before the workers start
 # (tests/conftest.py)
-exec python -m pytest -n auto --dist load "$@"
+exec python -m pytest -n auto --dist worksteal "$@"
