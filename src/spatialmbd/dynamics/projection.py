@@ -154,9 +154,16 @@ def project_velocities(t, y, F, I, W):
     """v <- v - D^T (D D^T)^-1 (D v - nu) (14.19) over the kept rows, in place on y.
 
     Returns (ok, max |D v - nu| before, after) (all rows); ok False if D D^T is singular."""
+    stage_state(t, y, 0.0, F, I, W)
+    return _project_velocities_staged(y, F, I, W)
+
+
+@njit
+def _project_velocities_staged(y, F, I, W):
+    """:func:`project_velocities` with D and nu already evaluated at y's positions (as
+    :func:`project_positions` leaves them: its last evaluation is its convergence check)."""
     bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
     nb = bo.mass.size
-    stage_state(t, y, 0.0, F, I, W)
     copy_v(y, bo.v)
     R = _R(co)
     before = _max_residual(R, bo.v, co.nu)
@@ -179,5 +186,5 @@ def project(t, y, F, I, W, tol, max_it, dx_total):
     it, phi0, err = project_positions(t, y, F, I, W, tol, max_it, dx_total)
     if it < 0:
         return it
-    ok, before, after = project_velocities(t, y, F, I, W)
+    ok, before, after = _project_velocities_staged(y, F, I, W)   # D, nu at the final q
     return it if ok else -1

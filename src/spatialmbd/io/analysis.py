@@ -1,6 +1,7 @@
 """The ``analysis`` section of a model file: what to run (:class:`Analysis`) and its checks."""
 from __future__ import annotations
 
+import functools
 import inspect
 from dataclasses import dataclass, field
 from typing import Optional
@@ -95,10 +96,17 @@ class Analysis:
         return out
 
 
+@functools.lru_cache(maxsize=None)
+def _option_parameters(cls) -> dict:
+    """The keyword parameters of cls.__init__ (inspect.signature is slow, and a sweep parses
+    one analysis per member)."""
+    return {k: p for k, p in inspect.signature(cls.__init__).parameters.items()
+            if k != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+
+
 def _options(P, path, cls, options: dict, skip=()) -> bool:
     """Check option names and types against the signature of cls.__init__."""
-    params = {k: p for k, p in inspect.signature(cls.__init__).parameters.items()
-              if k != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+    params = _option_parameters(cls)
     n0 = len(P)
     valid = ["name"] + list(params)
     for key, value in options.items():

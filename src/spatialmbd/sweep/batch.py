@@ -342,10 +342,6 @@ def integrate_batch_threads(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, ma
 _JOINT_ROW_INDEX = {"s_i": 2, "s_j": 3, "R_i": 4, "R_j": 5, "length": 6, "param": 6}
 
 
-def _fields() -> dict:
-    return {name: (buf, ndim) for name, buf, ndim in cs.FIELDS}
-
-
 @dataclass
 class BatchMember:
     """What the batch returns per member: the arrays of a Results (same shapes) and status."""
@@ -397,6 +393,8 @@ class BatchSetup:
         self.m = model.n_eq
         self.lam_off = system._layout["lam"][0]
         self._topology = self._signature(model)
+        self._slots = self._f_slots()
+        self._corrector = None                  # the System of the initial corrections
 
     @staticmethod
     def _check_model(model):
@@ -420,13 +418,29 @@ class BatchSetup:
                              "simulate(); use engine='simulate'")
 
     @staticmethod
-    def _signature(model):
+    def _signature(model, table=None):
+        """The topology of a model: what members of one batch must share."""
         from ..constraints.kernels import JointTable
-        table = JointTable(model.constraint_groups, model.group_offsets)
+        if table is None:
+            table = JointTable(model.constraint_groups, model.group_offsets)
         G = table.G
         return (model.nb, model.n_eq, tuple(table.kind.tolist()), tuple(table.rows.tolist()),
                 tuple(np.asarray(G[0]).tolist()), tuple(np.asarray(G[1]).tolist()),
                 tuple(np.asarray(G[8]).tolist()))
+
+    def _f_slots(self) -> list:
+        """(name, offset, shape) of every non-empty F field of the packed layout, read once
+        from the prototype's header (a member's F is the prototype's with these refilled)."""
+        sysm = self.system
+        slots = []
+        for k, (name, buf, ndim) in enumerate(cs.FIELDS):
+            if buf != "F":
+                continue
+            off = int(sysm.I[4 * k])
+            shape = tuple(int(x) for x in sysm.I[4 * k + 1:4 * k + 1 + ndim])
+            if math.prod(shape):
+                slots.append((name, off, shape))
+        return slots
 
     def pack_F(self, model) -> np.ndarray:
         """The float pack F of a member model (its topology checked against the prototype).
@@ -437,21 +451,16 @@ class BatchSetup:
         engine must learn the field)."""
         from ..constraints.kernels import JointTable
         self._check_model(model)
-        if self._signature(model) != self._topology:
+        table = JointTable(model.constraint_groups, model.group_offsets)
+        if self._signature(model, table) != self._topology:
             raise ModelError(f"batch integration: member model {model.name!r} differs in "
                              "topology (bodies, joints or their order) from the first member; "
                              "members of one batch may differ only in values")
-        sysm = self.system
-        F = sysm.F.copy()
-        G = JointTable(model.constraint_groups, model.group_offsets).G
+        F = self.system.F.copy()
+        G = table.G
         arrays = dict(mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
                       weight=model.mass[:, None] * model.gravity[None, :])
-        for name, (buf, _) in _fields().items():
-            if buf != "F":
-                continue
-            view = cs.field_view(cs.FIELDS, F, sysm.I, sysm.W, name)
-            if view.size == 0:                          # e.g. the force-element fields
-                continue
+        for name, off, shape in self._slots:
             value = arrays.get(name)
             if value is None:
                 value = getattr(G, name, None)          # the joint rows, by name or position
@@ -460,7 +469,8 @@ class BatchSetup:
             if value is None:
                 raise ModelError(f"batch integration does not know the packed model field "
                                  f"{name!r}; use engine='simulate'")
-            view[...] = np.asarray(value, dtype=float).reshape(view.shape)
+            size = math.prod(shape)
+            F[off:off + size] = np.asarray(value, dtype=float).reshape(size)
         return F
 
     def initial_state(self, model, F, analysis) -> np.ndarray:
@@ -471,10 +481,12 @@ class BatchSetup:
         q = normalize_q(np.array(model.q0, dtype=float).reshape(nb, 7))
         v = np.array(model.v0, dtype=float).reshape(nb, 6)
         if analysis.correct_initial and model.n_eq:
-            sysm = self.system.clone()
-            sysm.F = F
+            if self._corrector is None:
+                self._corrector = self.system.clone()
+            self._corrector.F = F                      # the member's values, shared layout
             q, v, _ = correct_initial_conditions(model, q, v, 0.0,
-                                                 hold_mask(model, analysis.hold), system=sysm)
+                                                 hold_mask(model, analysis.hold),
+                                                 system=self._corrector)
         return np.concatenate([q.reshape(-1), v.reshape(-1), [0.0]])
 
 

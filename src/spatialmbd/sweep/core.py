@@ -245,7 +245,9 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
     chunk_size: members per task (default: about four tasks per worker, at most 64 members
         with the simulate engine, 1024 with the batch engine).
     batch_options: options of the batch engine: ``threads`` (True: a chunk's members spread
-        over Numba's threads), ``max_steps`` (per member, default 10 000 000).
+        over Numba's threads; default True with the serial scheduler on a machine of several
+        cores, False under Dask or processes, whose workers are one process per core),
+        ``max_steps`` (per member, default 10 000 000).
     progress: a progress bar (default: when stderr is a terminal).
 
     Members that fail are recorded (status "failed", message); they never raise.
@@ -254,9 +256,14 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
     outs = parse_outputs(outputs)
     if engine not in ("simulate", "batch"):
         raise ModelError(f"engine {engine!r}: use 'simulate' or 'batch'")
-    job = _make_job(model, space, outs, analysis, engine, batch_options or {})
     n = space.n_members
     kind = _scheduler_kind(scheduler, n)
+    batch_options = dict(batch_options or {})
+    if engine == "batch" and "threads" not in batch_options:
+        # serial: a chunk's members spread over the cores (Numba's threads); under Dask or
+        # processes every worker is already one process per core
+        batch_options["threads"] = kind == "serial" and (os.cpu_count() or 1) > 1
+    job = _make_job(model, space, outs, analysis, engine, batch_options)
     if workers is None:
         workers = (os.cpu_count() or 1) if kind != "serial" else 1
     if chunk_size is None:

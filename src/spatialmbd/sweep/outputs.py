@@ -68,12 +68,25 @@ def _window(n: int, k: int):
 
 def cubic_coefficients(t, x, k):
     """(a, c): the polynomial through the samples around [t_k, t_k+1] as
-    sum_i c[i] (s - a)^i, a = t_k (lowest degree first)."""
+    sum_i c[i] (s - a)^i, a = t_k (lowest degree first).
+
+    Newton's divided differences expanded into powers of (s - a), in plain floats (a 4 x 4
+    solve through NumPy costs more than the rest of a crossing; a sweep locates thousands)."""
     lo, hi = _window(t.size, k)
-    a = t[k]
-    tt = t[lo:hi] - a
-    c = np.linalg.solve(np.vander(tt, hi - lo, increasing=True), x[lo:hi])
-    return a, c
+    a = float(t[k])
+    tt = [float(v) - a for v in t[lo:hi]]
+    d = [float(v) for v in x[lo:hi]]
+    n = len(tt)
+    for j in range(1, n):                         # d[i] <- f[tt[i-j], ..., tt[i]]
+        for i in range(n - 1, j - 1, -1):
+            d[i] = (d[i] - d[i - 1]) / (tt[i] - tt[i - j])
+    c = [d[n - 1]]                                # Horner on the Newton form
+    for i in range(n - 2, -1, -1):                # c <- c (s - tt[i]) + d[i]
+        c = [0.0] + c
+        for m in range(len(c) - 1):
+            c[m] -= tt[i] * c[m + 1]
+        c[0] += d[i]
+    return a, np.array(c)
 
 
 def _poly(c, s):
