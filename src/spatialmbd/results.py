@@ -78,9 +78,11 @@ class Results:
     # ----------------------------------------------------------------------------------------
     @classmethod
     def from_integration(cls, model, eom, method, integrator, t, y, status, message, counters,
-                         wall_time, correction, redundant_joints, messages, settings):
+                         wall_time, correction, redundant_joints, messages, settings,
+                         accelerations=None):
         """Split the integrator's states and recompute vdot, lam at the output times (these
-        evaluations are not counted as function evaluations)."""
+        evaluations are not counted as function evaluations); accelerations: (vdot (nt, nb,
+        6), lam (nt, m)) already evaluated (by the compiled drivers)."""
         nb = model.nb
         nt = len(t)
         n_q, n_v = 7 * nb, 6 * nb
@@ -92,7 +94,9 @@ class Results:
         vdot = np.zeros((nt, nb, 6))
         lam = np.zeros((nt, model.n_eq))
         from .errors import SpatialMBDError
-        for k in range(nt):
+        if accelerations is not None:
+            vdot, lam = accelerations
+        for k in range(nt if accelerations is None else 0):
             try:
                 if z.shape[1]:
                     eom.system.set_force_states(z[k])

@@ -225,12 +225,12 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                     correct_initial=correct_initial)
     eval_eom = eom if contact_memory is None else _AtTime(eom, contact_memory)
 
-    def chunk_results(times, outputs, status, message, counters, wall):
+    def chunk_results(times, outputs, status, message, counters, wall, accelerations=None):
         out = Results.from_integration(
             model=model, eom=eval_eom, method=meth, integrator=integ, t=np.asarray(times),
             y=np.asarray(outputs), status=status, message=message, counters=counters,
             wall_time=wall, correction=correction, redundant_joints=redundant_joints,
-            messages=messages, settings=settings())
+            messages=messages, settings=settings(), accelerations=accelerations)
         out.output_requests = requests
         out.contact_log = contact_memory.log if contact_memory is not None else []
         if contact_memory is not None:            # evaluating the outputs rewound the memory
@@ -241,18 +241,27 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     if stream is not None:
         def sink(times, outputs):
             stream.add(chunk_results(times, np.array(outputs), "running", "", {}, 0.0))
-    start = time.perf_counter()
-    try:
-        # rhs uses p / |p|, so the normalisation alone never changes it
-        problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
-                             stages=stages, n_quadrature=1)   # W does not enter the rhs
-        res = integ.integrate(problem, t0, y0, t_out, progress=callback,
-                              events=integ_events, event_tol=event_tol, sink=sink,
-                              chunk=getattr(stream, "chunk_rows", 0))
-    finally:
-        if hasattr(callback, "close"):
-            callback.close()
-    wall = time.perf_counter() - start
+    fused = None
+    if _fused_eligible(eom, meth, integ, compiled, couplers, integ_events, stream, limits,
+                       callback, n_z):
+        fused = _fused_run(eom, meth, integ, t0, y0, t_out, project)
+    accelerations = None
+    if fused is not None:                  # the whole run in compiled code (dynamics.fused)
+        res, accelerations = fused
+        wall = res.counters.wall_time
+    else:
+        start = time.perf_counter()
+        try:
+            # rhs uses p / |p|, so the normalisation alone never changes it
+            problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
+                                 stages=stages, n_quadrature=1)   # W does not enter the rhs
+            res = integ.integrate(problem, t0, y0, t_out, progress=callback,
+                                  events=integ_events, event_tol=event_tol, sink=sink,
+                                  chunk=getattr(stream, "chunk_rows", 0))
+        finally:
+            if hasattr(callback, "close"):
+                callback.close()
+        wall = time.perf_counter() - start
     if res.status == "failed":
         if last_state.y is not None and np.all(np.isfinite(last_state.y[:7 * nb])):
             last, t_last = normalize_q(last_state.y[:7 * nb].reshape(nb, 7)), last_state.t
@@ -271,13 +280,113 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                         f"continued with alpha = {alpha:.3g}, max_iterations = {iters}")
     if res.status not in ("success", "event"):
         messages.append(res.message)
-    results = chunk_results(res.t, res.y, res.status, res.message, _counters(res, meth), wall)
+    results = chunk_results(res.t, res.y, res.status, res.message, _counters(res, meth), wall,
+                            accelerations)
     results.events = [dict(t=e.t, name=e.name, index=e.index, terminal=e.terminal)
                       for e in res.events]
     results.event_states = [(np.asarray(e.y[:7 * nb], dtype=float).reshape(nb, 7),
                              np.asarray(e.y[7 * nb:13 * nb], dtype=float).reshape(nb, 6))
                             for e in res.events]
     return results
+
+
+#: run eligible simulations through the compiled drivers of :mod:`.dynamics.fused` (tests
+#: compare both paths by switching this off)
+FUSED_RUNS = True
+#: accepted steps per compiled call: between calls Ctrl-C is seen (a few ms of work each)
+FUSED_SLICE = 2000
+
+
+def _fused_eligible(eom, meth, integ, compiled, couplers, events, stream, limits, callback,
+                    n_z) -> bool:
+    """Whether this run can go through :mod:`.dynamics.fused` with the arithmetic of the Python
+    driver: a fully compiled right-hand side of the standard / Baumgarte / projection method,
+    rk45 with its default controller (scalar atol) or rk4, and none of what the Python driver
+    does between steps (events and contact memory, drivers' and force laws' times, couplers,
+    budgets, progress, streaming, force-element states)."""
+    from .integrators.fixed_step import RungeKutta4
+    from .integrators.runge_kutta_adaptive import DormandPrince45
+    system = eom.system
+    if not (FUSED_RUNS and compiled and system.fused) or system.python_groups:
+        return False
+    if couplers or events or stream is not None or limits.active or callback is not None \
+            or n_z or system.table.has_drivers:
+        return False
+    if meth.name not in ("standard", "baumgarte", "projection") or \
+            getattr(meth, "solver", "schur") == "kkt":
+        return False
+    if type(integ) is RungeKutta4:
+        return True
+    return (type(integ) is DormandPrince45 and np.ndim(integ.atol) == 0
+            and integ.min_step == 0.0 and integ.first_step is None
+            and integ._ctrl == ("pi", dict(safety=0.9, min_factor=0.2, max_factor=10.0,
+                                           beta=0.04)))
+
+
+def _fused_run(eom, meth, integ, t0, y0, t_out, project):
+    """(IntegrationResult, (vdot, lam)) of the run by :mod:`.dynamics.fused`, in slices of
+    :data:`FUSED_SLICE` steps (Ctrl-C between slices: status "interrupted" with the outputs
+    so far); None if it failed (the Python driver then reruns it and says why)."""
+    from .dynamics import fused as fz
+    from .integrators.base import Counters, IntegrationResult
+    from .integrators.runge_kutta_adaptive import DormandPrince45
+    system = eom.system
+    F, I, W, mp = system.F, system.I, system.W, meth._mp
+    nb, m = system.nb, system.model.n_eq
+    pp = np.array([1.0 if meth.projects else 0.0, float(getattr(meth, "tolerance", 0.0)),
+                   float(getattr(meth, "max_iterations", 0))])
+    start = time.perf_counter()
+    y = project(t0, np.array(y0, dtype=float))          # as Integrator.integrate does first
+    nt, n = t_out.size, y.size
+    Y = np.empty((nt, n))
+    counters = np.zeros(3, dtype=np.int64)              # nfev, steps, rejected
+    done, code, status, message = 0, fz.OK, "success", ""
+    try:
+        if type(integ) is DormandPrince45:
+            if t_out[0] == t0:
+                Y[0] = y
+                done = 1
+            if done < nt:
+                K0 = np.empty(n)
+                rtol, atol = float(integ.rtol), float(integ.atol)
+                max_step = float(integ.max_step)
+                code, h = fz.dopri_start(t0, y, K0, F, I, W, mp, rtol, atol, max_step,
+                                         float(t_out[-1] - t0), counters)
+                t, err_prev, k_out = t0, 1e-4, done
+                while code == fz.OK and t < t_out[-1]:
+                    code, t, h, err_prev, k_out = fz.dopri_steps(
+                        t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, atol,
+                        max_step, FUSED_SLICE, nb, Y, counters)
+                    done = k_out
+        else:                                            # RungeKutta4
+            h = float(integ.step)
+            per_output = max(1.0, (t_out[-1] - t0) / max(1, nt - 1) / h)
+            slice_outputs = max(1, int(FUSED_SLICE / per_output))
+            t = t0
+            while code == fz.OK and done < nt:
+                k1 = min(nt, done + slice_outputs)
+                code, t = fz.rk4_outputs(t, y, F, I, W, mp, pp, t_out, done, k1, h, nb, Y,
+                                         counters)
+                if code == fz.OK:
+                    done = k1
+    except KeyboardInterrupt:                            # Ctrl-C: keep what was computed
+        status, message = "interrupted", "interrupted (Ctrl-C)"
+    if code != fz.OK:
+        return None
+    vdot, lam = np.empty((done, 6 * nb)), np.empty((done, m))
+    fz.outputs_at(t_out[:done], Y[:done], vdot, lam, F, I, W, mp, nb, system._layout["lam"][0],
+                  m)
+    wall = time.perf_counter() - start
+    t_fail = None
+    if status != "success":
+        t_fail = float(t_out[done]) if done < nt else float(t_out[-1])
+        message = f"t = {t_fail:.6g} s: {message}"
+    res = IntegrationResult(
+        t=np.array(t_out[:done]), y=Y[:done], status=status, message=message, t_fail=t_fail,
+        counters=Counters(steps=int(counters[1]), rejected=int(counters[2]),
+                          nfev=int(counters[0]), wall_time=wall),
+        last=(float(t_out[done - 1]), Y[done - 1].copy()) if done else None)
+    return res, (vdot.reshape(done, nb, 6), lam)
 
 
 class _AtTime:

@@ -5,8 +5,8 @@ initial states share the model's structure: the integer pack ``I`` of
 :class:`..dynamics.system.System` (topology, sparsity patterns, symbolic factorisation) is the
 same, only the float pack ``F`` and the initial state differ. :func:`simulate_batch` stacks
 them -- F (B, nF), work arrays W (B, nW), states (B, n) -- and runs one compiled loop over the
-members that integrates each with the same compiled right-hand side as :func:`simulate`
-(:func:`..dynamics.standard.rhs_standard` / ``stages_standard``):
+members that integrates each with the compiled drivers of :mod:`..dynamics.fused` (those
+:func:`simulate` uses for a fully compiled model):
 
 * ``rk45``: Dormand-Prince 5(4) with per-member step control -- the same arithmetic as
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` (Hairer's starting step, the PI
@@ -38,11 +38,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..dynamics import system as cs
-from ..dynamics.projection import project
-from ..dynamics.standard import rhs_standard, stages_standard
+from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, outputs_at, rk4_outputs
 from ..errors import ModelError
-from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
-                                                dopri_interpolate)
 from ..jit import njit
 
 try:
@@ -52,265 +49,21 @@ except ImportError:                    # pragma: no cover
 
 __all__ = ["simulate_batch", "BatchSetup", "run_members_batched", "STATUS_TEXT"]
 
-EPS = float(np.finfo(float).eps)
-
-#: member status codes of the compiled loop
-OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
-STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jacobian or "
-                           "non-finite accelerations)",
-               UNDERFLOW: "step size underflow (error test failed repeatedly)",
-               NOT_FINITE_STATE: "the state became non-finite",
-               TOO_MANY_STEPS: "more steps than max_steps",
-               NOT_PROJECTED: "the projection onto the constraints failed (D D^T singular or "
-                              "Newton not converged)"}
-
 
 # ------------------------------------------------------------------------------ compiled part
-@njit
-def _rms(x, scale):
-    acc = 0.0
-    for i in range(x.size):
-        e = x[i] / scale[i]
-        acc += e * e
-    return math.sqrt(acc / x.size)
-
-
-@njit
-def _finite(y):
-    s = 0.0
-    for i in range(y.size):
-        s += y[i] * y[i]
-    return math.isfinite(s)
-
-
-@njit
-def _outputs_at(t_out, Y, Yd, Lam, F, I, W, mp, nb, lam_off, m):
-    """vdot and lambda at every output state (the evaluations of Results.from_integration)."""
-    n = Y.shape[1]
-    ydot = np.empty(n)
-    for k in range(t_out.size):
-        code = rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp)
-        if code < 0:
-            for j in range(6 * nb):
-                Yd[k, j] = np.nan
-            for j in range(m):
-                Lam[k, j] = np.nan
-            continue
-        for j in range(6 * nb):
-            Yd[k, j] = ydot[7 * nb + j]
-        for j in range(m):
-            Lam[k, j] = W[lam_off + j]
-
-
-@njit
-def _project(t, y, F, I, W, pp, nb, dx):
-    """The projection of simulate(): Euler parameters renormalised, and with the projection
-    method (pp = [projects, tolerance, max_iterations]) q and v projected onto Phi = 0 and
-    D v = nu (Eqs. 14.12, 14.19). False if the projection failed."""
-    cs.normalize_y(y, nb)
-    if pp[0] == 0.0:
-        return True
-    for i in range(dx.size):
-        dx[i] = 0.0
-    return project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
-
-
-@njit
-def _dopri_member(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y,
-                  counters):
-    """One member by Dormand-Prince 5(4); outputs into Y (nt, n). Returns (status, t)."""
-    n = y0.size
-    K = np.empty((7, n))
-    y = y0.copy()
-    y_new = np.empty(n)
-    y_raw = np.empty(n)
-    delta = np.zeros(n)
-    yo = np.empty(n)
-    scale = np.empty(n)
-    atol_v = np.full(n, atol)
-    Kd = np.empty((7, n))
-    dx = np.zeros(6 * nb)
-    t = t0
-    t_end = t_out[-1]
-    span = t_end - t
-    k_out = 0
-    nt = t_out.size
-    if t_out[0] == t:
-        for i in range(n):
-            Y[0, i] = y[i]
-        k_out = 1
-    if k_out == nt:
-        return OK, t
-    if rhs_standard(t, y, K[0], F, I, W, mp) < 0:
-        return RHS_FAILED, t
-    counters[0] += 1
-    # ---- starting step (Hairer, Norsett & Wanner II.4), as controller.initial_step
-    for i in range(n):
-        scale[i] = atol + abs(y[i]) * rtol
-    d0 = _rms(y, scale)
-    d1 = _rms(K[0], scale)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, max_step, abs(span))
-    for i in range(n):
-        y_new[i] = y[i] + h0 * K[0, i]
-    f1 = np.empty(n)
-    if rhs_standard(t + h0, y_new, f1, F, I, W, mp) < 0:
-        return RHS_FAILED, t
-    counters[0] += 1
-    for i in range(n):
-        yo[i] = f1[i] - K[0, i]
-    d2 = _rms(yo, scale) / h0
-    if not math.isfinite(d2):
-        h = h0
-    else:
-        if d1 <= 1e-15 and d2 <= 1e-15:
-            h1 = max(1e-6, h0 * 1e-3)
-        else:
-            h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
-        h = min(100.0 * h0, h1, max_step, abs(span))
-    # ---- PI controller of DormandPrince45 (k = 5, safety 0.9, factors 0.2..10, beta 0.04)
-    safety, min_factor, max_factor, beta = 0.9, 0.2, 10.0, 0.04
-    k_inv = 1.0 / 5.0
-    alpha = k_inv - 0.75 * beta
-    err_prev = 1e-4
-    after_reject = False
-    steps = 0
-    while t < t_end:
-        h_min = 16.0 * EPS * max(abs(t), abs(span))
-        while True:
-            hs = t_end - t if t + 1.01 * h >= t_end else h
-            if hs < h_min:
-                return UNDERFLOW, t
-            t_new = t_end if hs == t_end - t else t + hs
-            done = stages_standard(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, K, 1, 7, y_new, t_new,
-                                      F, I, W, mp)
-            counters[0] += 6
-            if done < 7:
-                err = math.inf
-            else:
-                err = dopri_error(y, y_new, K, hs, atol_v, rtol)
-            if err <= 1.0:
-                break
-            counters[2] += 1
-            if not math.isfinite(err):
-                fac = min_factor
-            else:
-                fac = max(min_factor, min(0.9, safety * err ** (-k_inv)))
-            h = hs * fac
-            after_reject = True
-        # accept
-        if err == 0.0:
-            fac = max_factor
-        else:
-            fac = safety * err ** (-alpha) * err_prev ** beta
-        err_prev = max(err, 1e-4)
-        fac = min(max_factor, max(min_factor, fac))
-        if after_reject:
-            fac = min(fac, 1.0)
-        after_reject = False
-        for i in range(n):
-            y_raw[i] = y_new[i]
-        if not _project(t_new, y_new, F, I, W, pp, nb, dx):   # the projection of simulate()
-            return NOT_PROJECTED, t_new
-        changed = False
-        for i in range(n):
-            delta[i] = y_new[i] - y_raw[i]
-            changed = changed or delta[i] != 0.0
-        for j in range(7):
-            for i in range(n):
-                Kd[j, i] = K[j, i]                   # the stages of the interpolant
-        if pp[0] != 0.0 and changed:                 # FSAL derivative at the projected state
-            if rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
-                return RHS_FAILED, t_new
-            counters[0] += 1
-        if not _finite(y_new):
-            return NOT_FINITE_STATE, t_new
-        while k_out < nt and t_out[k_out] <= t_new:
-            to = t_out[k_out]
-            if to == t_new:
-                for i in range(n):
-                    Y[k_out, i] = y_new[i]
-            else:
-                dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
-                if not _project(to, yo, F, I, W, pp, nb, dx):
-                    return NOT_PROJECTED, to
-                for i in range(n):
-                    Y[k_out, i] = yo[i]
-            k_out += 1
-        for i in range(n):
-            K[0, i] = K[6, i]
-            y[i] = y_new[i]
-        t = t_new
-        steps += 1
-        counters[1] += 1
-        if steps >= max_steps:
-            return TOO_MANY_STEPS, t
-        h = min(hs * fac, max_step)
-    return OK, t
-
-
-@njit
-def _rk4_member(y0, F, I, W, mp, pp, t0, t_out, h, nb, Y, counters):
-    """One member by classic RK4 with fixed step h, landing on every output time."""
-    n = y0.size
-    y = y0.copy()
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    tmp = np.empty(n)
-    dx = np.zeros(6 * nb)
-    t = t0
-    for ko in range(t_out.size):
-        to = t_out[ko]
-        if to > t:
-            m = max(1, math.ceil((to - t) / h - 1e-9))
-            t_start = t
-            for i in range(1, m + 1):
-                t_new = to if i == m else t_start + i * h
-                hh = t_new - t
-                half = 0.5 * hh
-                if rhs_standard(t, y, k1, F, I, W, mp) < 0:
-                    return RHS_FAILED, t
-                for j in range(n):
-                    tmp[j] = y[j] + half * k1[j]
-                if rhs_standard(t + half, tmp, k2, F, I, W, mp) < 0:
-                    return RHS_FAILED, t
-                for j in range(n):
-                    tmp[j] = y[j] + half * k2[j]
-                if rhs_standard(t + half, tmp, k3, F, I, W, mp) < 0:
-                    return RHS_FAILED, t
-                for j in range(n):
-                    tmp[j] = y[j] + hh * k3[j]
-                if rhs_standard(t + hh, tmp, k4, F, I, W, mp) < 0:
-                    return RHS_FAILED, t
-                for j in range(n):                   # Eq. (13.14), (13.19)
-                    y[j] = y[j] + (hh / 6.0) * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-                if not _project(t_new, y, F, I, W, pp, nb, dx):
-                    return NOT_PROJECTED, t_new
-                if not _finite(y):
-                    return NOT_FINITE_STATE, t_new
-                t = t_new
-                counters[0] += 4
-                counters[1] += 1
-        for j in range(n):
-            Y[ko, j] = y[j]
-    return OK, t
-
-
 @njit
 def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step, max_steps,
             nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters):
     if adaptive:
-        code, tf = _dopri_member(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, rtol, atol,
-                                 max_step, max_steps, nb, Y[b], counters[b])
+        code, tf = dopri_run(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, rtol, atol, max_step,
+                             max_steps, nb, Y[b], counters[b])
     else:
-        code, tf = _rk4_member(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, step, nb, Y[b],
-                               counters[b])
+        code, tf = rk4_outputs(0.0, Y0[b].copy(), F[b], I, W[b], mp, pp, t_out, 0, t_out.size,
+                               step, nb, Y[b], counters[b])
     status[b] = code
     t_fail[b] = tf
     if code == OK and with_outputs:
-        _outputs_at(t_out, Y[b], Yd[b], Lam[b], F[b], I, W[b], mp, nb, lam_off, m)
+        outputs_at(t_out, Y[b], Yd[b], Lam[b], F[b], I, W[b], mp, nb, lam_off, m)
 
 
 @njit

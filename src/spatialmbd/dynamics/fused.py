@@ -1,0 +1,316 @@
+"""Whole runs in compiled code: the Dormand-Prince 5(4) and classic RK4 drivers over the fused
+right-hand side of the standard, Baumgarte and projection methods.
+
+The Python drivers of :mod:`..integrators` take one step per Python call; for a model whose
+right-hand side is fully compiled (``System.fused``) these loops take many steps per call, with
+the same arithmetic:
+
+* :func:`dopri_start` / :func:`dopri_steps`: Dormand-Prince 5(4) as
+  :class:`..integrators.runge_kutta_adaptive.DormandPrince45` with its default controller
+  (Hairer's starting step, the PI controller with beta = 0.04, safety 0.9, factors 0.2..10,
+  FSAL, Shampine's dense output), the state projected after every accepted step and at every
+  output as simulate() does (Euler parameters renormalised; with the projection method q and v
+  onto Phi = 0 and D v = nu, and the FSAL derivative re-evaluated);
+* :func:`rk4_outputs`: classic RK4 with step h, landing on every output time as
+  :class:`..integrators.fixed_step.RungeKutta4` does;
+* :func:`outputs_at`: vdot and lambda at the output states (what
+  :meth:`..results.Results.from_integration` evaluates).
+
+Both drivers are resumable: :func:`dopri_steps` returns after ``max_steps`` accepted steps with
+its whole state in its arguments and return values, so a caller can run a long simulation in
+slices and stay interruptible (Ctrl-C between slices) -- the slices give the step sequence of
+one uninterrupted call. :func:`..simulate.simulate` uses them for rk45 / rk4 runs without
+events, drivers, budgets or streaming; :mod:`..sweep.batch` for its members.
+
+Status codes: :data:`OK` or a failure (:data:`STATUS_TEXT`); a failed run is rerun by the
+Python driver in simulate(), which produces its diagnosis.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
+                                                dopri_interpolate)
+from ..jit import njit
+from . import system as cs
+from .projection import project
+from .standard import rhs_standard, stages_standard
+
+__all__ = ["OK", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
+           "NOT_PROJECTED", "STATUS_TEXT", "dopri_start", "dopri_steps", "rk4_outputs",
+           "outputs_at", "project_state", "dopri_run"]
+
+EPS = float(np.finfo(float).eps)
+
+#: status codes of the compiled drivers (OK, or why a run stopped)
+OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
+STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jacobian or "
+                           "non-finite accelerations)",
+               UNDERFLOW: "step size underflow (error test failed repeatedly)",
+               NOT_FINITE_STATE: "the state became non-finite",
+               TOO_MANY_STEPS: "more steps than max_steps",
+               NOT_PROJECTED: "the projection onto the constraints failed (D D^T singular or "
+                              "Newton not converged)"}
+
+#: the controller of DormandPrince45 with its defaults (k = 5)
+SAFETY, MIN_FACTOR, MAX_FACTOR, BETA = 0.9, 0.2, 10.0, 0.04
+
+
+@njit
+def _rms(x, scale):
+    acc = 0.0
+    for i in range(x.size):
+        e = x[i] / scale[i]
+        acc += e * e
+    return math.sqrt(acc / x.size)
+
+
+@njit
+def _finite(y):
+    s = 0.0
+    for i in range(y.size):
+        s += y[i] * y[i]
+    return math.isfinite(s)
+
+
+@njit
+def outputs_at(t_out, Y, Yd, Lam, F, I, W, mp, nb, lam_off, m):
+    """vdot (into Yd (nt, 6 nb)) and lambda (into Lam (nt, m)) at every output state Y[k];
+    NaN rows where the right-hand side fails."""
+    n = Y.shape[1]
+    ydot = np.empty(n)
+    for k in range(t_out.size):
+        code = rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp)
+        if code < 0:
+            for j in range(6 * nb):
+                Yd[k, j] = np.nan
+            for j in range(m):
+                Lam[k, j] = np.nan
+            continue
+        for j in range(6 * nb):
+            Yd[k, j] = ydot[7 * nb + j]
+        for j in range(m):
+            Lam[k, j] = W[lam_off + j]
+
+
+@njit
+def project_state(t, y, F, I, W, pp, nb, dx):
+    """The projection of simulate(): Euler parameters renormalised, and with the projection
+    method (pp = [projects, tolerance, max_iterations]) q and v projected onto Phi = 0 and
+    D v = nu (Eqs. 14.12, 14.19). False if the projection failed."""
+    cs.normalize_y(y, nb)
+    if pp[0] == 0.0:
+        return True
+    for i in range(dx.size):
+        dx[i] = 0.0
+    return project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
+
+
+@njit
+def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
+    """K0 = f(t, y) and the starting step of DormandPrince45 (Hairer, Norsett & Wanner
+    II.4, as ``controller.initial_step``). Returns (status, h); counters[0] counts f."""
+    n = y.size
+    if rhs_standard(t, y, K0, F, I, W, mp) < 0:
+        return RHS_FAILED, 0.0
+    counters[0] += 1
+    scale = np.empty(n)
+    for i in range(n):
+        scale[i] = atol + abs(y[i]) * rtol
+    d0 = _rms(y, scale)
+    d1 = _rms(K0, scale)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, max_step, abs(span))
+    y1 = np.empty(n)
+    for i in range(n):
+        y1[i] = y[i] + h0 * K0[i]
+    f1 = np.empty(n)
+    if rhs_standard(t + h0, y1, f1, F, I, W, mp) < 0:
+        return RHS_FAILED, 0.0
+    counters[0] += 1
+    for i in range(n):
+        y1[i] = f1[i] - K0[i]
+    d2 = _rms(y1, scale) / h0
+    if not math.isfinite(d2):
+        return OK, h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
+    return OK, min(100.0 * h0, h1, max_step, abs(span))
+
+
+@njit
+def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, atol,
+                max_step, max_steps, nb, Y, counters):
+    """Up to ``max_steps`` accepted Dormand-Prince steps from (t, y) with FSAL derivative K0
+    and proposed step h (in place on y and K0), every output time t_out[k_out:] reached
+    written into Y (projected as simulate() does). Returns (status, t, h, err_prev, k_out):
+    call again with them to continue (t == t_out[-1]: done). counters: (nfev, steps,
+    rejected), accumulated."""
+    n = y.size
+    K = np.empty((7, n))
+    for i in range(n):
+        K[0, i] = K0[i]
+    y_new = np.empty(n)
+    y_raw = np.empty(n)
+    delta = np.zeros(n)
+    yo = np.empty(n)
+    atol_v = np.full(n, atol)
+    Kd = np.empty((7, n))
+    dx = np.zeros(6 * nb)
+    t_end = t_out[-1]
+    span = t_end - t0
+    nt = t_out.size
+    k_inv = 1.0 / 5.0
+    alpha = k_inv - 0.75 * BETA
+    after_reject = False
+    steps = 0
+    while t < t_end and steps < max_steps:
+        h_min = 16.0 * EPS * max(abs(t), abs(span))
+        while True:
+            hs = t_end - t if t + 1.01 * h >= t_end else h
+            if hs < h_min:
+                return UNDERFLOW, t, h, err_prev, k_out
+            t_new = t_end if hs == t_end - t else t + hs
+            done = stages_standard(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, K, 1, 7, y_new, t_new,
+                                   F, I, W, mp)
+            counters[0] += 6
+            if done < 7:
+                err = math.inf
+            else:
+                err = dopri_error(y, y_new, K, hs, atol_v, rtol)
+            if err <= 1.0:
+                break
+            counters[2] += 1
+            if not math.isfinite(err):
+                fac = MIN_FACTOR
+            else:
+                fac = max(MIN_FACTOR, min(0.9, SAFETY * err ** (-k_inv)))
+            h = hs * fac
+            after_reject = True
+        # accepted
+        if err == 0.0:
+            fac = MAX_FACTOR
+        else:
+            fac = SAFETY * err ** (-alpha) * err_prev ** BETA
+        err_prev = max(err, 1e-4)
+        fac = min(MAX_FACTOR, max(MIN_FACTOR, fac))
+        if after_reject:
+            fac = min(fac, 1.0)
+        after_reject = False
+        for i in range(n):
+            y_raw[i] = y_new[i]
+        if not project_state(t_new, y_new, F, I, W, pp, nb, dx):
+            return NOT_PROJECTED, t_new, h, err_prev, k_out
+        changed = False
+        for i in range(n):
+            delta[i] = y_new[i] - y_raw[i]
+            changed = changed or delta[i] != 0.0
+        for j in range(7):
+            for i in range(n):
+                Kd[j, i] = K[j, i]                   # the stages of the interpolant
+        if pp[0] != 0.0 and changed:                 # FSAL derivative at the projected state
+            if rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
+                return RHS_FAILED, t_new, h, err_prev, k_out
+            counters[0] += 1
+        if not _finite(y_new):
+            return NOT_FINITE_STATE, t_new, h, err_prev, k_out
+        while k_out < nt and t_out[k_out] <= t_new:
+            to = t_out[k_out]
+            if to == t_new:
+                for i in range(n):
+                    Y[k_out, i] = y_new[i]
+            else:
+                dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
+                if not project_state(to, yo, F, I, W, pp, nb, dx):
+                    return NOT_PROJECTED, to, h, err_prev, k_out
+                for i in range(n):
+                    Y[k_out, i] = yo[i]
+            k_out += 1
+        for i in range(n):
+            K[0, i] = K[6, i]
+            y[i] = y_new[i]
+        t = t_new
+        steps += 1
+        counters[1] += 1
+        h = min(hs * fac, max_step)
+    for i in range(n):
+        K0[i] = K[0, i]
+    return OK, t, h, err_prev, k_out
+
+
+@njit
+def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, h, nb, Y, counters):
+    """Classic RK4 with step h from (t, y) (in place on y) through the output times
+    t_out[k0:k1], landing on each (its states into Y). Returns (status, t)."""
+    n = y.size
+    k1v = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    tmp = np.empty(n)
+    dx = np.zeros(6 * nb)
+    for ko in range(k0, k1):
+        to = t_out[ko]
+        if to > t:
+            m = max(1, math.ceil((to - t) / h - 1e-9))
+            t_start = t
+            for i in range(1, m + 1):
+                t_new = to if i == m else t_start + i * h
+                hh = t_new - t
+                half = 0.5 * hh
+                if rhs_standard(t, y, k1v, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):
+                    tmp[j] = y[j] + half * k1v[j]
+                if rhs_standard(t + half, tmp, k2, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):
+                    tmp[j] = y[j] + half * k2[j]
+                if rhs_standard(t + half, tmp, k3, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):
+                    tmp[j] = y[j] + hh * k3[j]
+                if rhs_standard(t + hh, tmp, k4, F, I, W, mp) < 0:
+                    return RHS_FAILED, t
+                for j in range(n):                   # Eq. (13.14), (13.19)
+                    y[j] = y[j] + (hh / 6.0) * (k1v[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+                if not project_state(t_new, y, F, I, W, pp, nb, dx):
+                    return NOT_PROJECTED, t_new
+                if not _finite(y):
+                    return NOT_FINITE_STATE, t_new
+                t = t_new
+                counters[0] += 4
+                counters[1] += 1
+        for j in range(n):
+            Y[ko, j] = y[j]
+    return OK, t
+
+
+@njit
+def dopri_run(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y,
+              counters):
+    """A whole Dormand-Prince run from (t0, y0) through t_out (outputs into Y (nt, n)), at most
+    max_steps accepted steps. Returns (status, t)."""
+    y = y0.copy()
+    K0 = np.empty(y.size)
+    k_out = 0
+    if t_out[0] == t0:
+        for i in range(y.size):
+            Y[0, i] = y[i]
+        k_out = 1
+    if k_out == t_out.size:
+        return OK, t0
+    code, h = dopri_start(t0, y, K0, F, I, W, mp, rtol, atol, max_step, t_out[-1] - t0,
+                          counters)
+    if code != OK:
+        return code, t0
+    code, t, h, err_prev, k_out = dopri_steps(t0, y, K0, h, 1e-4, F, I, W, mp, pp, t0, t_out,
+                                              k_out, rtol, atol, max_step, max_steps, nb, Y,
+                                              counters)
+    if code == OK and t < t_out[-1]:
+        return TOO_MANY_STEPS, t
+    return code, t

@@ -1,0 +1,98 @@
+"""The compiled drivers (dynamics.fused) against the Python drivers they stand in for."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import spatialmbd.simulate as sim
+from spatialmbd.dynamics import fused
+from spatialmbd.io import load_model
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def _both(model, **kw):
+    """(compiled-driver results, Python-driver results) of one run."""
+    sim.FUSED_RUNS = True
+    try:
+        a = sim.simulate(model, **kw)
+        sim.FUSED_RUNS = False
+        b = sim.simulate(model, **kw)
+    finally:
+        sim.FUSED_RUNS = True
+    return a, b
+
+
+@pytest.mark.parametrize("method", ["projection", "standard", "baumgarte"])
+@pytest.mark.parametrize("integrator, opts", [("rk45", dict(rtol=1e-8, atol=1e-10)),
+                                              ("rk4", dict(step=2e-3))])
+def test_compiled_driver_takes_the_python_drivers_steps(method, integrator, opts):
+    model, _ = load_model(EXAMPLES / "sweeps" / "slider_crank_free.yaml")
+    a, b = _both(model, t_end=0.6, method=method, integrator=integrator, output_step=0.01,
+                 **opts)
+    assert a.status == b.status == "success"
+    for key in ("nfev", "steps", "rejected"):            # the same step sequence
+        assert a.counters[key] == b.counters[key], key
+    assert np.array_equal(a.t, b.t)
+    tol = 0.0 if integrator == "rk4" else 1e-9          # rk4: bit for bit
+    assert np.abs(a.q - b.q).max() <= tol
+    assert np.abs(a.v - b.v).max() <= tol * 100
+    scale = 1.0 + np.abs(b.vdot).max()
+    assert np.abs(a.vdot - b.vdot).max() <= max(tol, 1e-14) * 1e4 * scale
+    assert np.abs(a.lam - b.lam).max() <= max(tol, 1e-14) * 1e4 * (1.0 + np.abs(b.lam).max())
+    assert np.array_equal(a.work, b.work) or np.abs(a.work - b.work).max() <= 1e-9
+
+
+def test_slices_continue_the_same_step_sequence(monkeypatch):
+    """A run cut into compiled calls of a few steps gives the one-call result exactly."""
+    model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
+    whole = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9)
+    monkeypatch.setattr(sim, "FUSED_SLICE", 3)
+    sliced = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9)
+    assert sliced.counters["steps"] == whole.counters["steps"]
+    assert np.array_equal(sliced.q, whole.q) and np.array_equal(sliced.vdot, whole.vdot)
+
+
+def test_ctrl_c_between_slices_keeps_the_outputs(monkeypatch):
+    model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
+    monkeypatch.setattr(sim, "FUSED_SLICE", 5)
+    real, calls = fused.dopri_steps, []
+
+    def steps(*args):
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return real(*args)
+    monkeypatch.setattr(fused, "dopri_steps", steps)
+    res = sim.simulate(model, 2.0, output_step=0.01)
+    assert res.status == "interrupted" and "Ctrl-C" in res.message
+    assert 2 <= len(res.t) < 201 and np.all(np.isfinite(res.q))
+    assert np.all(np.isfinite(res.vdot))
+
+
+def test_failed_compiled_run_is_rerun_by_the_python_driver(monkeypatch):
+    """A run the compiled driver cannot finish goes through the Python driver, which gives
+    its status and message (here a forced failure of the compiled start)."""
+    model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
+    monkeypatch.setattr(fused, "dopri_start", lambda *a: (fused.RHS_FAILED, 0.0))
+    res = sim.simulate(model, 0.5)
+    sim.FUSED_RUNS = False
+    try:
+        ref = sim.simulate(model, 0.5)
+    finally:
+        sim.FUSED_RUNS = True
+    assert res.status == "success" and np.array_equal(res.q, ref.q)
+
+
+def test_runs_with_events_or_progress_keep_the_python_driver(monkeypatch):
+    model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
+
+    def refuse(*args):
+        raise AssertionError("the compiled driver was used")
+    monkeypatch.setattr(sim, "_fused_run", refuse)
+    sim.simulate(model, 0.2, events=[lambda t, s: s.r[0, 2] + 0.5])
+    sim.simulate(model, 0.2, progress=lambda t: None)
+    sim.simulate(model, 0.2, integrator="rk45", atol=np.full(14, 1e-9))
+    sim.simulate(model, 0.2, max_steps=10_000)
