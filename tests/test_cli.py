@@ -97,14 +97,9 @@ def test_run_writes_csv_and_hdf5(tmp_path, pendulum_file, capsys):
     pd.testing.assert_frame_equal(loaded.table, df, check_exact=False, rtol=1e-14)
 
 
-def test_run_streams_long_runs_to_the_same_files(tmp_path, pendulum_file, capsys,
-                                                 monkeypatch):
+def test_run_streams_long_runs_to_the_same_files(tmp_path, pendulum_file, capsys):
     """Above --stream-rows the outputs go to the files in chunks during the run; the files
-    equal those written from memory (one continuous run). A streamed run takes the Python
-    driver, so the in-memory one here does too (the compiled driver agrees with it to
-    round-off: tests/dynamics/test_fused.py)."""
-    import spatialmbd.simulate as sim
-    monkeypatch.setattr(sim, "FUSED_RUNS", False)
+    equal those written from memory (one continuous run)."""
     a, b = [tmp_path / "a.csv", tmp_path / "a.h5"], [tmp_path / "b.csv", tmp_path / "b.h5"]
     assert main(["run", str(pendulum_file), "-q", "-o", str(a[0]), "-o", str(a[1])]) == 0
     assert main(["run", str(pendulum_file), "--stream-rows", "5", "-o", str(b[0]), "-o",

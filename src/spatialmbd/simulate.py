@@ -242,9 +242,18 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         def sink(times, outputs):
             stream.add(chunk_results(times, np.array(outputs), "running", "", {}, 0.0))
     fused = None
-    if _fused_eligible(eom, meth, integ, compiled, couplers, integ_events, stream, limits,
-                       callback, n_z):
-        fused = _fused_run(eom, meth, integ, t0, y0, t_out, project)
+    if _fused_eligible(eom, meth, integ, compiled, couplers, integ_events, limits, callback,
+                       n_z):
+        emit = None
+        if stream is not None:
+            def emit(times, states, acc):
+                stream.add(chunk_results(times, states, "running", "", {}, 0.0, acc))
+        try:
+            fused = _fused_run(eom, meth, integ, t0, y0, t_out, project, emit,
+                               getattr(stream, "chunk_rows", 0), callback)
+        finally:
+            if fused is not None and hasattr(callback, "close"):
+                callback.close()
     accelerations = None
     if fused is not None:                  # the whole run in compiled code (dynamics.fused)
         res, accelerations = fused
@@ -293,24 +302,25 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
 #: run eligible simulations through the compiled drivers of :mod:`.dynamics.fused` (tests
 #: compare both paths by switching this off)
 FUSED_RUNS = True
-#: accepted steps per compiled call: between calls Ctrl-C is seen (a few ms of work each)
-FUSED_SLICE = 2000
+#: wall time (s) of one compiled call: between calls Ctrl-C is seen and the progress shown;
+#: the number of steps per call is adapted to it (the first call takes FUSED_FIRST_SLICE)
+FUSED_SLICE_SECONDS = 0.1
+FUSED_FIRST_SLICE = 64
 
 
-def _fused_eligible(eom, meth, integ, compiled, couplers, events, stream, limits, callback,
+def _fused_eligible(eom, meth, integ, compiled, couplers, events, limits, callback,
                     n_z) -> bool:
     """Whether this run can go through :mod:`.dynamics.fused` with the arithmetic of the Python
     driver: a fully compiled right-hand side of the standard / Baumgarte / projection method,
     rk45 with its default controller (scalar atol) or rk4, and none of what the Python driver
     does between steps (events and contact memory, drivers' and force laws' times, couplers,
-    budgets, progress, streaming, force-element states)."""
+    budgets, force-element states)."""
     from .integrators.fixed_step import RungeKutta4
     from .integrators.runge_kutta_adaptive import DormandPrince45
     system = eom.system
     if not (FUSED_RUNS and compiled and system.fused) or system.python_groups:
         return False
-    if couplers or events or stream is not None or limits.active or callback is not None \
-            or n_z or system.table.has_drivers:
+    if couplers or events or limits.active or n_z or system.table.has_drivers:
         return False
     if meth.name not in ("standard", "baumgarte", "projection") or \
             getattr(meth, "solver", "schur") == "kkt":
@@ -323,24 +333,64 @@ def _fused_eligible(eom, meth, integ, compiled, couplers, events, stream, limits
                                            beta=0.04)))
 
 
-def _fused_run(eom, meth, integ, t0, y0, t_out, project):
-    """(IntegrationResult, (vdot, lam)) of the run by :mod:`.dynamics.fused`, in slices of
-    :data:`FUSED_SLICE` steps (Ctrl-C between slices: status "interrupted" with the outputs
-    so far); None if it failed (the Python driver then reruns it and says why)."""
+def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, progress=None):
+    """(IntegrationResult, (vdot, lam)) of the run by :mod:`.dynamics.fused`, in calls of
+    about :data:`FUSED_SLICE_SECONDS` each (between them Ctrl-C gives status "interrupted"
+    with the outputs so far, and ``progress(t)`` is called); None if it failed (the Python
+    driver then reruns it and says why).
+
+    emit / chunk (streaming): every ``chunk`` outputs go to ``emit(times, states, (vdot,
+    lam))`` and are forgotten (a window of about ``chunk`` rows is kept); the result then
+    holds the outputs after the last full chunk, as the Python driver's does."""
     from .dynamics import fused as fz
     from .integrators.base import Counters, IntegrationResult
     from .integrators.runge_kutta_adaptive import DormandPrince45
     system = eom.system
     F, I, W, mp = system.F, system.I, system.W, meth._mp
     nb, m = system.nb, system.model.n_eq
+    lam_off = system._layout["lam"][0]
     pp = np.array([1.0 if meth.projects else 0.0, float(getattr(meth, "tolerance", 0.0)),
                    float(getattr(meth, "max_iterations", 0))])
+
+    def accelerations(times, states):
+        vdot, lam = np.empty((len(times), 6 * nb)), np.empty((len(times), m))
+        fz.outputs_at(times, states, vdot, lam, F, I, W, mp, nb, lam_off, m)
+        return vdot.reshape(len(times), nb, 6), lam
+
     start = time.perf_counter()
     y = project(t0, np.array(y0, dtype=float))          # as Integrator.integrate does first
     nt, n = t_out.size, y.size
-    Y = np.empty((nt, n))
+    streaming = emit is not None and chunk > 0
+    Y = np.empty((min(nt, 2 * chunk) if streaming else nt, n))   # rows k_base, k_base + 1..
+    k_base = 0
     counters = np.zeros(3, dtype=np.int64)              # nfev, steps, rejected
     done, code, status, message = 0, fz.OK, "success", ""
+    slice_steps = FUSED_FIRST_SLICE
+
+    def next_slice(t, began, steps_before):
+        """After a call: progress, and the steps of the next call (about the target time)."""
+        nonlocal slice_steps
+        if progress is not None:
+            progress(t)
+        took, steps = time.perf_counter() - began, int(counters[1]) - steps_before
+        if steps > 0:
+            rate = max(took, 1e-6) / steps
+            slice_steps = int(min(1_000_000, max(1, FUSED_SLICE_SECONDS / rate)))
+
+    def flush(need_room):
+        """Hand full chunks to emit and slide the window; grow it if it is still full."""
+        nonlocal Y, k_base
+        emitted = False
+        while streaming and done - k_base >= chunk:
+            times = t_out[k_base:k_base + chunk]
+            states = Y[:chunk].copy()
+            emit(times, states, accelerations(times, states))
+            Y[:done - k_base - chunk] = Y[chunk:done - k_base]
+            k_base += chunk
+            emitted = True
+        if need_room and not emitted:       # one step with more outputs than the window
+            Y = np.concatenate([Y, np.empty_like(Y)])
+
     try:
         if type(integ) is DormandPrince45:
             if t_out[0] == t0:
@@ -352,41 +402,53 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project):
                 max_step = float(integ.max_step)
                 code, h = fz.dopri_start(t0, y, K0, F, I, W, mp, rtol, atol, max_step,
                                          float(t_out[-1] - t0), counters)
-                t, err_prev, k_out = t0, 1e-4, done
-                while code == fz.OK and t < t_out[-1]:
-                    code, t, h, err_prev, k_out = fz.dopri_steps(
-                        t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, atol,
-                        max_step, FUSED_SLICE, nb, Y, counters)
-                    done = k_out
+                t, err_prev = t0, 1e-4
+                while code in (fz.OK, fz.NEED_ROOM) and t < t_out[-1]:
+                    began, before = time.perf_counter(), int(counters[1])
+                    code, t, h, err_prev, done = fz.dopri_steps(
+                        t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, done, k_base,
+                        rtol, atol, max_step, slice_steps, nb, Y, counters)
+                    flush(code == fz.NEED_ROOM)
+                    next_slice(t, began, before)
         else:                                            # RungeKutta4
             h = float(integ.step)
-            per_output = max(1.0, (t_out[-1] - t0) / max(1, nt - 1) / h)
-            slice_outputs = max(1, int(FUSED_SLICE / per_output))
+            per_output = max(1.0, (t_out[-1] - t0) / max(1, nt - 1) / h)   # steps
             t = t0
             while code == fz.OK and done < nt:
+                slice_outputs = max(1, int(slice_steps / per_output))
+                if streaming:
+                    slice_outputs = min(slice_outputs, chunk)
                 k1 = min(nt, done + slice_outputs)
-                code, t = fz.rk4_outputs(t, y, F, I, W, mp, pp, t_out, done, k1, h, nb, Y,
-                                         counters)
+                began, before = time.perf_counter(), int(counters[1])
+                code, t = fz.rk4_outputs(t, y, F, I, W, mp, pp, t_out, done, k1, k_base, h,
+                                         nb, Y, counters)
                 if code == fz.OK:
                     done = k1
+                    flush(False)
+                    next_slice(t, began, before)
     except KeyboardInterrupt:                            # Ctrl-C: keep what was computed
-        status, message = "interrupted", "interrupted (Ctrl-C)"
+        status, message, code = "interrupted", "interrupted (Ctrl-C)", fz.OK
+    except (SpatialMBDError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        # from emit (the stream's files): kept, with the cause, as the Python driver does
+        status, message, code = getattr(exc, "status", "failed"), str(exc), fz.OK
     if code != fz.OK:
-        return None
-    vdot, lam = np.empty((done, 6 * nb)), np.empty((done, m))
-    fz.outputs_at(t_out[:done], Y[:done], vdot, lam, F, I, W, mp, nb, system._layout["lam"][0],
-                  m)
+        if k_base == 0:
+            return None                # nothing handed out yet: the Python driver reruns it
+        # streamed chunks cannot be taken back: the run stops here, as failed
+        status, message = "failed", fz.STATUS_TEXT[code]
+    times, states = t_out[k_base:done], Y[:done - k_base].copy()
+    acc = accelerations(times, states)
     wall = time.perf_counter() - start
     t_fail = None
     if status != "success":
         t_fail = float(t_out[done]) if done < nt else float(t_out[-1])
         message = f"t = {t_fail:.6g} s: {message}"
     res = IntegrationResult(
-        t=np.array(t_out[:done]), y=Y[:done], status=status, message=message, t_fail=t_fail,
+        t=np.array(times), y=states, status=status, message=message, t_fail=t_fail,
         counters=Counters(steps=int(counters[1]), rejected=int(counters[2]),
                           nfev=int(counters[0]), wall_time=wall),
-        last=(float(t_out[done - 1]), Y[done - 1].copy()) if done else None)
-    return res, (vdot.reshape(done, nb, 6), lam)
+        last=(float(t_out[done - 1]), states[-1].copy()) if len(states) else None)
+    return res, acc
 
 
 class _AtTime:

@@ -49,7 +49,8 @@ def test_slices_continue_the_same_step_sequence(monkeypatch):
     """A run cut into compiled calls of a few steps gives the one-call result exactly."""
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
     whole = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9)
-    monkeypatch.setattr(sim, "FUSED_SLICE", 3)
+    monkeypatch.setattr(sim, "FUSED_FIRST_SLICE", 3)
+    monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)        # then one step per call
     sliced = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9)
     assert sliced.counters["steps"] == whole.counters["steps"]
     assert np.array_equal(sliced.q, whole.q) and np.array_equal(sliced.vdot, whole.vdot)
@@ -57,7 +58,8 @@ def test_slices_continue_the_same_step_sequence(monkeypatch):
 
 def test_ctrl_c_between_slices_keeps_the_outputs(monkeypatch):
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
-    monkeypatch.setattr(sim, "FUSED_SLICE", 5)
+    monkeypatch.setattr(sim, "FUSED_FIRST_SLICE", 5)
+    monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)
     real, calls = fused.dopri_steps, []
 
     def steps(*args):
@@ -86,13 +88,42 @@ def test_failed_compiled_run_is_rerun_by_the_python_driver(monkeypatch):
     assert res.status == "success" and np.array_equal(res.q, ref.q)
 
 
-def test_runs_with_events_or_progress_keep_the_python_driver(monkeypatch):
+def test_runs_with_events_or_budgets_keep_the_python_driver(monkeypatch):
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
 
     def refuse(*args):
         raise AssertionError("the compiled driver was used")
     monkeypatch.setattr(sim, "_fused_run", refuse)
     sim.simulate(model, 0.2, events=[lambda t, s: s.r[0, 2] + 0.5])
-    sim.simulate(model, 0.2, progress=lambda t: None)
     sim.simulate(model, 0.2, integrator="rk45", atol=np.full(14, 1e-9))
     sim.simulate(model, 0.2, max_steps=10_000)
+
+
+def test_progress_is_reported_between_calls(monkeypatch):
+    model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
+    monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)
+    seen = []
+    res = sim.simulate(model, 1.0, progress=seen.append)
+    # the first call takes 64 steps, then (target ~0 s) one step per call
+    assert res.status == "success" and len(seen) == 1 + max(0, res.counters["steps"] - 64)
+    assert seen == sorted(seen) and seen[-1] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("integrator", ["rk45", "rk4"])
+def test_streamed_chunks_equal_the_in_memory_run(tmp_path, integrator):
+    """Streaming through the compiled driver: a window of outputs slides over the run (and
+    grows when one step has more outputs than it holds); the rows equal the in-memory run's
+    bit for bit."""
+    from spatialmbd.io.results_io import load_results
+    from spatialmbd.io.stream import simulate_to_file
+    model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
+    opts = dict(integrator=integrator, output_step=2e-4)
+    if integrator == "rk4":
+        opts["step"] = 1e-3
+    ref = sim.simulate(model, 0.3, **opts)
+    tail, written = simulate_to_file(model, 0.3, [tmp_path / "s.h5"], chunk_rows=7, **opts)
+    assert written[tmp_path / "s.h5"][0] == len(ref.t) == 1501
+    assert tail.counters["steps"] == ref.counters["steps"]
+    got = load_results(tmp_path / "s.h5")
+    for name in ("t", "q", "v", "vdot", "lam"):
+        assert np.array_equal(getattr(got, name), getattr(ref, name)), name

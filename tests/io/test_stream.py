@@ -37,13 +37,7 @@ def _same_files(a, b):
 
 
 @pytest.mark.parametrize("method", ["projection", "augmented_lagrangian"])
-def test_streamed_files_equal_the_in_memory_ones(double_pendulum, tmp_path, method,
-                                                 monkeypatch):
-    import spatialmbd.simulate as sim
-    # a streamed run takes the Python driver (the compiled one of dynamics.fused does not
-    # stream): the in-memory reference is that driver's run, bit for bit (the two drivers
-    # agree to round-off: tests/dynamics/test_fused.py)
-    monkeypatch.setattr(sim, "FUSED_RUNS", False)
+def test_streamed_files_equal_the_in_memory_ones(double_pendulum, tmp_path, method):
     opts = dict(method=method, integrator="rk45", output_step=0.01)
     ref = simulate(double_pendulum, 0.5, **opts)
     save_all(ref, [tmp_path / "a.h5", tmp_path / "a.csv"])

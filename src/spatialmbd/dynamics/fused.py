@@ -38,7 +38,7 @@ from . import system as cs
 from .projection import project
 from .standard import rhs_standard, stages_standard
 
-__all__ = ["OK", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
+__all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "STATUS_TEXT", "dopri_start", "dopri_steps", "rk4_outputs",
            "outputs_at", "project_state", "dopri_run"]
 
@@ -46,6 +46,9 @@ EPS = float(np.finfo(float).eps)
 
 #: status codes of the compiled drivers (OK, or why a run stopped)
 OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
+#: dopri_steps stopped before an accepted step whose outputs do not fit in Y (not a failure:
+#: the caller makes room and calls again; the step is retaken, with the same result)
+NEED_ROOM = 6
 STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jacobian or "
                            "non-finite accelerations)",
                UNDERFLOW: "step size underflow (error test failed repeatedly)",
@@ -143,13 +146,14 @@ def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
 
 
 @njit
-def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, atol,
-                max_step, max_steps, nb, Y, counters):
+def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base, rtol,
+                atol, max_step, max_steps, nb, Y, counters):
     """Up to ``max_steps`` accepted Dormand-Prince steps from (t, y) with FSAL derivative K0
     and proposed step h (in place on y and K0), every output time t_out[k_out:] reached
-    written into Y (projected as simulate() does). Returns (status, t, h, err_prev, k_out):
-    call again with them to continue (t == t_out[-1]: done). counters: (nfev, steps,
-    rejected), accumulated."""
+    written into Y[k - k_base] (projected as simulate() does). Returns (status, t, h,
+    err_prev, k_out): call again with them to continue (t == t_out[-1]: done). Status
+    NEED_ROOM: the next step's outputs do not fit in Y; nothing of that step is kept (state
+    and counters as before it). counters: (nfev, steps, rejected), accumulated."""
     n = y.size
     K = np.empty((7, n))
     for i in range(n):
@@ -170,6 +174,7 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, 
     steps = 0
     while t < t_end and steps < max_steps:
         h_min = 16.0 * EPS * max(abs(t), abs(span))
+        h_start, c0, c2 = h, counters[0], counters[2]
         while True:
             hs = t_end - t if t + 1.01 * h >= t_end else h
             if hs < h_min:
@@ -192,6 +197,14 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, 
             h = hs * fac
             after_reject = True
         # accepted
+        k_last = k_out
+        while k_last < nt and t_out[k_last] <= t_new:
+            k_last += 1
+        if k_last - k_base > Y.shape[0]:             # no room for its outputs: retake later
+            counters[0], counters[2] = c0, c2
+            for i in range(n):
+                K0[i] = K[0, i]
+            return NEED_ROOM, t, h_start, err_prev, k_out
         if err == 0.0:
             fac = MAX_FACTOR
         else:
@@ -220,15 +233,16 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, 
             return NOT_FINITE_STATE, t_new, h, err_prev, k_out
         while k_out < nt and t_out[k_out] <= t_new:
             to = t_out[k_out]
+            row = k_out - k_base
             if to == t_new:
                 for i in range(n):
-                    Y[k_out, i] = y_new[i]
+                    Y[row, i] = y_new[i]
             else:
                 dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
                 if not project_state(to, yo, F, I, W, pp, nb, dx):
                     return NOT_PROJECTED, to, h, err_prev, k_out
                 for i in range(n):
-                    Y[k_out, i] = yo[i]
+                    Y[row, i] = yo[i]
             k_out += 1
         for i in range(n):
             K[0, i] = K[6, i]
@@ -243,9 +257,9 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, rtol, 
 
 
 @njit
-def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, h, nb, Y, counters):
+def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, counters):
     """Classic RK4 with step h from (t, y) (in place on y) through the output times
-    t_out[k0:k1], landing on each (its states into Y). Returns (status, t)."""
+    t_out[k0:k1], landing on each (its states into Y[k - k_base]). Returns (status, t)."""
     n = y.size
     k1v = np.empty(n)
     k2 = np.empty(n)
@@ -286,7 +300,7 @@ def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, h, nb, Y, counters):
                 counters[0] += 4
                 counters[1] += 1
         for j in range(n):
-            Y[ko, j] = y[j]
+            Y[ko - k_base, j] = y[j]
     return OK, t
 
 
@@ -309,8 +323,8 @@ def dopri_run(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, n
     if code != OK:
         return code, t0
     code, t, h, err_prev, k_out = dopri_steps(t0, y, K0, h, 1e-4, F, I, W, mp, pp, t0, t_out,
-                                              k_out, rtol, atol, max_step, max_steps, nb, Y,
-                                              counters)
+                                              k_out, 0, rtol, atol, max_step, max_steps, nb,
+                                              Y, counters)
     if code == OK and t < t_out[-1]:
         return TOO_MANY_STEPS, t
     return code, t

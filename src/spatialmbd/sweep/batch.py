@@ -59,7 +59,7 @@ def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
                              max_steps, nb, Y[b], counters[b])
     else:
         code, tf = rk4_outputs(0.0, Y0[b].copy(), F[b], I, W[b], mp, pp, t_out, 0, t_out.size,
-                               step, nb, Y[b], counters[b])
+                               0, step, nb, Y[b], counters[b])
     status[b] = code
     t_fail[b] = tf
     if code == OK and with_outputs:
