@@ -27,7 +27,13 @@ import platform
 import time
 from pathlib import Path
 
-import numpy as np
+# one BLAS thread in this process, as Dask gives each of its worker processes (its nanny's
+# pre-spawn environment): the serial figure is then not slowed by BLAS threads fighting over
+# two cores on small matrices
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 PENDULUM = ROOT / "examples" / "pendulum_ch15.yaml"
