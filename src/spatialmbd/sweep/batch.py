@@ -23,9 +23,9 @@ code and is reported as failed; the others continue.
 Scope (checked, with a ModelError naming what is not supported): dynamic analyses with the
 "standard", "baumgarte" or "projection" method (where simulate() would fall back to least
 squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
-fully compiled (every joint type compiled) and without force elements (their parameters are
-not in the packed model floats) or drivers (their motion laws are Python callables); no
-redundant constraints. Models outside it run through :func:`simulate` one by one
+fully compiled (every joint type and force element compiled), without drivers or
+time-dependent force laws (set from Python at every evaluation), contact elements (their
+impact memory is kept by events) or force-element states; no redundant constraints. Models outside it run through :func:`simulate` one by one
 (``engine="simulate"``).
 """
 from __future__ import annotations
@@ -151,10 +151,21 @@ class BatchSetup:
 
     @staticmethod
     def _check_model(model):
-        if model.force_groups:
+        from ..forces.contact.memory import contact_groups
+        python = [g.name for g in model.force_groups if not g.compiled]
+        if python:
             raise ModelError(f"batch integration: model {model.name!r} has force elements "
-                             f"({', '.join(g.name for g in model.force_groups)}), evaluated in "
-                             "Python; use engine='simulate'")
+                             f"evaluated in Python ({', '.join(python)}); use "
+                             "engine='simulate'")
+        if contact_groups(model):
+            raise ModelError(f"batch integration: model {model.name!r} has contact elements, "
+                             "whose impact memory simulate() keeps by events between steps; "
+                             "use engine='simulate'")
+        timed = [g.name for g in model.force_groups if g.time_dependent]
+        if timed:
+            raise ModelError(f"batch integration: model {model.name!r} has force elements "
+                             f"with time-dependent laws ({', '.join(timed)}), set from Python "
+                             "at every evaluation; use engine='simulate'")
         if any(g.rheonomic for g in model.constraint_groups):
             raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
                              "motion laws); use engine='simulate'")
@@ -171,15 +182,24 @@ class BatchSetup:
                              "simulate(); use engine='simulate'")
 
     @staticmethod
-    def _signature(model, table=None):
-        """The topology of a model: what members of one batch must share."""
+    def _tables(model):
+        """(joint table, force table) of a model."""
         from ..constraints.kernels import JointTable
-        if table is None:
-            table = JointTable(model.constraint_groups, model.group_offsets)
-        G = table.G
-        return (model.nb, model.n_eq, tuple(table.kind.tolist()), tuple(table.rows.tolist()),
-                tuple(np.asarray(G[0]).tolist()), tuple(np.asarray(G[1]).tolist()),
-                tuple(np.asarray(G[8]).tolist()))
+        from ..forces.kernels import ForceTable
+        return (JointTable(model.constraint_groups, model.group_offsets),
+                ForceTable(model.force_groups))
+
+    @staticmethod
+    def _signature(model, tables=None):
+        """What members of one batch must share: the topology (bodies, joints and force
+        elements, their kinds, bodies and coordinates) and the force elements' law values
+        (in the work arrays, which the members share)."""
+        table, ftable = BatchSetup._tables(model) if tables is None else tables
+        G, Gf = table.G, ftable.G
+        ints = lambda a: tuple(np.asarray(a).ravel().tolist())   # noqa: E731
+        return (model.nb, model.n_eq, ints(table.kind), ints(table.rows), ints(G[0]),
+                ints(G[1]), ints(G[8]), ints(ftable.kind), ints(Gf.bi), ints(Gf.bj),
+                ints(Gf.coord), ints(ftable.law))
 
     def _f_slots(self) -> list:
         """(name, offset, shape) of every non-empty F field of the packed layout, read once
@@ -202,17 +222,19 @@ class BatchSetup:
         the member model: the body arrays and the joint table's geometry; a field this module
         does not know raises unless it is empty for this model (the layout changed: the batch
         engine must learn the field)."""
-        from ..constraints.kernels import JointTable
         self._check_model(model)
-        table = JointTable(model.constraint_groups, model.group_offsets)
-        if self._signature(model, table) != self._topology:
+        tables = self._tables(model)
+        if self._signature(model, tables) != self._topology:
             raise ModelError(f"batch integration: member model {model.name!r} differs in "
-                             "topology (bodies, joints or their order) from the first member; "
-                             "members of one batch may differ only in values")
+                             "topology (bodies, joints, force elements or their order) or in "
+                             "force-law values from the first member; members of one batch "
+                             "may differ only in geometry, inertia, parameters and initial "
+                             "state")
         F = self.system.F.copy()
-        G = table.G
+        G, Gf = tables[0].G, tables[1].G
         arrays = dict(mass=model.mass, Jl=model.inertia, Jl_inv=model.inertia_inverse,
-                      weight=model.mass[:, None] * model.gravity[None, :])
+                      weight=model.mass[:, None] * model.gravity[None, :],
+                      fs_i=Gf.s_i, fs_j=Gf.s_j, fR_i=Gf.R_i, fR_j=Gf.R_j, fparam=Gf.param)
         for name, off, shape in self._slots:
             value = arrays.get(name)
             if value is None:
