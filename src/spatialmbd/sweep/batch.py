@@ -66,27 +66,41 @@ def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
         outputs_at(t_out, Y[b], Yd[b], Lam[b], F[b], I, W[b], mp, nb, lam_off, m)
 
 
-@njit
+@njit(parallel=True)
 def integrate_batch(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
                     max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail,
                     counters):
     """Every member b: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n), then
     (with_outputs) vdot into Yd[b] (nt, 6 nb) and lambda into Lam[b] (nt, m). status[b]: 0 or
-    a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected)."""
-    for b in range(Y0.shape[0]):
-        _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
-                max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
-
-
-@njit(parallel=True)
-def integrate_batch_threads(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
-                            max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status,
-                            t_fail, counters):
-    """:func:`integrate_batch` with the members spread over Numba's threads (each member has
-    its own F, W, state and outputs; I is read only)."""
+    a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected). The members
+    are spread over Numba's threads (each has its own F, W, state and outputs; I is read
+    only); one kernel serves both ways, :func:`_threads` sets how many."""
     for b in prange(Y0.shape[0]):
         _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
                 max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
+
+
+class _threads:
+    """Numba's threads for the calls inside: all (True) or one (False)."""
+
+    def __init__(self, use_all: bool):
+        self.use_all = use_all
+
+    def __enter__(self):
+        try:
+            import numba
+            self._before = numba.get_num_threads()
+            if not self.use_all:
+                numba.set_num_threads(1)
+        except (ImportError, AttributeError):       # pragma: no cover - without Numba
+            self._before = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._before is not None:
+            import numba
+            numba.set_num_threads(self._before)
+        return False
 
 
 # ------------------------------------------------------------------------------ Python side
@@ -324,10 +338,10 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
     step = 1e-3 if analysis.step is None else float(analysis.step)
     start = time.perf_counter()
-    kernel = integrate_batch_threads if threads else integrate_batch
-    kernel(Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol, atol,
-           max_step, step, max_steps, nb, setup.lam_off, m, bool(with_outputs), Y, Yd, Lam,
-           status, t_fail, counters)
+    with _threads(threads):
+        integrate_batch(Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol,
+                        atol, max_step, step, max_steps, nb, setup.lam_off, m,
+                        bool(with_outputs), Y, Yd, Lam, status, t_fail, counters)
     wall = time.perf_counter() - start
     out = []
     for b, model in enumerate(models):
