@@ -12,7 +12,7 @@
 3. Batches of one topology: the same members by engine="batch" (one compiled call per chunk)
    and engine="simulate" (one simulate() per member), both serial, for the pendulum and the
    free slider-crank (rod mass and initial crank speed varied); also the batch with its
-   members spread over Numba's threads (batch_options={"threads": True}, the default of the
+   members spread over threads, one per core (batch_options={"threads": True}, the default of the
    serial scheduler on several cores). Target: >= 10x.
 
 The machine is shared (2 cores, other jobs running): the load average is recorded with the
@@ -163,12 +163,12 @@ def main():
         f"| {bp['members']}-member pendulum: simulate / batch on one core | "
         f"{bp['simulate_s']:.2f} s / {bp['batch_s']:.2f} s = {bp['ratio']:.1f}x (max diff "
         f"{bp['max_abs_difference']:.1e}) | >= 10x |",
-        f"| same, batch on Numba's threads (the default) | {bp['batch_threads_s']:.2f} s = "
+        f"| same, batch on threads, one per core (the default) | {bp['batch_threads_s']:.2f} s = "
         f"{bp['ratio_threads']:.1f}x | >= 10x |",
         f"| {bs['members']}-member free slider-crank: simulate / batch on one core | "
         f"{bs['simulate_s']:.2f} s / {bs['batch_s']:.2f} s = {bs['ratio']:.1f}x (max diff "
         f"{bs['max_abs_difference']:.1e}) | >= 10x |",
-        f"| same, batch on Numba's threads (the default) | {bs['batch_threads_s']:.2f} s = "
+        f"| same, batch on threads, one per core (the default) | {bs['batch_threads_s']:.2f} s = "
         f"{bs['ratio_threads']:.1f}x | >= 10x |",
         f"| load average before / after | {report['machine']['load_before']:.2f} / "
         f"{report['machine']['load_after']:.2f} ({report['machine']['cpus']} cores) | |",

@@ -25,7 +25,8 @@ Scope (checked, with a ModelError naming what is not supported): dynamic analyse
 squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
 fully compiled (every joint type and force element compiled), without drivers or
 time-dependent force laws (set from Python at every evaluation), contact elements (their
-impact memory is kept by events) or force-element states; no redundant constraints. Models outside it run through :func:`simulate` one by one
+impact memory is kept by events) or force-element states; no redundant constraints. Models
+outside it run through :func:`simulate` one by one
 (``engine="simulate"``).
 """
 from __future__ import annotations
@@ -41,11 +42,6 @@ from ..dynamics import system as cs
 from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, outputs_at, rk4_outputs
 from ..errors import ModelError
 from ..jit import njit
-
-try:
-    from numba import prange
-except ImportError:                    # pragma: no cover
-    prange = range
 
 __all__ = ["simulate_batch", "BatchSetup", "run_members_batched", "STATUS_TEXT"]
 
@@ -66,41 +62,35 @@ def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
         outputs_at(t_out, Y[b], Yd[b], Lam[b], F[b], I, W[b], mp, nb, lam_off, m)
 
 
-@njit(parallel=True)
-def integrate_batch(Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
+@njit(nogil=True)
+def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
                     max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail,
                     counters):
-    """Every member b: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n), then
-    (with_outputs) vdot into Yd[b] (nt, 6 nb) and lambda into Lam[b] (nt, m). status[b]: 0 or
-    a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected). The members
-    are spread over Numba's threads (each has its own F, W, state and outputs; I is read
-    only); one kernel serves both ways, :func:`_threads` sets how many."""
-    for b in prange(Y0.shape[0]):
+    """Members b0 <= b < b1: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n),
+    then (with_outputs) vdot into Yd[b] (nt, 6 nb) and lambda into Lam[b] (nt, m). status[b]:
+    0 or a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected). Without
+    the GIL: ranges of members run in threads at once (each member has its own F, W, state
+    and outputs; I is read only)."""
+    for b in range(b0, b1):
         _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
                 max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
 
 
-class _threads:
-    """Numba's threads for the calls inside: all (True) or one (False)."""
-
-    def __init__(self, use_all: bool):
-        self.use_all = use_all
-
-    def __enter__(self):
-        try:
-            import numba
-            self._before = numba.get_num_threads()
-            if not self.use_all:
-                numba.set_num_threads(1)
-        except (ImportError, AttributeError):       # pragma: no cover - without Numba
-            self._before = None
-        return self
-
-    def __exit__(self, *exc):
-        if self._before is not None:
-            import numba
-            numba.set_num_threads(self._before)
-        return False
+def _run_members(args, B: int, threads: bool) -> None:
+    """integrate_batch over all B members: in one call, or (threads) in ranges of members
+    handed to one thread per core as each finishes its previous range."""
+    import os
+    cores = os.cpu_count() or 1
+    if not threads or cores < 2 or B < 2:
+        integrate_batch(0, B, *args)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+    size = max(1, B // (8 * cores))                  # small ranges: members differ in cost
+    with ThreadPoolExecutor(max_workers=min(cores, B)) as pool:
+        futures = [pool.submit(integrate_batch, b0, min(B, b0 + size), *args)
+                   for b0 in range(0, B, size)]
+        for f in futures:
+            f.result()
 
 
 # ------------------------------------------------------------------------------ Python side
@@ -301,7 +291,8 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
     rtol/atol/max_step or rk4 with step). Returns one :class:`BatchMember` per model (arrays
     shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
     accelerations: also evaluate vdot and lambda at the output times (one more right-hand
-    side per output; False leaves them NaN). threads: spread the members over Numba's threads.
+    side per output; False leaves them NaN). threads: spread the members over one thread per
+    core (the compiled loop releases the GIL).
     """
     from ..simulate import output_times
     from ..io.modelfile import Analysis
@@ -338,10 +329,9 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
     step = 1e-3 if analysis.step is None else float(analysis.step)
     start = time.perf_counter()
-    with _threads(threads):
-        integrate_batch(Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol,
-                        atol, max_step, step, max_steps, nb, setup.lam_off, m,
-                        bool(with_outputs), Y, Yd, Lam, status, t_fail, counters)
+    _run_members((Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol,
+                  atol, max_step, step, max_steps, nb, setup.lam_off, m, bool(with_outputs),
+                  Y, Yd, Lam, status, t_fail, counters), B, threads)
     wall = time.perf_counter() - start
     out = []
     for b, model in enumerate(models):

@@ -245,7 +245,7 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
     chunk_size: members per task (default: about two tasks per worker, at most 64 members
         with the simulate engine, 1024 with the batch engine).
     batch_options: options of the batch engine: ``threads`` (True: a chunk's members spread
-        over Numba's threads; default True with the serial scheduler on a machine of several
+        over one thread per core; default True with the serial scheduler on a machine of several
         cores, False under Dask or processes, whose workers are one process per core),
         ``max_steps`` (per member, default 10 000 000).
     progress: a progress bar (default: when stderr is a terminal).
@@ -260,7 +260,7 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
     kind = _scheduler_kind(scheduler, n)
     batch_options = dict(batch_options or {})
     if engine == "batch" and "threads" not in batch_options:
-        # serial: a chunk's members spread over the cores (Numba's threads); under Dask or
+        # serial: a chunk's members spread over the cores (threads); under Dask or
         # processes every worker is already one process per core
         batch_options["threads"] = kind == "serial" and (os.cpu_count() or 1) > 1
     job = _make_job(model, space, outs, analysis, engine, batch_options)
