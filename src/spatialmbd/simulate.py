@@ -352,20 +352,23 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     pp = np.array([1.0 if meth.projects else 0.0, float(getattr(meth, "tolerance", 0.0)),
                    float(getattr(meth, "max_iterations", 0))])
 
-    def accelerations(times, states):
-        vdot, lam = np.empty((len(times), 6 * nb)), np.empty((len(times), m))
-        fz.outputs_at(times, states, vdot, lam, F, I, W, mp, nb, lam_off, m)
-        return vdot.reshape(len(times), nb, 6), lam
-
     start = time.perf_counter()
     y = project(t0, np.array(y0, dtype=float))          # as Integrator.integrate does first
     nt, n = t_out.size, y.size
     streaming = emit is not None and chunk > 0
-    Y = np.empty((min(nt, 2 * chunk) if streaming else nt, n))   # rows k_base, k_base + 1..
+    rows = min(nt, 2 * chunk) if streaming else nt
+    # the window of outputs k_base, k_base + 1, ...: states, vdot, lambda
+    Y, Yd, Lam = np.empty((rows, n)), np.empty((rows, 6 * nb)), np.empty((rows, m))
     k_base = 0
     counters = np.zeros(3, dtype=np.int64)              # nfev, steps, rejected
     done, code, status, message = 0, fz.OK, "success", ""
     slice_steps = FUSED_FIRST_SLICE
+
+    def window(k0, k1):
+        """Outputs k0..k1-1 of the window: (times, states, (vdot, lam)), copies."""
+        a, b = k0 - k_base, k1 - k_base
+        return (t_out[k0:k1], Y[a:b].copy(),
+                (Yd[a:b].reshape(b - a, nb, 6).copy(), Lam[a:b].copy()))
 
     def next_slice(t, began, steps_before):
         """After a call: progress, and the steps of the next call (about the target time)."""
@@ -379,37 +382,33 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
 
     def flush(need_room):
         """Hand full chunks to emit and slide the window; grow it if it is still full."""
-        nonlocal Y, k_base
+        nonlocal Y, Yd, Lam, k_base
         emitted = False
         while streaming and done - k_base >= chunk:
-            times = t_out[k_base:k_base + chunk]
-            states = Y[:chunk].copy()
-            emit(times, states, accelerations(times, states))
-            Y[:done - k_base - chunk] = Y[chunk:done - k_base]
+            emit(*window(k_base, k_base + chunk))
+            rest = done - k_base - chunk
+            for arr in (Y, Yd, Lam):
+                arr[:rest] = arr[chunk:chunk + rest]
             k_base += chunk
             emitted = True
         if need_room and not emitted:       # one step with more outputs than the window
-            Y = np.concatenate([Y, np.empty_like(Y)])
+            Y, Yd, Lam = (np.concatenate([arr, np.empty_like(arr)]) for arr in (Y, Yd, Lam))
 
     try:
         if type(integ) is DormandPrince45:
-            if t_out[0] == t0:
-                Y[0] = y
-                done = 1
-            if done < nt:
-                K0 = np.empty(n)
-                rtol, atol = float(integ.rtol), float(integ.atol)
-                max_step = float(integ.max_step)
-                code, h = fz.dopri_start(t0, y, K0, F, I, W, mp, rtol, atol, max_step,
-                                         float(t_out[-1] - t0), counters)
-                t, err_prev = t0, 1e-4
-                while code in (fz.OK, fz.NEED_ROOM) and t < t_out[-1]:
-                    began, before = time.perf_counter(), int(counters[1])
-                    code, t, h, err_prev, done = fz.dopri_steps(
-                        t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, done, k_base,
-                        rtol, atol, max_step, slice_steps, nb, Y, counters)
-                    flush(code == fz.NEED_ROOM)
-                    next_slice(t, began, before)
+            K0 = np.empty(n)
+            rtol, atol = float(integ.rtol), float(integ.atol)
+            max_step = float(integ.max_step)
+            t, h, err_prev = t0, 0.0, 1e-4              # h = 0: the first call starts the run
+            while code in (fz.OK, fz.NEED_ROOM) and (h == 0.0 or t < t_out[-1]):
+                began, before = time.perf_counter(), int(counters[1])
+                code, t, h, err_prev, done = fz.dopri_steps(
+                    t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, done, k_base, rtol,
+                    atol, max_step, slice_steps, nb, Y, Yd, Lam, lam_off, counters)
+                flush(code == fz.NEED_ROOM)
+                next_slice(t, began, before)
+                if h == 0.0 and code == fz.OK:          # only outputs at t0, nothing to step
+                    break
         else:                                            # RungeKutta4
             h = float(integ.step)
             per_output = max(1.0, (t_out[-1] - t0) / max(1, nt - 1) / h)   # steps
@@ -421,7 +420,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
                 k1 = min(nt, done + slice_outputs)
                 began, before = time.perf_counter(), int(counters[1])
                 code, t = fz.rk4_outputs(t, y, F, I, W, mp, pp, t_out, done, k1, k_base, h,
-                                         nb, Y, counters)
+                                         nb, Y, Yd, Lam, lam_off, counters)
                 if code == fz.OK:
                     done = k1
                     flush(False)
@@ -436,8 +435,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
             return None                # nothing handed out yet: the Python driver reruns it
         # streamed chunks cannot be taken back: the run stops here, as failed
         status, message = "failed", fz.STATUS_TEXT[code]
-    times, states = t_out[k_base:done], Y[:done - k_base].copy()
-    acc = accelerations(times, states)
+    times, states, acc = window(k_base, done)
     wall = time.perf_counter() - start
     t_fail = None
     if status != "success":

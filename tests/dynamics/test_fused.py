@@ -76,9 +76,11 @@ def test_ctrl_c_between_slices_keeps_the_outputs(monkeypatch):
 
 def test_failed_compiled_run_is_rerun_by_the_python_driver(monkeypatch):
     """A run the compiled driver cannot finish goes through the Python driver, which gives
-    its status and message (here a forced failure of the compiled start)."""
+    its status and message (here a forced failure of the compiled driver's first call)."""
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
-    monkeypatch.setattr(fused, "dopri_start", lambda *a: (fused.RHS_FAILED, 0.0))
+    # (status, t, h, err_prev, k_out) of a first call that failed
+    monkeypatch.setattr(fused, "dopri_steps", lambda *a: (fused.RHS_FAILED, a[0], 0.0, a[4],
+                                                          a[12]))
     res = sim.simulate(model, 0.5)
     sim.FUSED_RUNS = False
     try:

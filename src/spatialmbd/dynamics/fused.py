@@ -13,8 +13,9 @@ the same arithmetic:
   onto Phi = 0 and D v = nu, and the FSAL derivative re-evaluated);
 * :func:`rk4_outputs`: classic RK4 with step h, landing on every output time as
   :class:`..integrators.fixed_step.RungeKutta4` does;
-* :func:`outputs_at`: vdot and lambda at the output states (what
-  :meth:`..results.Results.from_integration` evaluates).
+* at every output the state and (optionally) vdot and lambda there (what
+  :meth:`..results.Results.from_integration` evaluates), written as the output is reached:
+  one compiled entry per driver, since each entry compiles the whole right-hand side again.
 
 Both drivers are resumable: :func:`dopri_steps` returns after ``max_steps`` accepted steps with
 its whole state in its arguments and return values, so a caller can run a long simulation in
@@ -40,7 +41,7 @@ from .standard import rhs_standard, stages_standard
 
 __all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "STATUS_TEXT", "dopri_start", "dopri_steps", "rk4_outputs",
-           "outputs_at", "project_state", "dopri_run"]
+           "project_state", "dopri_run"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -79,23 +80,24 @@ def _finite(y):
 
 
 @njit
-def outputs_at(t_out, Y, Yd, Lam, F, I, W, mp, nb, lam_off, m):
-    """vdot (into Yd (nt, 6 nb)) and lambda (into Lam (nt, m)) at every output state Y[k];
-    NaN rows where the right-hand side fails."""
-    n = Y.shape[1]
-    ydot = np.empty(n)
-    for k in range(t_out.size):
-        code = rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp)
-        if code < 0:
-            for j in range(6 * nb):
-                Yd[k, j] = np.nan
-            for j in range(m):
-                Lam[k, j] = np.nan
-            continue
+def _output_row(t, Y, Yd, Lam, row, y, F, I, W, mp, nb, lam_off, ydot):
+    """Y[row] = y, and with Yd, Lam of as many rows as Y (else of none): vdot and lambda at
+    it (NaN where the right-hand side fails) -- what Results.from_integration evaluates."""
+    for i in range(y.size):
+        Y[row, i] = y[i]
+    if Yd.shape[0] == 0:
+        return
+    m = Lam.shape[1]
+    if rhs_standard(t, Y[row], ydot, F, I, W, mp) < 0:
         for j in range(6 * nb):
-            Yd[k, j] = ydot[7 * nb + j]
+            Yd[row, j] = np.nan
         for j in range(m):
-            Lam[k, j] = W[lam_off + j]
+            Lam[row, j] = np.nan
+        return
+    for j in range(6 * nb):
+        Yd[row, j] = ydot[7 * nb + j]
+    for j in range(m):
+        Lam[row, j] = W[lam_off + j]
 
 
 @njit
@@ -147,14 +149,30 @@ def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
 
 @njit
 def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base, rtol,
-                atol, max_step, max_steps, nb, Y, counters):
+                atol, max_step, max_steps, nb, Y, Yd, Lam, lam_off, counters):
     """Up to ``max_steps`` accepted Dormand-Prince steps from (t, y) with FSAL derivative K0
     and proposed step h (in place on y and K0), every output time t_out[k_out:] reached
-    written into Y[k - k_base] (projected as simulate() does). Returns (status, t, h,
-    err_prev, k_out): call again with them to continue (t == t_out[-1]: done). Status
-    NEED_ROOM: the next step's outputs do not fit in Y; nothing of that step is kept (state
-    and counters as before it). counters: (nfev, steps, rejected), accumulated."""
+    written into Y[k - k_base] (projected as simulate() does) and, when Yd and Lam have rows,
+    vdot and lambda there. The first call passes h = 0: the output at t (if t_out[k_out] ==
+    t), K0 = f(t, y) and the starting step come first. Returns (status, t, h, err_prev,
+    k_out): call again with them to continue (t == t_out[-1]: done). Status NEED_ROOM: the
+    next step's outputs do not fit in Y; nothing of that step is kept (state and counters as
+    before it). counters: (nfev, steps, rejected), accumulated."""
     n = y.size
+    ydot = np.empty(n)
+    t_end = t_out[-1]
+    if h <= 0.0:                                     # the first call of a run
+        if k_out < t_out.size and t_out[k_out] == t:
+            if k_out - k_base >= Y.shape[0]:
+                return NEED_ROOM, t, h, err_prev, k_out
+            _output_row(t, Y, Yd, Lam, k_out - k_base, y, F, I, W, mp, nb, lam_off, ydot)
+            k_out += 1
+        if t >= t_end:
+            return OK, t, h, err_prev, k_out
+        code, h = dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, t_end - t0,
+                              counters)
+        if code != OK:
+            return code, t, h, err_prev, k_out
     K = np.empty((7, n))
     for i in range(n):
         K[0, i] = K0[i]
@@ -165,7 +183,6 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
     atol_v = np.full(n, atol)
     Kd = np.empty((7, n))
     dx = np.zeros(6 * nb)
-    t_end = t_out[-1]
     span = t_end - t0
     nt = t_out.size
     k_inv = 1.0 / 5.0
@@ -235,14 +252,12 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             to = t_out[k_out]
             row = k_out - k_base
             if to == t_new:
-                for i in range(n):
-                    Y[row, i] = y_new[i]
+                _output_row(to, Y, Yd, Lam, row, y_new, F, I, W, mp, nb, lam_off, ydot)
             else:
                 dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
                 if not project_state(to, yo, F, I, W, pp, nb, dx):
                     return NOT_PROJECTED, to, h, err_prev, k_out
-                for i in range(n):
-                    Y[row, i] = yo[i]
+                _output_row(to, Y, Yd, Lam, row, yo, F, I, W, mp, nb, lam_off, ydot)
             k_out += 1
         for i in range(n):
             K[0, i] = K[6, i]
@@ -257,10 +272,13 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
 
 
 @njit
-def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, counters):
+def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, Yd, Lam, lam_off,
+                counters):
     """Classic RK4 with step h from (t, y) (in place on y) through the output times
-    t_out[k0:k1], landing on each (its states into Y[k - k_base]). Returns (status, t)."""
+    t_out[k0:k1], landing on each (its states into Y[k - k_base], and vdot, lambda into Yd,
+    Lam when they have rows). Returns (status, t)."""
     n = y.size
+    ydot = np.empty(n)
     k1v = np.empty(n)
     k2 = np.empty(n)
     k3 = np.empty(n)
@@ -299,32 +317,21 @@ def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, counters
                 t = t_new
                 counters[0] += 4
                 counters[1] += 1
-        for j in range(n):
-            Y[ko - k_base, j] = y[j]
+        _output_row(to, Y, Yd, Lam, ko - k_base, y, F, I, W, mp, nb, lam_off, ydot)
     return OK, t
 
 
 @njit
-def dopri_run(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y,
-              counters):
-    """A whole Dormand-Prince run from (t0, y0) through t_out (outputs into Y (nt, n)), at most
-    max_steps accepted steps. Returns (status, t)."""
+def dopri_run(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y, Yd, Lam,
+              lam_off, counters):
+    """A whole Dormand-Prince run from (t0, y0) through t_out (outputs into Y (nt, n), and
+    vdot, lambda into Yd, Lam when they have rows), at most max_steps accepted steps. Returns
+    (status, t)."""
     y = y0.copy()
     K0 = np.empty(y.size)
-    k_out = 0
-    if t_out[0] == t0:
-        for i in range(y.size):
-            Y[0, i] = y[i]
-        k_out = 1
-    if k_out == t_out.size:
-        return OK, t0
-    code, h = dopri_start(t0, y, K0, F, I, W, mp, rtol, atol, max_step, t_out[-1] - t0,
-                          counters)
-    if code != OK:
-        return code, t0
-    code, t, h, err_prev, k_out = dopri_steps(t0, y, K0, h, 1e-4, F, I, W, mp, pp, t0, t_out,
-                                              k_out, 0, rtol, atol, max_step, max_steps, nb,
-                                              Y, counters)
+    code, t, h, err_prev, k_out = dopri_steps(t0, y, K0, 0.0, 1e-4, F, I, W, mp, pp, t0, t_out,
+                                              0, 0, rtol, atol, max_step, max_steps, nb, Y,
+                                              Yd, Lam, lam_off, counters)
     if code == OK and t < t_out[-1]:
         return TOO_MANY_STEPS, t
     return code, t

@@ -39,7 +39,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..dynamics import system as cs
-from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, outputs_at, rk4_outputs
+from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, rk4_outputs
 from ..errors import ModelError
 from ..jit import njit
 
@@ -49,31 +49,29 @@ __all__ = ["simulate_batch", "BatchSetup", "run_members_batched", "STATUS_TEXT"]
 # ------------------------------------------------------------------------------ compiled part
 @njit
 def _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step, max_steps,
-            nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters):
+            nb, lam_off, Y, Yd, Lam, status, t_fail, counters):
+    """Member b; vdot and lambda at its outputs when Yd, Lam have rows (else none)."""
     if adaptive:
         code, tf = dopri_run(Y0[b], F[b], I, W[b], mp, pp, 0.0, t_out, rtol, atol, max_step,
-                             max_steps, nb, Y[b], counters[b])
+                             max_steps, nb, Y[b], Yd[b], Lam[b], lam_off, counters[b])
     else:
         code, tf = rk4_outputs(0.0, Y0[b].copy(), F[b], I, W[b], mp, pp, t_out, 0, t_out.size,
-                               0, step, nb, Y[b], counters[b])
+                               0, step, nb, Y[b], Yd[b], Lam[b], lam_off, counters[b])
     status[b] = code
     t_fail[b] = tf
-    if code == OK and with_outputs:
-        outputs_at(t_out, Y[b], Yd[b], Lam[b], F[b], I, W[b], mp, nb, lam_off, m)
 
 
 @njit(nogil=True)
 def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
-                    max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail,
-                    counters):
-    """Members b0 <= b < b1: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n),
-    then (with_outputs) vdot into Yd[b] (nt, 6 nb) and lambda into Lam[b] (nt, m). status[b]:
-    0 or a failure code (t_fail[b] the time); counters[b] = (nfev, steps, rejected). Without
-    the GIL: ranges of members run in threads at once (each member has its own F, W, state
-    and outputs; I is read only)."""
+                    max_steps, nb, lam_off, Y, Yd, Lam, status, t_fail, counters):
+    """Members b0 <= b < b1: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n)
+    and, when Yd and Lam have rows (nt each, else none), vdot into Yd[b] (nt, 6 nb) and
+    lambda into Lam[b] (nt, m). status[b]: 0 or a failure code (t_fail[b] the time);
+    counters[b] = (nfev, steps, rejected). Without the GIL: ranges of members run in threads
+    at once (each member has its own F, W, state and outputs; I is read only)."""
     for b in range(b0, b1):
         _member(b, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
-                max_steps, nb, lam_off, m, with_outputs, Y, Yd, Lam, status, t_fail, counters)
+                max_steps, nb, lam_off, Y, Yd, Lam, status, t_fail, counters)
 
 
 def _run_members(args, B: int, threads: bool) -> None:
@@ -318,8 +316,9 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     W = np.repeat(setup.system.W[None, :], B, axis=0)
     nt = t_out.size
     Y = np.zeros((B, nt, n))
-    Yd = np.zeros((B, nt, 6 * nb))
-    Lam = np.zeros((B, nt, m))
+    rows = nt if with_outputs else 0                # no rows: the drivers skip them
+    Yd = np.zeros((B, rows, 6 * nb))
+    Lam = np.zeros((B, rows, m))
     status = np.zeros(B, dtype=np.int64)
     t_fail = np.zeros(B)
     counters = np.zeros((B, 3), dtype=np.int64)
@@ -330,8 +329,8 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     step = 1e-3 if analysis.step is None else float(analysis.step)
     start = time.perf_counter()
     _run_members((Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol,
-                  atol, max_step, step, max_steps, nb, setup.lam_off, m, bool(with_outputs),
-                  Y, Yd, Lam, status, t_fail, counters), B, threads)
+                  atol, max_step, step, max_steps, nb, setup.lam_off, Y, Yd, Lam, status,
+                  t_fail, counters), B, threads)
     wall = time.perf_counter() - start
     out = []
     for b, model in enumerate(models):
