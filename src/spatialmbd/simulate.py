@@ -96,6 +96,9 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
         alpha, beta).
     integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "scipy-..." or an Integrator
         (step: fixed step size in s; rtol/atol for adaptive ones; integrator_options: others).
+        rk45 and rk4 runs of a fully compiled model with the standard, Baumgarte or projection
+        method go through the compiled drivers of :mod:`.dynamics.fused` (same steps and
+        results, no Python per step; docs/integrators.md).
     output_step / t_eval: the output times (dense output; default 500 intervals).
     q0, v0: initial state (nb, 7) and (nb, 6); default the model's. correct_initial: apply the
         chapter 14 corrections first (hold: coordinates kept fixed, {"body": ["x", ...]}).
