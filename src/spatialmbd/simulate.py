@@ -352,8 +352,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     F, I, W, mp = system.F, system.I, system.W, meth._mp
     nb, m = system.nb, system.model.n_eq
     lam_off = system._layout["lam"][0]
-    pp = np.array([1.0 if meth.projects else 0.0, float(getattr(meth, "tolerance", 0.0)),
-                   float(getattr(meth, "max_iterations", 0))])
+    pp = fz.projection_params(meth)
 
     start = time.perf_counter()
     y = project(t0, np.array(y0, dtype=float))          # as Integrator.integrate does first

@@ -41,7 +41,7 @@ from .standard import rhs_standard, stages_standard
 
 __all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "STATUS_TEXT", "dopri_start", "dopri_steps", "rk4_outputs",
-           "project_state", "dopri_run"]
+           "project_state", "projection_params", "dopri_run"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -98,6 +98,12 @@ def _output_row(t, Y, Yd, Lam, row, y, F, I, W, mp, nb, lam_off, ydot):
         Yd[row, j] = ydot[7 * nb + j]
     for j in range(m):
         Lam[row, j] = W[lam_off + j]
+
+
+def projection_params(meth) -> np.ndarray:
+    """pp of :func:`project_state` for a method: [projects, tolerance, max_iterations]."""
+    return np.array([1.0 if meth.projects else 0.0, float(getattr(meth, "tolerance", 0.0)),
+                     float(getattr(meth, "max_iterations", 0))])
 
 
 @njit

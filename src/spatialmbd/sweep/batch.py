@@ -39,7 +39,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..dynamics import system as cs
-from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, rk4_outputs
+from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, projection_params, rk4_outputs
 from ..errors import ModelError
 from ..jit import njit
 
@@ -138,10 +138,7 @@ class BatchSetup:
                                  "constraints; use engine='simulate'")
         meth.setup(self.eom, None)
         self.mp = np.asarray(meth.params(), dtype=float)
-        projects = meth.name == "projection"
-        self.pp = np.array([1.0 if projects else 0.0,
-                            float(getattr(meth, "tolerance", 0.0)),
-                            float(getattr(meth, "max_iterations", 0))])
+        self.pp = projection_params(meth)
         self.method = meth
         self.model = model
         self.nb = model.nb
