@@ -165,6 +165,17 @@ def test_batch_equals_separate_runs_slider_crank(integrator, method):
         simulate_batch([base.compile() if False else slider_crank(driven=True).compile()], an)
 
 
+def _batch_equals_simulate(model, params, outs, analysis, distinct, rtol):
+    """Every member succeeds, the members differ (``distinct`` values of the first output)
+    and the batch engine's outputs equal the simulate engine's."""
+    a = sweep(model, params, outs, analysis, engine="simulate")
+    b = sweep(model, params, outs, analysis, engine="batch")
+    assert (b["status"] == "success").all()
+    assert len(set(np.round(b[outs[0]].values.ravel(), 9))) == distinct
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=rtol, atol=1e-12)
+
+
 def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
     params = {"bodies.pendulum.mass": [2.0, -3.0, 7.0]}
     analysis = dict(type="dynamic", t_end=1.0, output_step=0.05,
@@ -178,24 +189,14 @@ def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
         np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
     # joint geometry (the packed frames of the revolute) and initial velocities reach the batch
     geo = {"joints.pivot.axis.1": [0.0, 0.2], "bodies.pendulum.angular_velocity.0": [0.0, 1.5]}
-    a = sweep(PENDULUM, geo, outs, analysis, engine="simulate")
-    b = sweep(PENDULUM, geo, outs, analysis, engine="batch")
-    assert (b["status"] == "success").all()
-    assert len(set(np.round(b["min(pendulum.z)"].values.ravel(), 9))) == 4
-    for o in outs:
-        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
+    _batch_equals_simulate(PENDULUM, geo, outs, analysis, distinct=4, rtol=1e-12)
     # compiled force elements: their parameters are packed per member
-    flyball = EXAMPLES / "flyball_governor.yaml"
     springs = {"forces.spring_A.stiffness": [1e5, 4e5], "forces.spring_B.damping": [2e4, 5e4]}
     fly_an = dict(type="dynamic", t_end=0.02, output_step=0.005,
                   integrator=dict(name="rk45", rtol=1e-8, atol=1e-10))
-    fly_out = ["final(slider.z)", "min(rod_A.wz)", "final(rod_A.tip.x)"]
-    a = sweep(flyball, springs, fly_out, fly_an, engine="simulate")
-    b = sweep(flyball, springs, fly_out, fly_an, engine="batch")
-    assert (b["status"] == "success").all()
-    assert len(set(np.round(b["final(slider.z)"].values.ravel(), 12))) == 4
-    for o in fly_out:
-        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-10, atol=1e-12)
+    _batch_equals_simulate(EXAMPLES / "flyball_governor.yaml", springs,
+                           ["final(slider.z)", "min(rod_A.wz)", "final(rod_A.tip.x)"], fly_an,
+                           distinct=4, rtol=1e-10)
     # what the batch cannot integrate is a failed member naming it, not an exception
     ball = EXAMPLES / "bouncing_ball.yaml"
     c = sweep(ball, {"bodies.ball.mass": [1.0]}, ["min(ball.z)"],
