@@ -7,6 +7,7 @@ Nothing here changes a value silently.
 """
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 import warnings
@@ -34,9 +35,12 @@ class PlausibilityWarning(UserWarning):
 
 
 # ---------------------------------------------------------------------------- names, options
-def _signature_options(cls) -> list:
-    return [k for k, p in inspect.signature(cls.__init__).parameters.items()
-            if k != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+@functools.lru_cache(maxsize=None)
+def _signature_options(cls) -> tuple:
+    """The keyword options of cls.__init__ (cached: inspect.signature is slow, and every
+    simulate() call checks its method's and integrator's options)."""
+    return tuple(k for k, p in inspect.signature(cls.__init__).parameters.items()
+                 if k != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))
 
 
 def check_options(kind: str, name: str, cls, options) -> dict:

@@ -716,11 +716,10 @@ def _guarded(rhs, stages, guard):
 
 def _make_integrator(integrator, options: dict):
     """get_integrator with a clear error for options the integrator does not take."""
-    import inspect
     from .integrators import INTEGRATORS, Integrator
     if isinstance(integrator, str) and integrator.lower() in INTEGRATORS and options:
         cls = INTEGRATORS[integrator.lower()]
-        accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
+        accepted = set(guards._signature_options(cls))
         wrong = sorted(set(options) - accepted, key=str)
         if wrong:
             from .suggest import closest_first, suggest
