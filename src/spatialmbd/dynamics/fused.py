@@ -5,7 +5,8 @@ The Python drivers of :mod:`..integrators` take one step per Python call; for a 
 right-hand side is fully compiled (``System.fused``) these loops take many steps per call, with
 the same arithmetic:
 
-* :func:`dopri_start` / :func:`dopri_steps`: Dormand-Prince 5(4) as
+* :func:`dopri_steps` (its first call starting the run with :func:`dopri_start`):
+  Dormand-Prince 5(4) as
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` with its default controller
   (Hairer's starting step, the PI controller with beta = 0.04, safety 0.9, factors 0.2..10,
   FSAL, Shampine's dense output), the state projected after every accepted step and at every
@@ -19,12 +20,13 @@ the same arithmetic:
 
 Both drivers are resumable: :func:`dopri_steps` returns after ``max_steps`` accepted steps with
 its whole state in its arguments and return values, so a caller can run a long simulation in
-slices and stay interruptible (Ctrl-C between slices) -- the slices give the step sequence of
-one uninterrupted call. :func:`..simulate.simulate` uses them for rk45 / rk4 runs without
-events, drivers, budgets or streaming; :mod:`..sweep.batch` for its members.
+slices and stay interruptible (Ctrl-C between slices, progress, streamed chunks) -- the slices
+give the step sequence of one uninterrupted call. :func:`..simulate.simulate` uses them for
+rk45 / rk4 runs without events, drivers, couplers or budgets; :mod:`..sweep.batch` for its
+members.
 
-Status codes: :data:`OK` or a failure (:data:`STATUS_TEXT`); a failed run is rerun by the
-Python driver in simulate(), which produces its diagnosis.
+Status codes: :data:`OK`, :data:`NEED_ROOM` or a failure (:data:`STATUS_TEXT`); a failed run
+is rerun by the Python driver in simulate(), which produces its diagnosis.
 """
 from __future__ import annotations
 
