@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from ..integrators.controller import end_step, landing_steps, landing_time, min_step_size
 from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
                                                 dopri_interpolate)
 from ..jit import njit
@@ -44,8 +45,6 @@ from .standard import rhs_standard, stages_standard
 __all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "STATUS_TEXT", "dopri_start", "dopri_steps", "rk4_outputs",
            "project_state", "projection_params", "dopri_run"]
-
-EPS = float(np.finfo(float).eps)
 
 #: status codes of the compiled drivers (OK, or why a run stopped)
 OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
@@ -198,10 +197,10 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
     after_reject = False
     steps = 0
     while t < t_end and steps < max_steps:
-        h_min = 16.0 * EPS * max(abs(t), abs(span))
+        h_min = min_step_size(t, span, 0.0)
         h_start, c0, c2 = h, counters[0], counters[2]
         while True:
-            hs = t_end - t if t + 1.01 * h >= t_end else h
+            hs = end_step(t, h, t_end)
             if hs < h_min:
                 return UNDERFLOW, t, h, err_prev, k_out
             t_new = t_end if hs == t_end - t else t + hs
@@ -296,10 +295,10 @@ def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, Yd, Lam,
     for ko in range(k0, k1):
         to = t_out[ko]
         if to > t:
-            m = max(1, math.ceil((to - t) / h - 1e-9))
+            m = landing_steps(t, to, h)
             t_start = t
             for i in range(1, m + 1):
-                t_new = to if i == m else t_start + i * h
+                t_new = landing_time(t_start, to, h, i)
                 hh = t_new - t
                 half = 0.5 * hh
                 if rhs_standard(t, y, k1v, F, I, W, mp) < 0:

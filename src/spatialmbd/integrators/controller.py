@@ -24,6 +24,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import SimulationError
+from ..jit import njit
 from .base import check_finite
 
 EPS = float(np.finfo(float).eps)
@@ -112,11 +113,15 @@ def newton_error(name: str, t: float, h: float, cause: str) -> SimulationError:
     return err
 
 
+# The rules below are shared by the Python driver and the compiled drivers of
+# ``dynamics.fused`` (compiled, callable from both), so both take the same steps.
+@njit
 def min_step_size(t: float, span: float, min_step: float) -> float:
     """Smallest admissible step near time t: max(min_step, 16 eps max(|t|, |span|))."""
     return max(min_step, 16.0 * EPS * max(abs(t), abs(span)))
 
 
+@njit
 def end_step(t: float, h: float, t_end: float) -> float:
     """Step from t of nominal size h, lengthened by at most 1 % or shortened to land on t_end.
 
@@ -125,6 +130,19 @@ def end_step(t: float, h: float, t_end: float) -> float:
     if t + 1.01 * h >= t_end:
         return t_end - t
     return h
+
+
+@njit
+def landing_steps(anchor: float, target: float, h: float) -> int:
+    """Number of fixed steps of size h from anchor to the output time target, the last one
+    landing on it (shortened, or lengthened by less than 1e-9 h)."""
+    return max(1, math.ceil((target - anchor) / h - 1e-9))
+
+
+@njit
+def landing_time(anchor: float, target: float, h: float, i: int) -> float:
+    """End of the i-th (from 1) of those steps: anchor + i h, the last one target itself."""
+    return target if i >= landing_steps(anchor, target, h) else anchor + i * h
 
 
 # ----------------------------------------------------------------------------- initial step

@@ -41,7 +41,8 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from ..errors import SimulationError
-from .controller import EPS, end_step, min_step_size, raise_if_nonfinite, underflow_error
+from .controller import (EPS, end_step, landing_time, min_step_size, raise_if_nonfinite,
+                         underflow_error)
 
 
 # ----------------------------------------------------------------------------- step contract
@@ -256,9 +257,8 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             else:
                 if land:
                     t_target = touts[k_out] if k_out < n_out else t_end
-                    m = max(1, math.ceil((t_target - anchor) / h - 1e-9))
                     n_anchor += 1
-                    t_new = t_target if n_anchor >= m else anchor + n_anchor * h
+                    t_new = landing_time(anchor, t_target, h, n_anchor)
                 else:
                     hs = end_step(t, h, t_end)
                     if adaptive and hs < min_step_size(t, span, min_step):

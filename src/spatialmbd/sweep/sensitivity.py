@@ -34,6 +34,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..errors import ModelError
+from ..integrators.controller import landing_steps, landing_time
 from .core import SUCCESS, _make_job, sweep
 from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs
 from .params import ParameterSpace, get_path, points
@@ -265,10 +266,10 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     t, y, S = 0.0, y0.copy(), S0.copy()
     for ko, to in enumerate(t_out.tolist()):
         if to > t:
-            msteps = max(1, math.ceil((to - t) / h - 1e-9))
+            msteps = landing_steps(t, to, h)
             t_start = t
             for i in range(1, msteps + 1):
-                t_new = to if i == msteps else t_start + i * h
+                t_new = landing_time(t_start, to, h, i)
                 hh = t_new - t
                 k1, l1 = g(t, y, S)
                 k2, l2 = g(t + hh / 2, y + hh / 2 * k1, S + hh / 2 * l1)
