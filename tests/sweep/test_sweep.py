@@ -8,9 +8,9 @@ import pytest
 from spatialmbd import ModelBuilder
 from spatialmbd.errors import ModelError
 from spatialmbd.models import slider_crank
-from spatialmbd.sweep import (forward_sensitivities, grid, latin_hypercube, parse_range, period,
-                              points, save_result, sensitivities, set_path, get_path, sweep,
-                              to_dataframe)
+from spatialmbd.sweep import (QUIET_WORKERS, forward_sensitivities, get_path, grid,
+                              latin_hypercube, local_cluster, parse_range, period, points,
+                              save_result, sensitivities, set_path, sweep, to_dataframe)
 
 xr = pytest.importorskip("xarray")
 
@@ -113,10 +113,13 @@ def test_schedulers_give_identical_ordered_results_and_failures_are_recorded():
     kw = dict(chunk_size=2, progress=False)
     serial = sweep(PENDULUM, params, outs, scheduler="serial", **kw)
     procs = sweep(PENDULUM, params, outs, scheduler="processes", workers=2, **kw)
-    from distributed import Client, LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+    import dask as dask_
+    with local_cluster(2) as client:
         dask = sweep(PENDULUM, params, outs, scheduler=client, **kw)
+        # the workers run with the compute-bound settings (no profiler sampling the task)
+        conf = client.run(lambda: [dask_.config.get(k) for k in QUIET_WORKERS])
+        assert list(conf.values()) == [list(QUIET_WORKERS.values())] * 2
+    assert client.status == "closed"
     status = serial["status"].values.tolist()
     assert status == ["success", "success", "failed", "success", "success", "failed"]
     assert "bodies[0].mass: must be positive" in str(serial["message"].values[2])

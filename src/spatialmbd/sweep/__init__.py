@@ -9,7 +9,7 @@ member; :func:`sensitivities` differentiates outputs with respect to parameters 
 differences checked by Richardson extrapolation); :mod:`.batch` integrates many members of one
 topology in one compiled call. Dask and xarray come with ``pip install 'spatialmbd[dask]'``.
 """
-from .core import SweepJob, run_chunk, save_result, sweep, to_dataframe
+from .core import QUIET_WORKERS, SweepJob, local_cluster, run_chunk, save_result, sweep, to_dataframe
 from .outputs import REDUCTIONS, Output, parse_outputs, period
 from .params import (ParameterSpace, as_space, get_path, grid, latin_hypercube, parse_range,
                      points, set_path)
@@ -19,7 +19,7 @@ __all__ = ["sweep", "grid", "points", "latin_hypercube", "ParameterSpace", "pars
            "as_space",
            "Output", "parse_outputs", "period", "REDUCTIONS", "set_path", "get_path",
            "save_result", "to_dataframe", "SweepJob", "run_chunk", "sensitivities",
-           "forward_sensitivities", "simulate_batch"]
+           "forward_sensitivities", "simulate_batch", "local_cluster", "QUIET_WORKERS"]
 
 
 def __getattr__(name):
