@@ -154,26 +154,28 @@ class Results:
         """JointReaction of every joint and driver, by name (from D^T lam, Eq. 10.10)."""
         model = self.model
         names = list(model.body_names) + ["ground"]
-        nt = len(self.t)
+        nt, nb = len(self.t), model.nb
+        groups = list(zip(model.constraint_groups, model.group_offsets))
+        gens = [np.zeros((nt, g.n, 12)) for g, _ in groups]
+        for a, b, D, _, _ in self._constraint_rows():
+            lam = self.lam[a:b]
+            for (g, off), gen in zip(groups, gens):        # D^T lam per instance (n, 12)
+                Dg = D[:, off:off + g.size].reshape(b - a, g.n, g.n_eq, 12)
+                gen[a:b] = np.einsum("tnmc,tnm->tnc", Dg,
+                                     lam[:, off:off + g.size].reshape(b - a, g.n, g.n_eq))
+        # body rotations at every output, the ground (index nb) the identity
+        A = np.empty((nt, nb + 1, 3, 3))
+        A[:, :nb] = _rotations(self.q[:, :, 3:])
+        A[:, nb] = np.eye(3)
         out = {}
-        for gi, (g, off) in enumerate(zip(model.constraint_groups, model.group_offsets)):
-            Fi = np.zeros((nt, g.n, 6))
-            Fj = np.zeros((nt, g.n, 6))
-            Pi = np.zeros((nt, g.n, 3))
-            Pj = np.zeros((nt, g.n, 3))
-            Ti = np.zeros((nt, g.n, 3, 3))
-            for k, state in enumerate(self.states()):
-                ev = g.evaluate(state, self.t[k])
-                lam = self.lam[k, off:off + g.size].reshape(g.n, g.n_eq)
-                gen = np.einsum("nmc,nm->nc", ev.D, lam)        # D^T lam per instance (n, 12)
-                Fi[k], Fj[k] = gen[:, :6], gen[:, 6:]
-                Pi[k] = np.einsum("nij,nj->ni", state.A[g.body_i], g.geometry.s_i)
-                Pj[k] = np.einsum("nij,nj->ni", state.A[g.body_j], g.geometry.s_j)
-                Ti[k] = state.A[g.body_i] @ g.geometry.R_i
+        for (g, off), gen in zip(groups, gens):
+            Pi = np.einsum("tnij,nj->tni", A[:, g.body_i], g.geometry.s_i)
+            Pj = np.einsum("tnij,nj->tni", A[:, g.body_j], g.geometry.s_j)
+            Ti = np.einsum("tnij,njk->tnik", A[:, g.body_i], g.geometry.R_i)
             for n, name in enumerate(g.names):
-                fi, fj = Fi[:, n, :3], Fj[:, n, :3]
-                mi = Fi[:, n, 3:] - np.cross(Pi[:, n], fi)      # moment about the joint point
-                mj = Fj[:, n, 3:] - np.cross(Pj[:, n], fj)
+                fi, fj = gen[:, n, :3], gen[:, n, 6:9]
+                mi = gen[:, n, 3:6] - np.cross(Pi[:, n], fi)    # moment about the joint point
+                mj = gen[:, n, 9:12] - np.cross(Pj[:, n], fj)
                 T = Ti[:, n]
                 to_joint = lambda x: np.einsum("nji,nj->ni", T, x)  # noqa: E731
                 out[name] = JointReaction(
@@ -183,6 +185,32 @@ class Results:
                     force_j_joint=to_joint(fj), moment_j_joint=to_joint(mj),
                     unique=name not in self.redundant_joints)
         return out
+
+    #: output rows per block of :meth:`_constraint_rows` (its D block is rows x m x 12 floats)
+    _ROWS_PER_BLOCK = 2048
+
+    def _constraint_rows(self):
+        """(a, b, D, phi, nu) blocks of the outputs a:b: the constraint Jacobian rows
+        (rows, m, 12), Phi and nu (rows, m), evaluated by the compiled System, one call per
+        output (the Python constraint groups and the drivers' laws included, as in the run)."""
+        from .dynamics.system import System
+        model = self.model
+        nt, nb, m = len(self.t), model.nb, model.n_eq
+        if m == 0 or nt == 0:
+            return
+        system = System.for_model(model)
+        D, phi, nu = system.D, system.phi, system.nu
+        y = np.empty(13 * nb)
+        rows = max(1, min(nt, self._ROWS_PER_BLOCK))
+        for a in range(0, nt, rows):
+            b = min(nt, a + rows)
+            block, phis, nus = np.empty((b - a, m, 12)), np.empty((b - a, m)), np.empty((b - a, m))
+            for k in range(a, b):
+                y[:7 * nb] = self.q[k].ravel()
+                y[7 * nb:] = self.v[k].ravel()
+                system.evaluate(float(self.t[k]), y, False)
+                block[k - a], phis[k - a], nus[k - a] = D, phi, nu
+            yield a, b, block, phis, nus
 
     # ---------------------------------------------------------------------------- violation
     def constraint_violation(self) -> dict:
@@ -195,6 +223,22 @@ class Results:
         asm = self.model.assembler
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
+        if not asm.couplers:                  # no angle to unwrap: the compiled rows
+            model = self.model
+            nb = model.nb
+            bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g in model.constraint_groups]
+                                ) if model.n_eq else np.zeros(0, np.int64)
+            bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g in model.constraint_groups]
+                                ) if model.n_eq else np.zeros(0, np.int64)
+            for a, b, D, phi, nu in self._constraint_rows():
+                # D v - nu, row by row from the two 6-blocks (the ground, index nb, is fixed)
+                v = np.concatenate([self.v[a:b], np.zeros((b - a, 1, 6))], axis=1)
+                Dv = (np.einsum("tmc,tmc->tm", D[:, :, :6], v[:, bi])
+                      + np.einsum("tmc,tmc->tm", D[:, :, 6:], v[:, bj]))
+                sq[a:b] = np.einsum("tm,tm->t", phi, phi)
+                vel[a:b] = np.linalg.norm(Dv - nu, axis=1)
+            pos[:] = np.sqrt(sq)
+            return dict(position=pos, phi_squared=sq, velocity=vel)
         asm.set_coupler_references(self.coupler_references)
         try:
             for k in range(nt):

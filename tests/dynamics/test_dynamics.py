@@ -213,3 +213,38 @@ def test_a_method_instance_holds_no_state_between_runs():
     assert a.counters["method_iterations"] > 0
     assert a.counters["method_iterations"] == b.counters["method_iterations"]
     assert np.array_equal(a.q, b.q) and meth.alpha == 1e6
+
+
+@pytest.mark.parametrize("build", [lambda: models.slider_crank(), models.flyball_governor,
+                                   models.rolling_disc, models.bricard])
+def test_result_tables_equal_the_per_output_evaluation(build):
+    """reactions() and constraint_violation() (the compiled constraint rows, one call per
+    output, in blocks) against D^T lam and Phi, D v - nu of the constraint groups evaluated in
+    Python at every output."""
+    import warnings
+    model = build().compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate(model, 0.1, method="standard", output_step=0.01)
+    res._ROWS_PER_BLOCK = 3                                   # several blocks
+    R, viol = res.reactions(), res.constraint_violation()
+    for k, state in enumerate(res.states()):
+        phi, Dv = [], []
+        for g, off in zip(model.constraint_groups, model.group_offsets):
+            ev = g.evaluate(state, res.t[k])
+            lam = res.lam[k, off:off + g.size].reshape(g.n, g.n_eq)
+            gen = np.einsum("nmc,nm->nc", ev.D, lam)
+            for n, name in enumerate(g.names):
+                si = state.A[g.body_i[n]] @ g.geometry.s_i[n]
+                assert np.allclose(R[name].force_i[k], gen[n, :3], rtol=1e-12, atol=1e-9)
+                assert np.allclose(R[name].force_j[k], gen[n, 6:9], rtol=1e-12, atol=1e-9)
+                assert np.allclose(R[name].moment_i[k], gen[n, 3:6] - np.cross(si, gen[n, :3]),
+                                   rtol=1e-12, atol=1e-9)
+            v = np.vstack([res.v[k], np.zeros((1, 6))])
+            Dv.append(np.einsum("nmc,nc->nm", ev.D[:, :, :6], v[g.body_i])
+                      + np.einsum("nmc,nc->nm", ev.D[:, :, 6:], v[g.body_j]) - ev.nu)
+            phi.append(ev.phi)
+        phi = np.concatenate([p.ravel() for p in phi])
+        assert np.isclose(viol["phi_squared"][k], phi @ phi, rtol=1e-9, atol=1e-30)
+        assert np.isclose(viol["velocity"][k], np.linalg.norm(np.concatenate(
+            [d.ravel() for d in Dv])), rtol=1e-9, atol=1e-18)
