@@ -34,7 +34,8 @@ alone (model building, compilation and MJCF parsing excluded): spatialmbd's
 integration loop. Single thread: OPENBLAS_NUM_THREADS=1 is set before NumPy is imported,
 Exudyn with one thread. The machine is shared and noisy: ratios within ~1.5x are not
 conclusive. Per-RHS cost: one call of spatialmbd's ``right_hand_side(model, method)``
-function, of ``pin.aba`` and of ``mujoco.mj_forward``, each from Python (call overhead
+function (and of ``dynamics.recursive.joint_right_hand_side(model)`` for the recursive method),
+of ``pin.aba`` and of ``mujoco.mj_forward``, each from Python (call overhead
 included), minimum over repetitions.
 
 Writes bench/results/peers.md and bench/results/peers.json and prints the tables.
@@ -158,10 +159,12 @@ def ours_runner(model, **fixed):
 def ours_families(n):
     tols = TOLS
     return [
-        ("spatialmbd rk45 standard", dict(integrator="rk45"), tols),
-        ("spatialmbd scipy-dop853 standard", dict(integrator="scipy-dop853"), tols),
-        ("spatialmbd abm4 standard", dict(integrator="abm4"), tols),
-        ("spatialmbd rk4 standard", dict(integrator="rk4"), STEPS),
+        ("spatialmbd rk45 recursive", dict(integrator="rk45", method="recursive"), tols),
+        ("spatialmbd rk45 standard", dict(integrator="rk45", method="standard"), tols),
+        ("spatialmbd scipy-dop853 standard", dict(integrator="scipy-dop853", method="standard"),
+         tols),
+        ("spatialmbd abm4 standard", dict(integrator="abm4", method="standard"), tols),
+        ("spatialmbd rk4 standard", dict(integrator="rk4", method="standard"), STEPS),
     ]
 
 
@@ -378,6 +381,9 @@ def rhs_costs(n, model):
         y = y0.copy()
         y[7 * model.nb:13 * model.nb] = 0.0
         out[f"spatialmbd {method}"] = per_call(lambda: f(0.0, y))
+    from spatialmbd.dynamics.recursive import joint_right_hand_side
+    fj, x0 = joint_right_hand_side(model)
+    out["spatialmbd recursive"] = per_call(lambda: fj(0.0, x0))
     try:
         import pinocchio as pin
         pm = pin_model(n)
@@ -546,14 +552,15 @@ def tables(results, meta, rhs_only=None):
               "(call overhead included), minimum over repetitions, µs. spatialmbd: the function "
               "of `spatialmbd.simulate.right_hand_side(model, method)`; Pinocchio: `pin.aba`; "
               "MuJoCo: `mujoco.mj_forward` (the whole forward pass).", "",
-              "| N | " + " | ".join(keys) + " | spatialmbd standard / pin.aba |",
-              "|---:|" + "---:|" * (len(keys) + 1)]
+              "| N | " + " | ".join(keys) + " | spatialmbd standard / pin.aba | "
+              "spatialmbd recursive / pin.aba |",
+              "|---:|" + "---:|" * (len(keys) + 2)]
     for n in sorted(all_rhs):
         c = all_rhs[n]
-        ratio = (c["spatialmbd standard"] / c["pinocchio aba"]
-                 if "spatialmbd standard" in c and "pinocchio aba" in c else math.nan)
+        ratios = [c[k] / c["pinocchio aba"] if k in c and "pinocchio aba" in c else math.nan
+                  for k in ("spatialmbd standard", "spatialmbd recursive")]
         lines.append(f"| {n} | " + " | ".join(f"{c[k]*1e6:.2f}" if k in c else "" for k in keys)
-                     + f" | {ratio:.2f} |")
+                     + "".join(f" | {x:.2f}" for x in ratios) + " |")
     return "\n".join(lines)
 
 

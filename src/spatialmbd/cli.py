@@ -159,7 +159,7 @@ def _add_analysis_options(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("analysis options (override the model file's analysis)")
     g.add_argument("--method", metavar="M",
                    help="formulation: standard, baumgarte, penalty, augmented_lagrangian, "
-                        "projection")
+                        "projection, recursive (joint coordinates of open trees)")
     g.add_argument("--integrator", metavar="I",
                    help="euler, heun, rk4, abm4, bdf4, rk45, or a SciPy solver: scipy-rk45, "
                         "scipy-dop853, scipy-radau, scipy-bdf, scipy-lsoda")
@@ -970,6 +970,9 @@ def cmd_warmup(args) -> int:
     for method in ("standard", "baumgarte", "penalty", "augmented_lagrangian", "projection"):
         steps.append((f"dynamics, {method}", lambda m=method: simulate(
             fly, 1e-3, method=m, integrator="rk45", output_step=1e-3)))
+    chain = models.chain(2, "revolute").compile()
+    steps.append(("dynamics, recursive", lambda: simulate(chain, 1e-3, method="recursive",
+                                                          output_step=1e-3)))
     steps.append(("fixed-step and implicit integrators", lambda: [
         simulate(fly, 2e-3, integrator=i, step=1e-3) for i in ("rk4", "bdf4")]))
     steps.append(("batch engine of sweeps", _warm_batch))                  # issue 15

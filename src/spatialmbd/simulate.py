@@ -92,8 +92,9 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
 
     method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
         constraint violation stays at round-off), "standard", "baumgarte", "penalty",
-        "augmented_lagrangian" or a Method instance (method_options: its parameters, e.g.
-        alpha, beta).
+        "augmented_lagrangian", "recursive" (joint coordinates of open trees of revolute and
+        translational joints, rk45 only: :mod:`.dynamics.recursive`) or a Method instance
+        (method_options: its parameters, e.g. alpha, beta).
     integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "scipy-..." or an Integrator
         (step: fixed step size in s; rtol/atol for adaptive ones; integrator_options: others).
         rk45 and rk4 runs of a fully compiled model with the standard, Baumgarte or projection
@@ -240,6 +241,11 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
             contact_memory.restore(math.inf)
         return out
 
+    if getattr(meth, "joint_coordinates", False):      # method "recursive"
+        return _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results,
+                          stream, dict(events=integ_events, budget=limits.active,
+                                       force_states=n_z, couplers=bool(couplers),
+                                       time_laws=eom.system.table.has_drivers), eom)
     sink = None
     if stream is not None:
         def sink(times, outputs):
@@ -299,6 +305,81 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     results.event_states = [(np.asarray(e.y[:7 * nb], dtype=float).reshape(nb, 7),
                              np.asarray(e.y[7 * nb:13 * nb], dtype=float).reshape(nb, 6))
                             for e in res.events]
+    return results
+
+
+def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, stream, refuse,
+               eom):
+    """The run of method "recursive": joint coordinates by :mod:`.dynamics.recursive`, in
+    compiled slices of about :data:`FUSED_SLICE_SECONDS` (progress and Ctrl-C between them),
+    then the bodies' coordinates at the outputs, handed to the Results as any run's."""
+    from .dynamics import recursive as rc
+    from .integrators.base import Counters
+    from .integrators.runge_kutta_adaptive import DormandPrince45
+    for what, present in (("events", refuse["events"]), ("budgets", refuse["budget"]),
+                          ("force-element states (LuGre)", refuse["force_states"]),
+                          ("couplers", refuse["couplers"]),
+                          ("time-dependent force laws or drivers", refuse["time_laws"])):
+        if present:
+            raise ModelError(f"method 'recursive' does not support {what} yet; use method "
+                             "'standard' or 'projection'")
+    if not (type(integ) is DormandPrince45 and np.ndim(integ.atol) == 0
+            and integ.min_step == 0.0 and integ.first_step is None):
+        raise ModelError(f"method 'recursive' integrates with rk45 (its compiled driver, "
+                         f"scalar atol); got integrator {integ.name!r}")
+    tree = rc.JointTree(model, q, v)
+    tree.check_initial(q)
+    T = tree.arrays()
+    system = eom.system
+    nb, nj = model.nb, tree.n
+    x = np.concatenate([tree.z0, tree.zd0, [0.0]])
+    X = np.empty((t_out.size, x.size))
+    K0 = np.empty(x.size)
+    counters = np.zeros(3, dtype=np.int64)
+    rtol, atol, max_step = float(integ.rtol), float(integ.atol), float(integ.max_step)
+    start = time.perf_counter()
+    t, h, err_prev, done, code = t0, 0.0, 1e-4, 0, rc.OK
+    status, message, slice_steps = "success", "", FUSED_FIRST_SLICE
+    try:
+        while code == rc.OK and (h == 0.0 or t < t_out[-1]):
+            began, before = time.perf_counter(), int(counters[1])
+            code, t, h, err_prev, done = rc.dopri_joint(
+                t, x, K0, h, err_prev, T, system.F, system.I, system.W, t0, t_out, done,
+                rtol, atol, max_step, slice_steps, X, counters)
+            if callback is not None:
+                callback(t)
+            took, steps = time.perf_counter() - began, int(counters[1]) - before
+            if steps > 0:
+                slice_steps = int(min(1_000_000, max(1, FUSED_SLICE_SECONDS * steps
+                                                     / max(took, 1e-6))))
+            if h == 0.0 and code == rc.OK:
+                break
+    except KeyboardInterrupt:
+        status, message = "interrupted", f"interrupted by the user at t = {t:.6g} s"
+    finally:
+        if hasattr(callback, "close"):
+            callback.close()
+    if code != rc.OK:
+        status = "failed"
+        message = (f"t = {t:.6g} s: " + {rc.RHS_FAILED: "the accelerations are not finite "
+                                         "(an articulated inertia is singular)",
+                                         rc.UNDERFLOW: "step size underflow (error test "
+                                         "failed repeatedly)"}.get(code, f"status {code}"))
+    wall = time.perf_counter() - start
+    Y = np.empty((done, 13 * nb + 1))
+    rc.body_rows(X[:done], T, nb, Y)
+    cnt = Counters(steps=int(counters[1]), rejected=int(counters[2]), nfev=int(counters[0]),
+                   wall_time=wall).as_dict()
+    times = t_out[:done]
+    first = 0
+    if stream is not None and getattr(stream, "chunk_rows", 0) > 0:
+        chunk = stream.chunk_rows
+        while done - first >= chunk:
+            stream.add(chunk_results(times[first:first + chunk], Y[first:first + chunk],
+                                     "running", "", {}, 0.0))
+            first += chunk
+    results = chunk_results(times[first:], Y[first:], status, message, cnt, wall)
+    results.events, results.event_states = [], []
     return results
 
 

@@ -365,7 +365,8 @@ BAD = [
     (("analysis", "output_step"), -0.1, "analysis.output_step: ", "must be > 0"),
     (("analysis", "output_step"), 0, "analysis.output_step: ", "must be > 0"),
     (("analysis", "method"), {"name": "lagrangian"}, "analysis.method.name: ",
-     "valid names: augmented_lagrangian, baumgarte, penalty, projection, standard"),
+     "valid names: augmented_lagrangian, baumgarte, penalty, projection, recursive, "
+     "standard"),
     (("analysis", "method"), {"name": "baumgarte", "alfa": 1}, "analysis.method.alfa: ",
      "valid keys: name, alpha, beta, solver"),
     (("analysis", "method"), {"name": "penalty", "alpha": 0}, "analysis.method: ", "> 0"),

@@ -1,5 +1,5 @@
 """Forward dynamics: equations of motion and the methods to solve them (text ch. 10, 12, 14)."""
-from . import augmented_lagrangian, baumgarte, penalty, projection, standard  # noqa: F401
+from . import augmented_lagrangian, baumgarte, penalty, projection, recursive, standard  # noqa: F401
 from .base import METHODS, Method, MethodOutput, get_method
 from .eom import EquationsOfMotion
 

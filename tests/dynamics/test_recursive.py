@@ -1,0 +1,129 @@
+"""Method "recursive" (dynamics.recursive): joint coordinates of open trees, articulated-body
+accelerations, against the body-coordinate methods and closed forms."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from spatialmbd import ModelBuilder, models
+from spatialmbd.dynamics import get_method
+from spatialmbd.dynamics.eom import EquationsOfMotion
+from spatialmbd.dynamics.recursive import (JointTree, joint_kinematics, joint_right_hand_side,
+                                           rhs_joint)
+from spatialmbd.errors import ModelError
+from spatialmbd.simulate import simulate
+
+TREES = {
+    "pendulum": models.pendulum_ch15,
+    "revolute chain": lambda: models.chain(5, "revolute"),
+    "flyball governor (revolute, translational, springs)": models.flyball_governor,
+    "robot arm (joint springs and dampers)": models.robot_arm,
+    "double pendulum": models.double_pendulum,
+}
+
+
+@pytest.mark.parametrize("name", list(TREES))
+def test_joint_accelerations_equal_the_standard_method(name):
+    """At random joint coordinates and rates: the bodies placed by the joints satisfy every
+    constraint (Phi, D v - nu at round-off), and the articulated-body accelerations are the
+    standard method's (12.3) at that body state."""
+    model = TREES[name]().compile()
+    tree = JointTree(model, model.q0, model.v0)
+    nb, nj = model.nb, tree.n
+    rng = np.random.default_rng(11)
+    x = np.concatenate([0.7 * rng.normal(size=nj), rng.normal(size=nj), [0.0]])
+    eom = EquationsOfMotion(model)
+    meth = get_method("standard")
+    meth.setup(eom)
+    s = eom.system
+    y = np.zeros(13 * nb + 1)
+    xd = np.empty_like(x)
+    assert rhs_joint(0.2, x, xd, y, tree.arrays(), s.F, s.I, s.W)
+    vdot = s.fields(s.W, "vdot").copy()
+    ev = eom.evaluate(0.2, y[:7 * nb].reshape(nb, 7), y[7 * nb:13 * nb])
+    assert np.abs(ev.cv.phi).max() < 1e-12
+    assert np.abs(ev.cv.D @ y[7 * nb:13 * nb] - ev.cv.nu).max() < 1e-12
+    ref = meth.accelerations(ev, 0.2).vdot
+    assert np.abs(vdot - ref).max() <= 1e-9 * max(1.0, np.abs(ref).max())
+    assert np.array_equal(xd[:nj], x[nj:2 * nj])
+
+
+def test_initial_state_and_rates():
+    model = models.flyball_governor().compile()
+    tree = JointTree(model, model.q0, model.v0)
+    assert tree.check_initial(model.q0) < 1e-12
+    y = np.zeros(13 * model.nb)
+    joint_kinematics(tree.z0, tree.zd0, tree.arrays(), model.nb, y)
+    assert np.allclose(y[7 * model.nb:], np.asarray(model.v0).ravel(), atol=1e-12)
+    names = dict(zip(tree.names, tree.zd0))
+    assert names["shaft_pivot"] == pytest.approx(2 * np.pi)      # the spin about z
+    assert names["slider_guide"] == pytest.approx(0.0, abs=1e-12)
+    f, x0 = joint_right_hand_side(model)
+    assert f(0.0, x0).shape == x0.shape
+
+
+@pytest.mark.parametrize("name", ["revolute chain", "flyball governor (revolute, "
+                                  "translational, springs)"])
+def test_runs_agree_with_the_projection_method(name):
+    model = TREES[name]().compile()
+    kw = dict(t_end=0.5, rtol=1e-10, atol=1e-12, output_step=0.05)
+    a = simulate(model, method="recursive", **kw)
+    b = simulate(model, method="projection", **kw)
+    assert a.status == b.status == "success"
+    assert a.settings["method"] == "recursive"
+    assert np.abs(a.q - b.q).max() < 1e-8
+    assert np.abs(a.v - b.v).max() < 1e-7
+    assert np.abs(a.lam - b.lam).max() < 1e-6 * np.abs(b.lam).max()
+    viol = a.constraint_violation()
+    assert viol["position"].max() < 1e-13 and viol["velocity"].max() < 1e-12   # no drift
+    assert np.abs(a.energy()["error"]).max() < 1e-7 * np.abs(a.energy()["kinetic"]).max()
+
+
+def test_pendulum_reaction_matches_the_energy_solution():
+    """As tests/dynamics/test_dynamics.py does for the body-coordinate methods."""
+    model = models.pendulum_ch15().compile()
+    res = simulate(model, 2.0, method="recursive", output_step=0.01, rtol=1e-10, atol=1e-12)
+    m, g, d = 7.02, 9.81, 0.5
+    I_O = 0.5855265 + m * d * d
+    r = res.body("pendulum")["r"]
+    phi = np.arctan2(-r[:, 2], r[:, 1])
+    w2 = 2 * m * g * d * np.sin(phi) / I_O
+    alpha = m * g * d * np.cos(phi) / I_O
+    e_r = np.stack([np.zeros_like(phi), np.cos(phi), -np.sin(phi)], axis=1)
+    e_t = np.stack([np.zeros_like(phi), -np.sin(phi), -np.cos(phi)], axis=1)
+    exact = m * (-w2[:, None] * d * e_r + alpha[:, None] * d * e_t) - m * np.array([0, 0, -g])
+    assert np.abs(res.reactions()["pivot"].force_j - exact).max() < 1e-6 * m * g
+
+
+def test_what_it_cannot_represent_is_refused_by_name():
+    with pytest.raises(ModelError, match="spherical"):
+        simulate(models.chain(3, "spherical").compile(), 0.1, method="recursive")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                       # redundant rows of these two
+        with pytest.raises(ModelError, match="closes a loop"):
+            simulate(models.bricard().compile(), 0.1, method="recursive")
+        with pytest.raises(ModelError, match="drivers"):
+            simulate(models.slider_crank(driven=True).compile(), 0.1, method="recursive")
+    b = ModelBuilder("free")
+    b.add_body("ball", 1.0, (0.1, 0.1, 0.1))
+    with pytest.raises(ModelError, match="ball have no chain of joints"):
+        simulate(b.compile(), 0.1, method="recursive")
+    chain = models.chain(2, "revolute").compile()
+    with pytest.raises(ModelError, match="rk45"):
+        simulate(chain, 0.1, method="recursive", integrator="rk4", step=1e-3)
+    with pytest.raises(ModelError, match="events"):
+        simulate(chain, 0.1, method="recursive", events=[lambda t, s: s.r[0, 2]])
+
+
+def test_progress_and_streamed_chunks(tmp_path):
+    from spatialmbd.io.stream import simulate_to_file
+    model = models.chain(3, "revolute").compile()
+    seen = []
+    full = simulate(model, 0.3, method="recursive", output_step=0.01, progress=seen.append)
+    assert seen and seen[-1] == pytest.approx(0.3)
+    last, written = simulate_to_file(model, 0.3, tmp_path / "run.csv", chunk_rows=8,
+                                     method="recursive", output_step=0.01)
+    assert last.status == "success" and written[tmp_path / "run.csv"][0] == full.t.size
+    assert np.array_equal(last.q, full.q[-last.t.size:])
