@@ -92,8 +92,9 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
 
     method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
         constraint violation stays at round-off), "standard", "baumgarte", "penalty",
-        "augmented_lagrangian", "recursive" (joint coordinates of open trees of revolute and
-        translational joints, rk45 only: :mod:`.dynamics.recursive`) or a Method instance
+        "augmented_lagrangian", "recursive" (joint coordinates of open trees of revolute,
+        translational and spherical joints and free bodies, rk45 only:
+        :mod:`.dynamics.recursive`) or a Method instance
         (method_options: its parameters, e.g. alpha, beta).
     integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "scipy-..." or an Integrator
         (step: fixed step size in s; rtol/atol for adaptive ones; integrator_options: others).
@@ -331,8 +332,8 @@ def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, str
     tree.check_initial(q)
     T = tree.arrays()
     system = eom.system
-    nb, nj = model.nb, tree.n
-    x = np.concatenate([tree.z0, tree.zd0, [0.0]])
+    nb = model.nb
+    x = tree.x0.copy()
     X = np.empty((t_out.size, x.size))
     K0 = np.empty(x.size)
     counters = np.zeros(3, dtype=np.int64)
@@ -367,7 +368,7 @@ def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, str
                                          "failed repeatedly)"}.get(code, f"status {code}"))
     wall = time.perf_counter() - start
     Y = np.empty((done, 13 * nb + 1))
-    rc.body_rows(X[:done], T, nb, Y)
+    rc.body_rows(X[:done], T, nb, tree.nq, Y)
     cnt = Counters(steps=int(counters[1]), rejected=int(counters[2]), nfev=int(counters[0]),
                    wall_time=wall).as_dict()
     times = t_out[:done]

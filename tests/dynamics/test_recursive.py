@@ -15,12 +15,28 @@ from spatialmbd.dynamics.recursive import (JointTree, joint_kinematics, joint_ri
 from spatialmbd.errors import ModelError
 from spatialmbd.simulate import simulate
 
+def _floating():
+    """A free body carrying a pendulum on a spherical joint and a revolute link: a floating
+    base (free joint) with a spherical and a revolute child."""
+    b = ModelBuilder("floating", gravity=(0.0, 0.0, -9.81))
+    b.add_body("base", 4.0, (0.2, 0.3, 0.4), r=(0, 0, 1), omega=(0.3, -0.2, 1.0),
+               rdot=(0.5, 0, 2.0))
+    b.add_body("ball", 1.0, (0.02, 0.03, 0.01), r=(0.5, 0, 0.6), omega=(1.0, 0.5, -0.3))
+    b.add_body("arm", 0.5, (0.001, 0.04, 0.04), r=(-0.4, 0, 1.0))
+    b.add_joint("spherical", "hip", "base", "ball", point=(0.3, 0, 0.8))
+    b.add_joint("revolute", "elbow", "base", "arm", point=(-0.2, 0, 1.0), axis=(0, 1, 0))
+    return b
+
+
 TREES = {
     "pendulum": models.pendulum_ch15,
     "revolute chain": lambda: models.chain(5, "revolute"),
+    "spherical chain": lambda: models.chain(4, "spherical"),
     "flyball governor (revolute, translational, springs)": models.flyball_governor,
     "robot arm (joint springs and dampers)": models.robot_arm,
     "double pendulum": models.double_pendulum,
+    "heavy top (spherical)": models.heavy_top,
+    "floating base (free, spherical, revolute)": _floating,
 }
 
 
@@ -31,9 +47,9 @@ def test_joint_accelerations_equal_the_standard_method(name):
     standard method's (12.3) at that body state."""
     model = TREES[name]().compile()
     tree = JointTree(model, model.q0, model.v0)
-    nb, nj = model.nb, tree.n
+    nb, nq, nv = model.nb, tree.nq, tree.nv
     rng = np.random.default_rng(11)
-    x = np.concatenate([0.7 * rng.normal(size=nj), rng.normal(size=nj), [0.0]])
+    x = np.concatenate([tree.x0[:nq] + 0.7 * rng.normal(size=nq), rng.normal(size=nv), [0.0]])
     eom = EquationsOfMotion(model)
     meth = get_method("standard")
     meth.setup(eom)
@@ -47,7 +63,16 @@ def test_joint_accelerations_equal_the_standard_method(name):
     assert np.abs(ev.cv.D @ y[7 * nb:13 * nb] - ev.cv.nu).max() < 1e-12
     ref = meth.accelerations(ev, 0.2).vdot
     assert np.abs(vdot - ref).max() <= 1e-9 * max(1.0, np.abs(ref).max())
-    assert np.array_equal(xd[:nj], x[nj:2 * nj])
+    # zdot: the rates, and 1/2 G^T omega for the Euler parameters (whose length the
+    # kinematics ignore: the rates are tangent to the unit sphere)
+    for k in range(tree.n):
+        oq, ov = tree.qo[k], tree.vo[k]
+        if tree.kind[k] in (0, 1):
+            assert xd[oq] == x[nq + ov]
+        else:
+            o = oq + (3 if tree.kind[k] == 3 else 0)
+            pq = x[o:o + 4] / np.linalg.norm(x[o:o + 4])
+            assert abs(pq @ xd[o:o + 4]) < 1e-12
 
 
 def test_initial_state_and_rates():
@@ -55,9 +80,9 @@ def test_initial_state_and_rates():
     tree = JointTree(model, model.q0, model.v0)
     assert tree.check_initial(model.q0) < 1e-12
     y = np.zeros(13 * model.nb)
-    joint_kinematics(tree.z0, tree.zd0, tree.arrays(), model.nb, y)
+    joint_kinematics(tree.x0[:tree.nq], tree.x0[tree.nq:-1], tree.arrays(), model.nb, y)
     assert np.allclose(y[7 * model.nb:], np.asarray(model.v0).ravel(), atol=1e-12)
-    names = dict(zip(tree.names, tree.zd0))
+    names = dict(zip(tree.names, tree.x0[tree.nq:-1]))
     assert names["shaft_pivot"] == pytest.approx(2 * np.pi)      # the spin about z
     assert names["slider_guide"] == pytest.approx(0.0, abs=1e-12)
     f, x0 = joint_right_hand_side(model)
@@ -65,7 +90,8 @@ def test_initial_state_and_rates():
 
 
 @pytest.mark.parametrize("name", ["revolute chain", "flyball governor (revolute, "
-                                  "translational, springs)"])
+                                  "translational, springs)", "heavy top (spherical)",
+                                  "floating base (free, spherical, revolute)"])
 def test_runs_agree_with_the_projection_method(name):
     model = TREES[name]().compile()
     kw = dict(t_end=0.5, rtol=1e-10, atol=1e-12, output_step=0.05)
@@ -98,18 +124,17 @@ def test_pendulum_reaction_matches_the_energy_solution():
 
 
 def test_what_it_cannot_represent_is_refused_by_name():
-    with pytest.raises(ModelError, match="spherical"):
-        simulate(models.chain(3, "spherical").compile(), 0.1, method="recursive")
+    b = ModelBuilder("cylinder")
+    b.add_body("sleeve", 1.0, (0.1, 0.1, 0.1))
+    b.add_joint("cylindrical", "guide", "ground", "sleeve", point=(0, 0, 0), axis=(0, 0, 1))
+    with pytest.raises(ModelError, match="cylindrical guide cannot be written"):
+        simulate(b.compile(), 0.1, method="recursive")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                       # redundant rows of these two
         with pytest.raises(ModelError, match="closes a loop"):
             simulate(models.bricard().compile(), 0.1, method="recursive")
         with pytest.raises(ModelError, match="drivers"):
             simulate(models.slider_crank(driven=True).compile(), 0.1, method="recursive")
-    b = ModelBuilder("free")
-    b.add_body("ball", 1.0, (0.1, 0.1, 0.1))
-    with pytest.raises(ModelError, match="ball have no chain of joints"):
-        simulate(b.compile(), 0.1, method="recursive")
     chain = models.chain(2, "revolute").compile()
     with pytest.raises(ModelError, match="rk45"):
         simulate(chain, 0.1, method="recursive", integrator="rk4", step=1e-3)

@@ -1,8 +1,10 @@
 """Recursive forward dynamics in joint coordinates for open trees (method "recursive").
 
-A model whose joints are revolute or translational (prismatic) and connect every body to the
-ground by exactly one chain is a tree: its configuration is its joint coordinates z (one angle
-or one slide per joint), with no constraint equations left and no drift. This module
+A model whose joints are revolute, translational (prismatic) or spherical and connect every
+body to the ground by at most one chain is a tree: its configuration is its joint coordinates z
+(an angle or a slide per joint, the relative Euler parameters of a spherical joint, position and
+Euler parameters of a body without a joint: a free joint), with no constraint equations left and
+no drift. This module
 integrates z and its rates with an articulated-body (O(N)) evaluation of the accelerations, as
 recursive codes do, and hands the body coordinates (positions, Euler parameters, velocities)
 to the Results at the output times, where every other output (accelerations, reactions from
@@ -49,7 +51,7 @@ from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopr
                                                 dopri_interpolate)
 from ..jit import njit
 from ..jit import array_view
-from ..rotations import A_into, quat_multiply_scalar
+from ..rotations import A_into, pdot_scalar, quat_multiply_scalar
 from ..state import state_into
 from .layout import body_views, force_views
 from .system import _forces, body_terms
@@ -57,21 +59,29 @@ from .system import _forces, body_terms
 __all__ = ["JointTree", "JOINT_KINDS", "Recursive", "joint_kinematics", "rhs_joint",
            "dopri_joint", "body_rows", "joint_right_hand_side"]
 
-#: constraint types the recursive method turns into joint coordinates: one coordinate each
-JOINT_KINDS = {"revolute": 0, "translational": 1}
-REVOLUTE, TRANSLATIONAL = 0, 1
+#: constraint types the recursive method turns into joint coordinates: (kind, coordinates,
+#: rates) -- an angle, a slide, or the relative Euler parameters and angular velocity; a body
+#: without a joint to the ground gets a free joint (position and Euler parameters, velocity
+#: and angular velocity in global axes)
+JOINT_KINDS = {"revolute": 0, "translational": 1, "spherical": 2}
+REVOLUTE, TRANSLATIONAL, SPHERICAL, FREE = 0, 1, 2, 3
+#: coordinates and rates per joint kind
+SIZES_Q = np.array([1, 1, 4, 7], dtype=np.int64)
+SIZES_V = np.array([1, 1, 3, 6], dtype=np.int64)
 
 
 class JointTree:
     """The joints of a tree model in joint coordinates, from its (assembled) initial state.
 
     Arrays (per joint, parents first): ``parent``, ``child`` (body indices, the ground nb),
-    ``kind`` (0 revolute, 1 translational), ``axis`` (u' in the parent's axes; the ground's:
-    global), ``s_parent`` (the joint point in the parent's axes), ``s_child`` (in the
-    child's), ``p0`` (the child's Euler parameters relative to the parent at z = 0),
-    ``sigma0`` (the initial slide between the joint points). ``z0``, ``zd0``: the initial joint
-    coordinates (0) and rates (from v0). Raises ModelError for what it cannot represent,
-    naming the element.
+    ``kind`` (:data:`REVOLUTE`, :data:`TRANSLATIONAL`, :data:`SPHERICAL`, :data:`FREE`),
+    ``qo`` / ``vo`` (offsets of its coordinates in z and of its rates in zdot), ``axis`` (u' in
+    the parent's axes; the ground's: global), ``s_parent`` (the joint point in the parent's
+    axes), ``s_child`` (in the child's), ``p0`` (the child's Euler parameters relative to the
+    parent at the initial state), ``sigma0`` (the initial slide between the joint points).
+    ``x0`` = [z0, zdot0, 0]: the initial coordinates (angles and slides 0, relative Euler
+    parameters (1, 0, 0, 0), a free body's own q) and rates (from v0). Raises ModelError for
+    what it cannot represent, naming the element.
     """
 
     def __init__(self, model, q0, v0):
@@ -95,90 +105,110 @@ class JointTree:
             a, b = int(g.body_i[n]), int(g.body_j[n])
             edges[a].append((b, k))
             edges[b].append((a, k))
-        A = _rotations(q0)
         seen = np.zeros(nb + 1, dtype=bool)
-        seen[nb] = True
-        order, queue, used = [], [nb], set()
-        while queue:
-            node = queue.pop(0)
-            for other, k in edges[node]:
-                if k in used:
-                    continue
-                used.add(k)
-                g, n = joints[k]
-                if seen[other]:
-                    raise ModelError(f"method 'recursive': joint {g.names[n]} closes a loop "
-                                     "(only open trees have joint coordinates here); use "
-                                     "method 'projection'")
-                seen[other] = True
-                order.append((k, node, other))
-                queue.append(other)
-        free = [model.body_names[b] for b in range(nb) if not seen[b]]
-        if free:
-            raise ModelError(f"method 'recursive': body(ies) {', '.join(free)} have no chain of "
-                             "joints to the ground (free bodies are not supported yet); use "
-                             "method 'standard'")
+        order, used = [], set()                        # (joint or -1 for free, parent, child)
+        for root in [nb] + list(range(nb)):
+            if seen[root]:
+                continue
+            seen[root] = True
+            if root < nb:
+                order.append((-1, nb, root))           # a free joint to the ground
+            queue = [root]
+            while queue:
+                node = queue.pop(0)
+                for other, k in edges[node]:
+                    if k in used:
+                        continue
+                    used.add(k)
+                    g, n = joints[k]
+                    if seen[other]:
+                        raise ModelError(f"method 'recursive': joint {g.names[n]} closes a loop "
+                                         "(only open trees have joint coordinates here); use "
+                                         "method 'projection'")
+                    seen[other] = True
+                    order.append((k, node, other))
+                    queue.append(other)
         nj = len(order)
         self.n = nj
         self.names = []
         self.parent = np.empty(nj, np.int64)
         self.child = np.empty(nj, np.int64)
         self.kind = np.empty(nj, np.int64)
-        self.axis = np.empty((nj, 3))
-        self.s_parent = np.empty((nj, 3))
-        self.s_child = np.empty((nj, 3))
-        self.p0 = np.empty((nj, 4))
+        self.qo = np.empty(nj, np.int64)
+        self.vo = np.empty(nj, np.int64)
+        self.axis = np.zeros((nj, 3))
+        self.s_parent = np.zeros((nj, 3))
+        self.s_child = np.zeros((nj, 3))
+        self.p0 = np.zeros((nj, 4))
         self.sigma0 = np.zeros(nj)
-        zd0 = np.zeros(nj)
-        Ag = np.vstack([A, np.eye(3)[None]])
+        Ag = np.vstack([_rotations(q0), np.eye(3)[None]])
         r = np.vstack([q0[:, :3], np.zeros((1, 3))])
         p = np.vstack([q0[:, 3:], [[1.0, 0.0, 0.0, 0.0]]])
         rd = np.vstack([v0[:, :3], np.zeros((1, 3))])
         w = np.vstack([v0[:, 3:], np.zeros((1, 3))])
+        zq, zv = [], []
         for t, (k, P, C) in enumerate(order):
+            self.parent[t], self.child[t] = P, C
+            self.qo[t], self.vo[t] = len(zq), len(zv)
+            if k < 0:
+                self.names.append(f"{model.body_names[C]} (free)")
+                self.kind[t] = FREE
+                self.p0[t] = (1.0, 0.0, 0.0, 0.0)
+                zq += list(q0[C])
+                zv += list(v0[C])
+                continue
             g, n = joints[k]
             geo = g.geometry
             i_is_parent = int(g.body_i[n]) == P
-            s_i, s_j = geo.s_i[n], geo.s_j[n]
-            u_world = Ag[int(g.body_i[n])] @ geo.R_i[n][:, 0]      # the axis, fixed on i
-            sP, sC = (s_i, s_j) if i_is_parent else (s_j, s_i)
+            sP, sC = (geo.s_i[n], geo.s_j[n]) if i_is_parent else (geo.s_j[n], geo.s_i[n])
             self.names.append(g.names[n])
-            self.parent[t], self.child[t] = P, C
-            self.kind[t] = JOINT_KINDS[g.name]
-            self.axis[t] = Ag[P].T @ u_world / np.linalg.norm(u_world)
+            kind = self.kind[t] = JOINT_KINDS[g.name]
             self.s_parent[t], self.s_child[t] = sP, sC
             self.p0[t] = _quat(_conj(p[P]), p[C])
             JP = r[P] + Ag[P] @ sP
             JC = r[C] + Ag[C] @ sC
+            if kind == SPHERICAL:
+                zq += [1.0, 0.0, 0.0, 0.0]
+                zv += list(Ag[P].T @ (w[C] - w[P]))
+                continue
+            u_world = Ag[int(g.body_i[n])] @ geo.R_i[n][:, 0]      # the axis, fixed on i
+            self.axis[t] = Ag[P].T @ u_world / np.linalg.norm(u_world)
             u = Ag[P] @ self.axis[t]
-            if self.kind[t] == TRANSLATIONAL:
+            zq.append(0.0)
+            if kind == TRANSLATIONAL:
                 self.sigma0[t] = u @ (JC - JP)
                 vJC = rd[C] + np.cross(w[C], Ag[C] @ sC)
                 vJP = rd[P] + np.cross(w[P], JC - r[P])
-                zd0[t] = u @ (vJC - vJP)
+                zv.append(u @ (vJC - vJP))
             else:
-                zd0[t] = u @ (w[C] - w[P])
-        self.z0 = np.zeros(nj)
-        self.zd0 = zd0
+                zv.append(u @ (w[C] - w[P]))
+        self.nq, self.nv = len(zq), len(zv)
+        self.x0 = np.array(zq + zv + [0.0])
+        self.quats = np.array([self.qo[t] + (3 if self.kind[t] == FREE else 0)
+                               for t in range(nj) if self.kind[t] in (SPHERICAL, FREE)],
+                              dtype=np.int64)
         self.nb = nb
-        self.scratch = np.zeros((nb, 6, 6)), np.zeros((nb, 6)), np.zeros((max(nj, 1), 6, 4))
+        self.scratch = (np.zeros((nb, 6, 6)), np.zeros((nb, 6)), np.zeros((max(nj, 1), 6, 6)),
+                        np.zeros((max(nj, 1), 6)), np.zeros((max(nj, 1), 6, 6)),
+                        np.zeros((max(nj, 1), 6)))
 
     def arrays(self):
         """The tuple the compiled kernels take."""
-        return (self.parent, self.child, self.kind, self.axis, self.s_parent, self.s_child,
-                self.p0, self.sigma0) + self.scratch
+        return (self.parent, self.child, self.kind, self.qo, self.vo, self.axis, self.s_parent,
+                self.s_child, self.p0, self.sigma0, self.quats) + self.scratch
 
     def check_initial(self, q0, tol: float = 1e-6) -> float:
-        """Largest difference between the bodies placed by the joints at z0 and q0 (positions
+        """Largest difference between the bodies placed by the joints at x0 and q0 (positions
         in m, Euler parameters); ModelError when it exceeds tol (an unassembled start)."""
         nb = self.nb
         y = np.zeros(13 * nb)
-        joint_kinematics(np.zeros(self.n), np.zeros(self.n), self.arrays(), nb, y)
+        joint_kinematics(self.x0[:self.nq], self.x0[self.nq:self.nq + self.nv], self.arrays(),
+                         nb, y)
         q = y[:7 * nb].reshape(nb, 7)
         q0 = np.asarray(q0, dtype=float).reshape(nb, 7)
         sign = np.where(np.sum(q[:, 3:] * q0[:, 3:], axis=1) < 0, -1.0, 1.0)
-        err = max(np.abs(q[:, :3] - q0[:, :3]).max(),
-                  np.abs(q[:, 3:] - sign[:, None] * q0[:, 3:]).max())
+        err = max(np.abs(q[:, :3] - q0[:, :3]).max(initial=0.0),
+                  np.abs(q[:, 3:] - sign[:, None] * q0[:, 3:]).max(initial=0.0))
         if err > tol:
             raise ModelError(f"method 'recursive': the initial positions do not satisfy the "
                              f"joints (the bodies placed by the joints differ by {err:.3g}); "
@@ -199,23 +229,40 @@ def _quat(a, b):
     return np.array(quat_multiply_scalar((a[0], a[1], a[2], a[3]), (b[0], b[1], b[2], b[3])))
 
 
+@njit(inline="always")
+def _unit(z, o):
+    n = math.sqrt(z[o] * z[o] + z[o + 1] * z[o + 1] + z[o + 2] * z[o + 2] + z[o + 3] * z[o + 3])
+    return (z[o] / n, z[o + 1] / n, z[o + 2] / n, z[o + 3] / n)
+
+
 # ----------------------------------------------------------------------------- kinematics
 @njit
-def joint_kinematics(z, zd, T, nb, y):
-    """y[:13 nb] = [q (7 nb), v (6 nb)] of the bodies at joint coordinates z and rates zd
-    (parents before children: every parent's row is written before it is read)."""
-    parent, child, kind, axis, s_parent, s_child, p0, sigma0 = T[:8]
+def joint_kinematics(zq, zv, T, nb, y):
+    """y[:13 nb] = [q (7 nb), v (6 nb)] of the bodies at joint coordinates zq and rates zv
+    (parents before children: every parent's row is written before it is read; Euler
+    parameters in zq are used divided by their length)."""
+    parent, child, kind, qo, vo, axis, s_parent, s_child, p0, sigma0 = T[:10]
     nj = parent.size
     Ab = np.empty((2, 3, 3))
     pp = np.empty((2, 4))
     for k in range(nj):
         P, C = parent[k], child[k]
+        oq, ov = 7 * C, 7 * nb + 6 * C
+        kd = kind[k]
+        if kd == FREE:
+            pC = _unit(zq, qo[k] + 3)
+            for i in range(3):
+                y[oq + i] = zq[qo[k] + i]
+            y[oq + 3], y[oq + 4], y[oq + 5], y[oq + 6] = pC
+            for i in range(6):
+                y[ov + i] = zv[vo[k] + i]
+            continue
         if P < nb:
-            oq, ov = 7 * P, 7 * nb + 6 * P
-            pP = (y[oq + 3], y[oq + 4], y[oq + 5], y[oq + 6])
-            rP = (y[oq], y[oq + 1], y[oq + 2])
-            vP = (y[ov], y[ov + 1], y[ov + 2])
-            wP = (y[ov + 3], y[ov + 4], y[ov + 5])
+            oqP, ovP = 7 * P, 7 * nb + 6 * P
+            pP = (y[oqP + 3], y[oqP + 4], y[oqP + 5], y[oqP + 6])
+            rP = (y[oqP], y[oqP + 1], y[oqP + 2])
+            vP = (y[ovP], y[ovP + 1], y[ovP + 2])
+            wP = (y[ovP + 3], y[ovP + 4], y[ovP + 5])
         else:
             pP = (1.0, 0.0, 0.0, 0.0)
             rP = (0.0, 0.0, 0.0)
@@ -223,23 +270,32 @@ def joint_kinematics(z, zd, T, nb, y):
             wP = (0.0, 0.0, 0.0)
         pp[0, 0], pp[0, 1], pp[0, 2], pp[0, 3] = pP
         A_into(pp, 0, Ab)
-        u0 = Ab[0, 0, 0] * axis[k, 0] + Ab[0, 0, 1] * axis[k, 1] + Ab[0, 0, 2] * axis[k, 2]
-        u1 = Ab[0, 1, 0] * axis[k, 0] + Ab[0, 1, 1] * axis[k, 1] + Ab[0, 1, 2] * axis[k, 2]
-        u2 = Ab[0, 2, 0] * axis[k, 0] + Ab[0, 2, 1] * axis[k, 1] + Ab[0, 2, 2] * axis[k, 2]
         sigma = 0.0
-        if kind[k] == REVOLUTE:
-            h = 0.5 * z[k]
-            sh = math.sin(h)
-            pa = (math.cos(h), sh * axis[k, 0], sh * axis[k, 1], sh * axis[k, 2])
-            pC = quat_multiply_scalar(quat_multiply_scalar(pP, pa),
-                                      (p0[k, 0], p0[k, 1], p0[k, 2], p0[k, 3]))
-            wC = (wP[0] + u0 * zd[k], wP[1] + u1 * zd[k], wP[2] + u2 * zd[k])
-            sd = 0.0
+        sd = 0.0
+        pk = (p0[k, 0], p0[k, 1], p0[k, 2], p0[k, 3])
+        if kd == SPHERICAL:
+            pC = quat_multiply_scalar(quat_multiply_scalar(pP, _unit(zq, qo[k])), pk)
+            o = vo[k]
+            wC = (wP[0] + Ab[0, 0, 0] * zv[o] + Ab[0, 0, 1] * zv[o + 1] + Ab[0, 0, 2] * zv[o + 2],
+                  wP[1] + Ab[0, 1, 0] * zv[o] + Ab[0, 1, 1] * zv[o + 1] + Ab[0, 1, 2] * zv[o + 2],
+                  wP[2] + Ab[0, 2, 0] * zv[o] + Ab[0, 2, 1] * zv[o + 1] + Ab[0, 2, 2] * zv[o + 2])
+            u0 = u1 = u2 = 0.0
         else:
-            pC = quat_multiply_scalar(pP, (p0[k, 0], p0[k, 1], p0[k, 2], p0[k, 3]))
-            wC = wP
-            sigma = sigma0[k] + z[k]
-            sd = zd[k]
+            u0 = Ab[0, 0, 0] * axis[k, 0] + Ab[0, 0, 1] * axis[k, 1] + Ab[0, 0, 2] * axis[k, 2]
+            u1 = Ab[0, 1, 0] * axis[k, 0] + Ab[0, 1, 1] * axis[k, 1] + Ab[0, 1, 2] * axis[k, 2]
+            u2 = Ab[0, 2, 0] * axis[k, 0] + Ab[0, 2, 1] * axis[k, 1] + Ab[0, 2, 2] * axis[k, 2]
+            if kd == REVOLUTE:
+                h = 0.5 * zq[qo[k]]
+                sh = math.sin(h)
+                pa = (math.cos(h), sh * axis[k, 0], sh * axis[k, 1], sh * axis[k, 2])
+                pC = quat_multiply_scalar(quat_multiply_scalar(pP, pa), pk)
+                th = zv[vo[k]]
+                wC = (wP[0] + u0 * th, wP[1] + u1 * th, wP[2] + u2 * th)
+            else:
+                pC = quat_multiply_scalar(pP, pk)
+                wC = wP
+                sigma = sigma0[k] + zq[qo[k]]
+                sd = zv[vo[k]]
         pp[1, 0], pp[1, 1], pp[1, 2], pp[1, 3] = pC
         A_into(pp, 1, Ab)
         # d_PJ = A_P (s'_P + u' sigma), d_JC = -A_C s'_C
@@ -255,7 +311,6 @@ def joint_kinematics(z, zd, T, nb, y):
                + Ab[1, 1, 2] * s_child[k, 2])
         f2 = -(Ab[1, 2, 0] * s_child[k, 0] + Ab[1, 2, 1] * s_child[k, 1]
                + Ab[1, 2, 2] * s_child[k, 2])
-        oq, ov = 7 * C, 7 * nb + 6 * C
         y[oq], y[oq + 1], y[oq + 2] = rP[0] + e0 + f0, rP[1] + e1 + f1, rP[2] + e2 + f2
         y[oq + 3], y[oq + 4], y[oq + 5], y[oq + 6] = pC
         # rdot_C = rdot_P + omega_P x d_PJ + u s_dot + omega_C x d_JC
@@ -266,12 +321,12 @@ def joint_kinematics(z, zd, T, nb, y):
 
 
 @njit
-def body_rows(X, T, nb, Y):
-    """Y[k, :13 nb] = the bodies' q and v at the joint states X[k] = [z, zd, ...] and Y[k, -1]
-    = X[k, -1] (the work W)."""
-    nj = T[0].size
+def body_rows(X, T, nb, nq, Y):
+    """Y[k, :13 nb] = the bodies' q and v at the joint states X[k] = [z (nq), zdot, W] and
+    Y[k, -1] = X[k, -1] (the work W)."""
+    nv = X.shape[1] - 1 - nq
     for k in range(X.shape[0]):
-        joint_kinematics(X[k, :nj], X[k, nj:2 * nj], T, nb, Y[k])
+        joint_kinematics(X[k, :nq], X[k, nq:nq + nv], T, nb, Y[k])
         Y[k, Y.shape[1] - 1] = X[k, X.shape[1] - 1]
 
 
@@ -294,17 +349,92 @@ def _bodies_stage(y, F, I, W):
     return True
 
 
+@njit(inline="always")
+def _chol(A, n):
+    """In-place Cholesky of the leading n x n block of A (lower triangle); False if not
+    positive definite."""
+    for j in range(n):
+        s = A[j, j]
+        for k in range(j):
+            s -= A[j, k] * A[j, k]
+        if not s > 0.0:
+            return False
+        d = math.sqrt(s)
+        A[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= A[i, k] * A[j, k]
+            A[i, j] = s / d
+    return True
+
+
+@njit(inline="always")
+def _chol_solve(L, n, x):
+    """x <- A^-1 x with the factor of :func:`_chol` (leading n entries of x)."""
+    for i in range(n):
+        s = x[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+
+
+@njit(inline="always")
+def _articulate(H, K, Ic, pc, hp, u, L, Kt, Ia, row, n):
+    """For n rates: D = H^T U (U = I_C H, given in K), hp = H^T p_C, u = D^-1 hp,
+    Ia = I_C - U D^-1 U^T and K <- U D^-1. False if D is not positive definite."""
+    for i in range(n):
+        for j in range(i + 1):
+            s = 0.0
+            for l in range(6):
+                s += H[l, i] * K[l, j]
+            L[i, j] = s
+        s = 0.0
+        for l in range(6):
+            s += H[l, i] * pc[l]
+        hp[i] = s
+        u[i] = s
+    if not _chol(L, n):
+        return False
+    _chol_solve(L, n, u)
+    for i in range(6):                           # Kt = U D^-1, row by row
+        for j in range(n):
+            row[j] = K[i, j]
+        _chol_solve(L, n, row)
+        for j in range(n):
+            Kt[i, j] = row[j]
+    for i in range(6):
+        for j in range(6):
+            s = Ic[i, j]
+            for l in range(n):
+                s -= Kt[i, l] * K[j, l]
+            Ia[i, j] = s
+    for i in range(6):
+        for j in range(n):
+            K[i, j] = Kt[i, j]
+    return True
+
+
 @njit
 def rhs_joint(t, x, xd, y, T, F, I, W):
-    """xd = [zd, zdd, power of the non-conservative forces] at x = [z, zd, W]; y: the body
-    state work row (13 nb + 1). Returns False if the accelerations are not finite or an
-    articulated inertia is singular."""
-    parent, child, kind, axis, s_parent, s_child, p0, sigma0, TI, Tp, TJ = T
+    """xd = [zdot, zddot, power of the non-conservative forces] at x = [z, zdot, W]
+    (zdot of Euler parameters: 1/2 G^T omega, 5.12); y: the body-state work row
+    (13 nb + 1). Returns False if the accelerations are not finite or an articulated inertia
+    is singular."""
+    (parent, child, kind, qo, vo, axis, s_parent, s_child, p0, sigma0, quats, TI, Tp, TH, Tc,
+     TK, Tu) = T
     nj = parent.size
     bo = body_views(F, I, W)
     nb = bo.mass.size
-    z, zd = x[:nj], x[nj:2 * nj]
-    joint_kinematics(z, zd, T, nb, y)
+    nq = qo[nj - 1] + SIZES_Q[kind[nj - 1]] if nj else 0
+    nv = x.size - 1 - nq
+    zq, zv = x[:nq], x[nq:nq + nv]
+    joint_kinematics(zq, zv, T, nb, y)
     if not _bodies_stage(y, F, I, W):
         return False
     r, om, J, g = bo.r, bo.omega, bo.J, bo.g
@@ -318,81 +448,109 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
             Ib[i, i] = bo.mass[b]
             for j in range(3):
                 Ib[3 + i, 3 + j] = J[b, i, j]
-    # per joint: H (col 0), c (col 1), U / D (col 2), [D, u = H^T p_C / D, ...] (col 3)
+    # per joint: motion subspace H (6 x n, world axes) and velocity-product acceleration c
     for k in range(nj):
         P, C = parent[k], child[k]
-        H, c = TJ[k, :, 0], TJ[k, :, 1]
-        wP0, wP1, wP2 = (om[P, 0], om[P, 1], om[P, 2]) if P < nb else (0.0, 0.0, 0.0)
-        rP0, rP1, rP2 = (r[P, 0], r[P, 1], r[P, 2]) if P < nb else (0.0, 0.0, 0.0)
-        AP = bo.A[P]
-        u0 = AP[0, 0] * axis[k, 0] + AP[0, 1] * axis[k, 1] + AP[0, 2] * axis[k, 2]
-        u1 = AP[1, 0] * axis[k, 0] + AP[1, 1] * axis[k, 1] + AP[1, 2] * axis[k, 2]
-        u2 = AP[2, 0] * axis[k, 0] + AP[2, 1] * axis[k, 1] + AP[2, 2] * axis[k, 2]
-        # omega_P x u
-        x0, x1, x2 = wP1 * u2 - wP2 * u1, wP2 * u0 - wP0 * u2, wP0 * u1 - wP1 * u0
-        if kind[k] == REVOLUTE:
-            AC = bo.A[C]
-            j0 = -(AC[0, 0] * s_child[k, 0] + AC[0, 1] * s_child[k, 1] + AC[0, 2] * s_child[k, 2])
-            j1 = -(AC[1, 0] * s_child[k, 0] + AC[1, 1] * s_child[k, 1] + AC[1, 2] * s_child[k, 2])
-            j2 = -(AC[2, 0] * s_child[k, 0] + AC[2, 1] * s_child[k, 1] + AC[2, 2] * s_child[k, 2])
-            # d_PJ = r_C - d_JC - r_P
-            a0, a1, a2 = r[C, 0] - j0 - rP0, r[C, 1] - j1 - rP1, r[C, 2] - j2 - rP2
-            wC0, wC1, wC2 = om[C, 0], om[C, 1], om[C, 2]
-            H[0], H[1], H[2] = u1 * j2 - u2 * j1, u2 * j0 - u0 * j2, u0 * j1 - u1 * j0
-            H[3], H[4], H[5] = u0, u1, u2
-            th = zd[k]
-            # omega_P x (omega_P x d_PJ)
-            b0, b1, b2 = wP1 * a2 - wP2 * a1, wP2 * a0 - wP0 * a2, wP0 * a1 - wP1 * a0
-            c0, c1, c2 = wP1 * b2 - wP2 * b1, wP2 * b0 - wP0 * b2, wP0 * b1 - wP1 * b0
-            # omega_C x (omega_C x d_JC)
-            b0, b1, b2 = wC1 * j2 - wC2 * j1, wC2 * j0 - wC0 * j2, wC0 * j1 - wC1 * j0
-            c0 += wC1 * b2 - wC2 * b1
-            c1 += wC2 * b0 - wC0 * b2
-            c2 += wC0 * b1 - wC1 * b0
-            # ((omega_P x u) theta_dot) x d_JC
-            c0 += th * (x1 * j2 - x2 * j1)
-            c1 += th * (x2 * j0 - x0 * j2)
-            c2 += th * (x0 * j1 - x1 * j0)
-            c[0], c[1], c[2] = c0, c1, c2
-            c[3], c[4], c[5] = x0 * th, x1 * th, x2 * th
-        else:
-            H[0], H[1], H[2], H[3], H[4], H[5] = u0, u1, u2, 0.0, 0.0, 0.0
-            sd = zd[k]
-            d0, d1, d2 = r[C, 0] - rP0, r[C, 1] - rP1, r[C, 2] - rP2
+        H, c = TH[k], Tc[k]
+        kd = kind[k]
+        if kd == FREE:
+            for i in range(6):
+                for j in range(6):
+                    H[i, j] = 1.0 if i == j else 0.0
+                c[i] = 0.0
+            continue
+        wP0, wP1, wP2 = om[P, 0], om[P, 1], om[P, 2]         # the ground's row is 0
+        AP, AC = bo.A[P], bo.A[C]
+        j0 = -(AC[0, 0] * s_child[k, 0] + AC[0, 1] * s_child[k, 1] + AC[0, 2] * s_child[k, 2])
+        j1 = -(AC[1, 0] * s_child[k, 0] + AC[1, 1] * s_child[k, 1] + AC[1, 2] * s_child[k, 2])
+        j2 = -(AC[2, 0] * s_child[k, 0] + AC[2, 1] * s_child[k, 1] + AC[2, 2] * s_child[k, 2])
+        if kd == TRANSLATIONAL:
+            u0 = AP[0, 0] * axis[k, 0] + AP[0, 1] * axis[k, 1] + AP[0, 2] * axis[k, 2]
+            u1 = AP[1, 0] * axis[k, 0] + AP[1, 1] * axis[k, 1] + AP[1, 2] * axis[k, 2]
+            u2 = AP[2, 0] * axis[k, 0] + AP[2, 1] * axis[k, 1] + AP[2, 2] * axis[k, 2]
+            H[0, 0], H[1, 0], H[2, 0], H[3, 0], H[4, 0], H[5, 0] = u0, u1, u2, 0.0, 0.0, 0.0
+            sd = zv[vo[k]]
+            x0, x1, x2 = wP1 * u2 - wP2 * u1, wP2 * u0 - wP0 * u2, wP0 * u1 - wP1 * u0
+            d0, d1, d2 = r[C, 0] - r[P, 0], r[C, 1] - r[P, 1], r[C, 2] - r[P, 2]
             b0, b1, b2 = wP1 * d2 - wP2 * d1, wP2 * d0 - wP0 * d2, wP0 * d1 - wP1 * d0
             c[0] = 2.0 * x0 * sd + wP1 * b2 - wP2 * b1
             c[1] = 2.0 * x1 * sd + wP2 * b0 - wP0 * b2
             c[2] = 2.0 * x2 * sd + wP0 * b1 - wP1 * b0
             c[3], c[4], c[5] = 0.0, 0.0, 0.0
+            continue
+        # revolute and spherical: omega_C = omega_P + (rates in world axes); c_w = omega_P x
+        # (those rates), c_r = omega_P x (omega_P x d_PJ) + omega_C x (omega_C x d_JC)
+        # + c_w x d_JC (d_PJ = r_J - r_P, d_JC = r_C - r_J)
+        if kd == REVOLUTE:
+            u0 = AP[0, 0] * axis[k, 0] + AP[0, 1] * axis[k, 1] + AP[0, 2] * axis[k, 2]
+            u1 = AP[1, 0] * axis[k, 0] + AP[1, 1] * axis[k, 1] + AP[1, 2] * axis[k, 2]
+            u2 = AP[2, 0] * axis[k, 0] + AP[2, 1] * axis[k, 1] + AP[2, 2] * axis[k, 2]
+            H[0, 0], H[1, 0], H[2, 0] = u1 * j2 - u2 * j1, u2 * j0 - u0 * j2, u0 * j1 - u1 * j0
+            H[3, 0], H[4, 0], H[5, 0] = u0, u1, u2
+            th = zv[vo[k]]
+            e0, e1, e2 = u0 * th, u1 * th, u2 * th
+        else:
+            o = vo[k]
+            for col in range(3):                 # the parent's axis col, and its moment arm
+                a0, a1, a2 = AP[0, col], AP[1, col], AP[2, col]
+                H[0, col], H[1, col], H[2, col] = a1 * j2 - a2 * j1, a2 * j0 - a0 * j2, \
+                    a0 * j1 - a1 * j0
+                H[3, col], H[4, col], H[5, col] = a0, a1, a2
+            e0 = AP[0, 0] * zv[o] + AP[0, 1] * zv[o + 1] + AP[0, 2] * zv[o + 2]
+            e1 = AP[1, 0] * zv[o] + AP[1, 1] * zv[o + 1] + AP[1, 2] * zv[o + 2]
+            e2 = AP[2, 0] * zv[o] + AP[2, 1] * zv[o + 1] + AP[2, 2] * zv[o + 2]
+        x0, x1, x2 = wP1 * e2 - wP2 * e1, wP2 * e0 - wP0 * e2, wP0 * e1 - wP1 * e0   # c_w
+        a0, a1, a2 = r[C, 0] - j0 - r[P, 0], r[C, 1] - j1 - r[P, 1], r[C, 2] - j2 - r[P, 2]
+        wC0, wC1, wC2 = om[C, 0], om[C, 1], om[C, 2]
+        b0, b1, b2 = wP1 * a2 - wP2 * a1, wP2 * a0 - wP0 * a2, wP0 * a1 - wP1 * a0
+        c0, c1, c2 = wP1 * b2 - wP2 * b1, wP2 * b0 - wP0 * b2, wP0 * b1 - wP1 * b0
+        b0, b1, b2 = wC1 * j2 - wC2 * j1, wC2 * j0 - wC0 * j2, wC0 * j1 - wC1 * j0
+        c0 += wC1 * b2 - wC2 * b1 + (x1 * j2 - x2 * j1)
+        c1 += wC2 * b0 - wC0 * b2 + (x2 * j0 - x0 * j2)
+        c2 += wC0 * b1 - wC1 * b0 + (x0 * j1 - x1 * j0)
+        c[0], c[1], c[2], c[3], c[4], c[5] = c0, c1, c2, x0, x1, x2
     # backward: leaves first
     Ia = np.empty((6, 6))
+    L = np.empty((6, 6))
+    Kt = np.empty((6, 6))
     G = np.empty((3, 3))
     S = np.empty((3, 3))
     wv = np.empty(6)
+    hp = np.empty(6)
+    row = np.empty(6)
     for k in range(nj - 1, -1, -1):
         P, C = parent[k], child[k]
-        H, c, K, aux = TJ[k, :, 0], TJ[k, :, 1], TJ[k, :, 2], TJ[k, :, 3]
+        n = SIZES_V[kind[k]]
+        H, c, K, u = TH[k], Tc[k], TK[k], Tu[k]
         Ic, pc = TI[C], Tp[C]
-        D = 0.0
-        hp = 0.0
-        for i in range(6):
-            s = 0.0
+        for i in range(6):                       # U = I_C H (in K)
+            for j in range(n):
+                s = 0.0
+                for l in range(6):
+                    s += Ic[i, l] * H[l, j]
+                K[i, j] = s
+        if n == 1:                               # one rate (revolute, translational)
+            dk = 0.0
+            hp0 = 0.0
             for l in range(6):
-                s += Ic[i, l] * H[l]
-            K[i] = s
-            D += H[i] * s
-            hp += H[i] * pc[i]
-        if not D > 0.0:
-            return False
-        aux[0] = D
-        aux[1] = hp / D                          # u = H^T p_C / D
-        for i in range(6):
-            for j in range(6):
-                Ia[i, j] = Ic[i, j] - K[i] * K[j] / D
-        for i in range(6):                       # K <- U / D
-            K[i] /= D
-        for i in range(6):                       # w = p~ - Ia c, p~ = p_C - U H^T p_C / D
-            s = pc[i] - K[i] * hp
+                dk += H[l, 0] * K[l, 0]
+                hp0 += H[l, 0] * pc[l]
+            if not dk > 0.0:
+                return False
+            hp[0] = hp0
+            u[0] = hp0 / dk
+            for i in range(6):
+                for j in range(6):
+                    Ia[i, j] = Ic[i, j] - K[i, 0] * K[j, 0] / dk
+            for i in range(6):
+                K[i, 0] /= dk
+        else:
+            if not _articulate(H, K, Ic, pc, hp, u, L, Kt, Ia, row, n):
+                return False
+        for i in range(6):                       # w = p~ - Ia c, p~ = p_C - U D^-1 H^T p_C
+            s = pc[i]
+            for l in range(n):
+                s -= K[i, l] * hp[l]
             for l in range(6):
                 s -= Ia[i, l] * c[l]
             wv[i] = s
@@ -401,6 +559,7 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
         IP, pP = TI[P], Tp[P]
         d0, d1, d2 = r[C, 0] - r[P, 0], r[C, 1] - r[P, 1], r[C, 2] - r[P, 2]
         # X = [[I, S], [0, I]], S x = x cross d; X^T Ia X = [[Ar, G], [G^T, S^T G + B^T S + C]]
+        # with Ia = [[Ar, B], [B^T, C]], G = Ar S + B; X^T w = [w_r, w_w + d x w_r]
         S[0, 0], S[0, 1], S[0, 2] = 0.0, d2, -d1
         S[1, 0], S[1, 1], S[1, 2] = -d2, 0.0, d0
         S[2, 0], S[2, 1], S[2, 2] = d1, -d0, 0.0
@@ -422,14 +581,15 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
         pP[3] += wv[3] + d1 * wv[2] - d2 * wv[1]
         pP[4] += wv[4] + d2 * wv[0] - d0 * wv[2]
         pP[5] += wv[5] + d0 * wv[1] - d1 * wv[0]
-    # forward: roots first; vdot of the bodies into bo.vdot
+    # forward: roots first; the bodies' vdot into bo.vdot, zddot into xd
     vd = bo.vdot
     for k in range(nj):
         P, C = parent[k], child[k]
-        H, c, K, aux = TJ[k, :, 0], TJ[k, :, 1], TJ[k, :, 2], TJ[k, :, 3]
+        n = SIZES_V[kind[k]]
+        H, c, K, u = TH[k], Tc[k], TK[k], Tu[k]
         for i in range(6):
             wv[i] = c[i]
-        if P < nb:
+        if P < nb:                               # w = X vdot_P + c
             o = 6 * P
             d0, d1, d2 = r[C, 0] - r[P, 0], r[C, 1] - r[P, 1], r[C, 2] - r[P, 2]
             wv[0] += vd[o] + vd[o + 4] * d2 - vd[o + 5] * d1
@@ -438,15 +598,31 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
             wv[3] += vd[o + 3]
             wv[4] += vd[o + 4]
             wv[5] += vd[o + 5]
-        a = aux[1]                               # zdd = u - (U / D)^T w
-        for i in range(6):
-            a -= K[i] * wv[i]
-        for i in range(6):
-            vd[6 * C + i] = wv[i] + H[i] * a
-        xd[nj + k] = a
-        xd[k] = zd[k]
-    xd[2 * nj] = bo.g_power[0]
-    for k in range(2 * nj + 1):
+        for j in range(n):                       # zdd = u - K^T w
+            s = u[j]
+            for i in range(6):
+                s -= K[i, j] * wv[i]
+            row[j] = s
+            xd[nq + vo[k] + j] = s
+        for i in range(6):                       # vdot_C = w + H zdd
+            s = wv[i]
+            for j in range(n):
+                s += H[i, j] * row[j]
+            vd[6 * C + i] = s
+        # zdot: the rates, or 1/2 G^T omega for Euler parameters (5.12)
+        oq, ov = qo[k], vo[k]
+        if kind[k] == SPHERICAL:
+            pd = pdot_scalar(_unit(zq, oq), (zv[ov], zv[ov + 1], zv[ov + 2]))
+            xd[oq], xd[oq + 1], xd[oq + 2], xd[oq + 3] = pd
+        elif kind[k] == FREE:
+            for i in range(3):
+                xd[oq + i] = zv[ov + i]
+            pd = pdot_scalar(_unit(zq, oq + 3), (zv[ov + 3], zv[ov + 4], zv[ov + 5]))
+            xd[oq + 3], xd[oq + 4], xd[oq + 5], xd[oq + 6] = pd
+        else:
+            xd[oq] = zv[ov]
+    xd[nq + nv] = bo.g_power[0]
+    for k in range(nq + nv + 1):
         if not math.isfinite(xd[k]):
             return False
     return True
@@ -557,6 +733,13 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
                                                                 min(0.9, SAFETY * err ** -0.2))
             h = hs * fac
             after_reject = True
+        quats = T[10]                            # Euler parameters back to unit length
+        for q in range(quats.size):              # (the right-hand side uses p / |p|)
+            o = quats[q]
+            nrm = math.sqrt(x_new[o] ** 2 + x_new[o + 1] ** 2 + x_new[o + 2] ** 2
+                            + x_new[o + 3] ** 2)
+            for i in range(4):
+                x_new[o + i] /= nrm
         fac = MAX_FACTOR if err == 0.0 else SAFETY * err ** (-alpha) * err_prev ** BETA
         err_prev = max(err, 1e-4)
         fac = min(MAX_FACTOR, max(MIN_FACTOR, fac))
@@ -592,7 +775,8 @@ from .standard import Standard  # noqa: E402
 
 @register
 class Recursive(Standard):
-    """Joint coordinates of an open tree (revolute and translational joints), accelerations by
+    """Joint coordinates of an open tree (revolute, translational and spherical joints, free
+    bodies), accelerations by
     the articulated-body recursion, integrated by the compiled Dormand-Prince 5(4) driver: no
     constraint equations, so no drift and no projection. The outputs (accelerations, reactions,
     energies) are evaluated at the output times as the standard method's, at the body
@@ -611,7 +795,8 @@ class Recursive(Standard):
 
 def joint_right_hand_side(model, q0=None, v0=None):
     """(f, x0): the x' = f(t, x) the recursive method integrates (x = [z, zdot, W], joint
-    coordinates from the assembled state q0, v0, default the model's) and its initial state;
+    coordinates from the assembled state q0, v0, default the model's; :class:`JointTree`)
+    and its initial state;
     for benchmarks and one's own integrators (as :func:`..simulate.right_hand_side`)."""
     from .system import System
     q0 = model.q0 if q0 is None else q0
@@ -629,4 +814,4 @@ def joint_right_hand_side(model, q0=None, v0=None):
             raise ModelError(f"t = {t:.6g} s: the accelerations are not finite (an "
                              "articulated inertia is singular)")
         return xd
-    return f, np.concatenate([tree.z0, tree.zd0, [0.0]])
+    return f, tree.x0.copy()
