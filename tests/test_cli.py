@@ -358,7 +358,7 @@ def test_validate_exit_status(tmp_path, monkeypatch, capsys):
     cases = [case("a", 0.0), case("b", 1e-9)]
     calls = []
 
-    def fake(full=False, out=None, cases=None, progress=None):
+    def fake(full=False, out=None, cases=None, progress=None, method=None):
         calls.append((full, out, cases))
         for c in fake_cases:
             progress(c)

@@ -696,8 +696,11 @@ def cmd_validate(args) -> int:
             print(f"{case.name}: {'pass' if case.passed else 'FAIL'} ({case.runtime:.1f} s)",
                   flush=True)
 
-    cases = run_validation(full=args.full, out=args.out, cases=args.cases or None,
-                           progress=progress)
+    try:
+        cases = run_validation(full=args.full, out=args.out, cases=args.cases or None,
+                               progress=progress, method=args.method)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     failed = [c for c in cases if not c.passed]
     if not args.quiet:
         print()
@@ -915,6 +918,7 @@ def build_parser() -> argparse.ArgumentParser:
                 spatialmbd validate
                 spatialmbd validate --full --out validation/
                 spatialmbd validate heavy_top slider_crank_kinematics
+                spatialmbd validate --method recursive
                 """)
     p.add_argument("cases", nargs="*", metavar="CASE",
                    help="run only these cases (default: all; names in the table)")
@@ -922,6 +926,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the complete version (longer runs, every output instant)")
     p.add_argument("--out", metavar="PATH",
                    help="also write the table to PATH (a directory, or a .md/.txt file)")
+    p.add_argument("--method", metavar="M",
+                   help="run every case with method M where it applies (recursive: the tree "
+                        "models with rk45), else the case's own; the note names the methods")
     p.add_argument("-q", "--quiet", action="store_true", help="print only failures")
     p.set_defaults(func=cmd_validate)
 

@@ -26,6 +26,19 @@ def test_short_validation_case_passes(name):
     assert not failed, "\n" + format_table([result], details=True)
 
 
+@pytest.mark.parametrize("name", ["adams_spherical_case01", "free_asymmetric", "iftomm_a01",
+                                  "robot_arm"])
+def test_tree_cases_pass_with_the_recursive_method(name):
+    """Joint coordinates (spherical, free, revolute joints with springs) against the same
+    references; `python -m spatialmbd.validation --method recursive` runs all 19 (the 11
+    tree cases with rk45 then take it)."""
+    (result,) = run_validation(cases=[name], method="recursive")
+    assert result.error is None, result.error
+    assert "method(s): recursive" in result.notes
+    failed = [c for c in result.checks if not c.passed]
+    assert not failed, "\n" + format_table([result], details=True)
+
+
 def test_format_table_lists_every_check_with_its_tolerance(tmp_path):
     results = run_validation(cases=["slider_crank_kinematics", "iftomm_a04"], out=tmp_path)
     text = format_table(results)

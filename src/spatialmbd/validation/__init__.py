@@ -41,22 +41,37 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
 
 
 def run_validation(full: bool = False, out=None, cases: Optional[Iterable[str]] = None,
-                   progress=None) -> list[CaseResult]:
+                   progress=None, method: Optional[str] = None) -> list[CaseResult]:
     """Run the validation cases (all, or the names in ``cases``); short version unless
     ``full``. ``out``: a directory (or file name ending in .md/.txt) to write the table to.
-    ``progress``: a callable(CaseResult) called after each case (e.g. print).
+    ``progress``: a callable(CaseResult) called after each case (e.g. print). ``method``: run
+    every case with this method where it applies (the recursive method: tree models with the
+    rk45 integrator), the case's own method elsewhere; each case notes the methods that ran.
     Returns the list of CaseResult (a failing case is reported, not raised)."""
+    from . import cases as case_module
     from .cases import run_case
     names = list(cases) if cases is not None else list(CASE_NAMES)
     unknown = [n for n in names if n not in _cases()]
     if unknown:
         raise ValueError(f"unknown validation case(s) {unknown}; choose from {CASE_NAMES}")
+    if method is not None:
+        from ..dynamics.base import METHODS
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; choose from {sorted(METHODS)}")
     results = []
-    for name in names:
-        res = run_case(name, full)
-        results.append(res)
-        if progress is not None:
-            progress(res)
+    case_module.METHOD = method
+    try:
+        for name in names:
+            case_module.METHODS_USED.clear()
+            res = run_case(name, full)
+            if method is not None:
+                res.notes.append("method(s): " + (", ".join(dict.fromkeys(
+                    case_module.METHODS_USED)) or "none (no dynamic run)"))
+            results.append(res)
+            if progress is not None:
+                progress(res)
+    finally:
+        case_module.METHOD = None
     if out is not None:
         out = Path(out)
         if out.suffix.lower() in (".md", ".txt"):
@@ -141,9 +156,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description="Run the spatialmbd validation suite")
     parser.add_argument("--full", action="store_true", help="the complete (slow) version")
     parser.add_argument("--out", help="directory or .md/.txt file for the table")
+    parser.add_argument("--method", help="run every case with this method where it applies "
+                        "(e.g. recursive: the tree models with rk45), else the case's own")
     parser.add_argument("cases", nargs="*", help=f"a subset of {', '.join(CASE_NAMES)}")
     args = parser.parse_args(argv)
     results = run_validation(full=args.full, out=args.out, cases=args.cases or None,
+                             method=args.method,
                              progress=lambda r: print(f"{r.name}: "
                                                       f"{'pass' if r.passed else 'FAIL'} "
                                                       f"({r.runtime:.1f} s)", flush=True))

@@ -26,13 +26,39 @@ from .references import (ADAMS_CASES, FREE_ASYMMETRIC, FREE_SYMMETRIC, adams_pen
                          exact_adams_quantities)
 
 
+#: run_validation(method=...): the method every case runs with where the model and the case's
+#: integrator allow it (else the case's own); the methods that ran, per case
+METHOD = None
+METHODS_USED: list = []
+
+
 def _sim(model, t_end, full, rtol_short, rtol_full, **kw):
     rtol = rtol_full if full else rtol_short
     kw.setdefault("atol", rtol * 1e-2)
+    if METHOD is not None and _applies(METHOD, model, kw):
+        kw["method"] = METHOD
+        kw.pop("method_options", None)
     res = simulate(model, t_end, rtol=rtol, **kw)
+    METHODS_USED.append(res.settings["method"])
     if not res.success:
         raise RuntimeError(f"simulation failed: {res.message}")
     return res
+
+
+def _applies(method, model, kw) -> bool:
+    """Whether ``method`` can run this case: "recursive" needs a tree it can write in joint
+    coordinates and the rk45 integrator; the body-coordinate methods run every model."""
+    if method != "recursive":
+        return True
+    from ..dynamics.recursive import JointTree
+    from ..errors import ModelError
+    if kw.get("integrator", "rk45") != "rk45" or kw.get("events"):
+        return False
+    try:
+        JointTree(model, model.q0, model.v0)
+    except ModelError:
+        return False
+    return True
 
 
 def _angular_momentum(res, point=(0.0, 0.0, 0.0)) -> np.ndarray:
