@@ -353,11 +353,11 @@ def test_outputs_section_of_a_model_file_round_trip(tmp_path):
     path.write_text(PENDULUM_YAML)
     model, analysis = load_model(path)
     assert analysis.outputs[0] == "joints" and analysis.outputs[2]["about"] == [0, 0, 0]
-    assert analysis.method == "projection"                        # the recommended default
+    assert analysis.method == "auto"          # the default: recursive for trees, else projection
     again = model_to_dict(model, analysis)
     assert again["outputs"] == analysis.outputs
     res = analysis.run(model)
-    assert res.settings["method"] == "projection"
+    assert res.settings["method"] == "recursive"         # a pendulum: an open tree
     h5, csv = tmp_path / "p.h5", tmp_path / "p.csv"
     save_results(res, h5, analysis=analysis)
     save_results(res, csv)

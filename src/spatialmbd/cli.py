@@ -111,8 +111,8 @@ def _check_name(kind: str, name: str) -> str:
     if kind == "method":
         from .dynamics.base import ALIASES, METHODS
         key = ALIASES.get(name.lower(), name.lower())
-        if key not in METHODS:
-            raise UsageError(f"unknown method {name!r}; valid names: "
+        if key not in METHODS and key != "auto":
+            raise UsageError(f"unknown method {name!r}; valid names: auto, "
                              + ", ".join(sorted(METHODS)))
     else:
         from .integrators import INTEGRATORS
@@ -158,7 +158,8 @@ class _QuietOrQuantity(argparse.Action):
 def _add_analysis_options(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("analysis options (override the model file's analysis)")
     g.add_argument("--method", metavar="M",
-                   help="formulation: standard, baumgarte, penalty, augmented_lagrangian, "
+                   help="formulation: auto (the default: recursive for open trees, else "
+                        "projection), standard, baumgarte, penalty, augmented_lagrangian, "
                         "projection, recursive (joint coordinates of open trees)")
     g.add_argument("--integrator", metavar="I",
                    help="euler, heun, rk4, abm4, bdf4, rk45, or a SciPy solver: scipy-rk45, "

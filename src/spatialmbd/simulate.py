@@ -79,7 +79,7 @@ def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float =
     return t
 
 
-def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45",
+def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
              output_step: Optional[float] = None, t_eval: Optional[Sequence[float]] = None,
              step: Optional[float] = None, rtol: Optional[float] = None,
              atol: Optional[float] = None, method_options: Optional[dict] = None,
@@ -90,8 +90,10 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
              events=None, event_tol: float = 1e-12, stream=None) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
-    method: "projection" (default, the recommendation of docs/choosing.md: no gains, the
-        constraint violation stays at round-off), "standard", "baumgarte", "penalty",
+    method: "auto" (default: "recursive" for an open tree it can write in joint coordinates
+        with the default rk45 and no events or budgets -- the fastest, no drift --, else
+        "projection", the recommendation of docs/choosing.md: no gains, the constraint
+        violation stays at round-off), "projection", "standard", "baumgarte", "penalty",
         "augmented_lagrangian", "recursive" (joint coordinates of open trees of revolute,
         translational and spherical joints and free bodies, rk45 only:
         :mod:`.dynamics.recursive`) or a Method instance
@@ -141,6 +143,12 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
                          model.n_eq)
     requests = parse_outputs(model, outputs)
     guards.check_integrator_name(integrator)
+    if isinstance(method, str) and method.lower() == "auto":
+        method = "projection"
+        if not method_options and _recursive_applies(model, integrator, integrator_options, step,
+                                                     atol, events, budget, max_steps,
+                                                     max_wall_time):
+            method = "recursive"
     meth = guards.make_method(method, method_options)
     if integrator_options is not None and not isinstance(integrator_options, dict):
         raise ModelError(f"integrator_options: expected a dict of options, got "
@@ -309,6 +317,30 @@ def simulate(model, t_end: float = 1.0, *, method="projection", integrator="rk45
     return results
 
 
+def _recursive_applies(model, integrator, integrator_options, step, atol, events, budget,
+                       max_steps, max_wall_time) -> bool:
+    """Whether method "auto" takes the recursive method: an open tree it can write in joint
+    coordinates (:class:`.dynamics.recursive.JointTree`), integrated by the default rk45 with
+    nothing the recursive run does not support (events, budgets, force states, time laws)."""
+    from .dynamics.recursive import JointTree
+    if integrator != "rk45" or step is not None or events or budget is not None \
+            or max_steps is not None or max_wall_time is not None or np.ndim(atol) != 0:
+        return False
+    if integrator_options and set(integrator_options) - {"rtol", "atol", "max_step"}:
+        return False
+    if integrator_options and np.ndim(integrator_options.get("atol", 0.0)) != 0:
+        return False
+    from .forces.contact.memory import contact_groups
+    if contact_groups(model):                 # contact memory: restart events at every touch
+        return False
+    try:
+        JointTree(model, model.q0, model.v0)
+    except (ModelError, ValueError, ZeroDivisionError, FloatingPointError):
+        return False
+    table = EquationsOfMotion(model).system.force_table
+    return not table.n_states and not table.has_laws
+
+
 def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, stream, refuse,
                eom):
     """The run of method "recursive": joint coordinates by :mod:`.dynamics.recursive`, in
@@ -356,7 +388,7 @@ def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, str
             if h == 0.0 and code == rc.OK:
                 break
     except KeyboardInterrupt:
-        status, message = "interrupted", f"interrupted by the user at t = {t:.6g} s"
+        status, message = "interrupted", f"interrupted (Ctrl-C) at t = {t:.6g} s"
     finally:
         if hasattr(callback, "close"):
             callback.close()

@@ -48,10 +48,10 @@ def test_compiled_driver_takes_the_python_drivers_steps(method, integrator, opts
 def test_slices_continue_the_same_step_sequence(monkeypatch):
     """A run cut into compiled calls of a few steps gives the one-call result exactly."""
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
-    whole = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9)
+    whole = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9, method="projection")
     monkeypatch.setattr(sim, "FUSED_FIRST_SLICE", 3)
     monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)        # then one step per call
-    sliced = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9)
+    sliced = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9, method="projection")
     assert sliced.counters["steps"] == whole.counters["steps"]
     assert np.array_equal(sliced.q, whole.q) and np.array_equal(sliced.vdot, whole.vdot)
 
@@ -68,7 +68,7 @@ def test_ctrl_c_between_slices_keeps_the_outputs(monkeypatch):
             raise KeyboardInterrupt
         return real(*args)
     monkeypatch.setattr(fused, "dopri_steps", steps)
-    res = sim.simulate(model, 2.0, output_step=0.01)
+    res = sim.simulate(model, 2.0, output_step=0.01, method="projection")
     assert res.status == "interrupted" and "Ctrl-C" in res.message
     assert 2 <= len(res.t) < 201 and np.all(np.isfinite(res.q))
     assert np.all(np.isfinite(res.vdot))
@@ -81,10 +81,10 @@ def test_failed_compiled_run_is_rerun_by_the_python_driver(monkeypatch):
     # (status, t, h, err_prev, k_out) of a first call that failed
     monkeypatch.setattr(fused, "dopri_steps", lambda *a: (fused.RHS_FAILED, a[0], 0.0, a[4],
                                                           a[12]))
-    res = sim.simulate(model, 0.5)
+    res = sim.simulate(model, 0.5, method="projection")
     sim.FUSED_RUNS = False
     try:
-        ref = sim.simulate(model, 0.5)
+        ref = sim.simulate(model, 0.5, method="projection")
     finally:
         sim.FUSED_RUNS = True
     assert res.status == "success" and np.array_equal(res.q, ref.q)
@@ -105,7 +105,7 @@ def test_progress_is_reported_between_calls(monkeypatch):
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
     monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)
     seen = []
-    res = sim.simulate(model, 1.0, progress=seen.append)
+    res = sim.simulate(model, 1.0, progress=seen.append, method="projection")
     # the first call takes 64 steps, then (target ~0 s) one step per call
     assert res.status == "success" and len(seen) == 1 + max(0, res.counters["steps"] - 64)
     assert seen == sorted(seen) and seen[-1] == pytest.approx(1.0)
@@ -119,7 +119,8 @@ def test_streamed_chunks_equal_the_in_memory_run(tmp_path, integrator, monkeypat
     from spatialmbd.io.results_io import load_results
     from spatialmbd.io.stream import simulate_to_file
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
-    opts = dict(integrator=integrator, output_step=1e-3)     # rk45: ~20 outputs per step
+    opts = dict(integrator=integrator, output_step=1e-3,      # rk45: ~20 outputs per step
+                method="projection")
     if integrator == "rk4":
         opts["step"] = 1e-3
     ref = sim.simulate(model, 0.3, **opts)

@@ -365,8 +365,8 @@ BAD = [
     (("analysis", "output_step"), -0.1, "analysis.output_step: ", "must be > 0"),
     (("analysis", "output_step"), 0, "analysis.output_step: ", "must be > 0"),
     (("analysis", "method"), {"name": "lagrangian"}, "analysis.method.name: ",
-     "valid names: augmented_lagrangian, baumgarte, penalty, projection, recursive, "
-     "standard"),
+     "valid names: auto, augmented_lagrangian, baumgarte, penalty, projection, "
+     "recursive, standard"),
     (("analysis", "method"), {"name": "baumgarte", "alfa": 1}, "analysis.method.alfa: ",
      "valid keys: name, alpha, beta, solver"),
     (("analysis", "method"), {"name": "penalty", "alpha": 0}, "analysis.method: ", "> 0"),
@@ -541,7 +541,7 @@ def test_absent_analysis_gives_documented_defaults():
     _, an = load_builder(data)
     assert an == Analysis()
     assert (an.type, an.t_end, an.output_step, an.method, an.integrator, an.correct_initial,
-            an.hold) == ("dynamic", 1.0, None, "projection", "rk45", True, None)
+            an.hold) == ("dynamic", 1.0, None, "auto", "rk45", True, None)
     assert (an.step, an.rtol, an.atol, an.method_options, an.integrator_options) == \
         (None, None, None, {}, {})
 

@@ -181,7 +181,7 @@ def _batch_equals_simulate(model, params, outs, analysis, distinct, rtol):
 
 def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
     params = {"bodies.pendulum.mass": [2.0, -3.0, 7.0]}
-    analysis = dict(type="dynamic", t_end=1.0, output_step=0.05,
+    analysis = dict(type="dynamic", t_end=1.0, output_step=0.05, method="projection",
                     integrator=dict(name="rk45", rtol=1e-9, atol=1e-11))
     outs = ["min(pendulum.z)", "final(pendulum.wx)", "pivot.pendulum.fz"]
     a = sweep(PENDULUM, params, outs, analysis, engine="simulate")
@@ -195,7 +195,7 @@ def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
     _batch_equals_simulate(PENDULUM, geo, outs, analysis, distinct=4, rtol=1e-12)
     # compiled force elements: their parameters are packed per member
     springs = {"forces.spring_A.stiffness": [1e5, 4e5], "forces.spring_B.damping": [2e4, 5e4]}
-    fly_an = dict(type="dynamic", t_end=0.02, output_step=0.005,
+    fly_an = dict(type="dynamic", t_end=0.02, output_step=0.005, method="projection",
                   integrator=dict(name="rk45", rtol=1e-8, atol=1e-10))
     _batch_equals_simulate(EXAMPLES / "flyball_governor.yaml", springs,
                            ["final(slider.z)", "min(rod_A.wz)", "final(rod_A.tip.x)"], fly_an,

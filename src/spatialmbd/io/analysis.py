@@ -12,6 +12,10 @@ from .schema import (ANALYSIS_KEYS, ANALYSIS_TYPES, _describe, DYNAMIC_ONLY, _li
                      _string, _suggest, _vector)
 from .source import _plain_input
 
+#: the default method: simulate() takes "recursive" for an open tree it can write in joint
+#: coordinates, else "projection"
+AUTO = "auto"
+
 
 # ============================================================================ analysis
 @dataclass
@@ -32,7 +36,7 @@ class Analysis:
     t_end: float = 1.0
     output_step: Optional[float] = None
     t_eval: Optional[list] = None
-    method: str = "projection"
+    method: str = "auto"
     method_options: dict = field(default_factory=dict)
     integrator: str = "rk45"
     step: Optional[float] = None
@@ -221,11 +225,16 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
         elif not isinstance(m, str):
             P.add(mpath, f"expected a method name or a mapping {{name: ..., options}}, got "
                          f"{_describe(m)}")
-        if name is not None:
+        if isinstance(name, str) and name.lower() == AUTO:
+            a.method = AUTO                     # simulate() chooses (recursive or projection)
+            if opts:
+                P.add(tuple(path) + ("method",), "method 'auto' takes no options (name a "
+                      "method to set its options)")
+        elif name is not None:
             key = ALIASES.get(name.lower(), name.lower()) if isinstance(name, str) else None
             if key not in METHODS:
                 P.add(mpath, f"unknown method {_name(name)}{_suggest(name, METHODS)}; "
-                             "valid names: " + ", ".join(sorted(METHODS)))
+                             "valid names: auto, " + ", ".join(sorted(METHODS)))
             else:
                 a.method = key
                 if _options(P, tuple(path) + ("method",), METHODS[key], opts):

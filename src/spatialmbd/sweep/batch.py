@@ -120,6 +120,8 @@ class BatchSetup:
         from ..dynamics import EquationsOfMotion, get_method
         from ..kinematics import mobility
         self._check_model(model)
+        if method == "auto":                    # the body-coordinate default of simulate()
+            method = "projection"
         meth = get_method(method, **(method_options or {}))
         if meth.name not in ("standard", "baumgarte", "projection") or \
                 getattr(meth, "solver", "") == "kkt":
