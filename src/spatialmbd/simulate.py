@@ -401,6 +401,11 @@ def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, str
     wall = time.perf_counter() - start
     Y = np.empty((done, 13 * nb + 1))
     rc.body_rows(X[:done], T, nb, tree.nq, Y)
+    # vdot and lambda at the outputs, compiled (as the compiled drivers give them)
+    Yd, Lam = np.empty((done, 6 * nb)), np.empty((done, model.n_eq))
+    rc.output_accelerations(t_out[:done], Y, system.F, system.I, system.W, meth.params(),
+                            system._layout["lam"][0], Yd, Lam)
+    acc = (Yd.reshape(done, nb, 6), Lam)
     cnt = Counters(steps=int(counters[1]), rejected=int(counters[2]), nfev=int(counters[0]),
                    wall_time=wall).as_dict()
     times = t_out[:done]
@@ -408,10 +413,12 @@ def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, str
     if stream is not None and getattr(stream, "chunk_rows", 0) > 0:
         chunk = stream.chunk_rows
         while done - first >= chunk:
-            stream.add(chunk_results(times[first:first + chunk], Y[first:first + chunk],
-                                     "running", "", {}, 0.0))
+            part = slice(first, first + chunk)
+            stream.add(chunk_results(times[part], Y[part], "running", "", {}, 0.0,
+                                     (acc[0][part], acc[1][part])))
             first += chunk
-    results = chunk_results(times[first:], Y[first:], status, message, cnt, wall)
+    results = chunk_results(times[first:], Y[first:], status, message, cnt, wall,
+                            (acc[0][first:], acc[1][first:]))
     results.events, results.event_states = [], []
     return results
 

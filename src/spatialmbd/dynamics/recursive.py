@@ -54,6 +54,7 @@ from ..jit import array_view
 from ..rotations import A_into, pdot_scalar, quat_multiply_scalar
 from ..state import state_into
 from .layout import body_views, force_views
+from .standard import rhs_standard
 from .system import _forces, body_terms
 
 __all__ = ["JointTree", "JOINT_KINDS", "Recursive", "joint_kinematics", "rhs_joint",
@@ -328,6 +329,26 @@ def body_rows(X, T, nb, nq, Y):
     for k in range(X.shape[0]):
         joint_kinematics(X[k, :nq], X[k, nq:nq + nv], T, nb, Y[k])
         Y[k, Y.shape[1] - 1] = X[k, X.shape[1] - 1]
+
+
+@njit
+def output_accelerations(t_out, Y, F, I, W, mp, lam_off, Yd, Lam):
+    """Yd[k], Lam[k] = vdot and lambda of the standard method (12.3) at the body states Y[k]
+    (what :meth:`..results.Results.from_integration` would evaluate row by row in Python; NaN
+    where the solve fails)."""
+    ydot = np.empty(Y.shape[1])
+    nv, m = Yd.shape[1], Lam.shape[1]
+    for k in range(Y.shape[0]):
+        if rhs_standard(t_out[k], Y[k], ydot, F, I, W, mp) < 0:
+            for j in range(nv):
+                Yd[k, j] = np.nan
+            for j in range(m):
+                Lam[k, j] = np.nan
+            continue
+        for j in range(nv):                      # ydot = [qdot (7 nb), vdot (6 nb), ...]
+            Yd[k, j] = ydot[7 * (nv // 6) + j]
+        for j in range(m):
+            Lam[k, j] = W[lam_off + j]
 
 
 # ----------------------------------------------------------------------------- dynamics
