@@ -30,11 +30,19 @@ def _warm_dynamics(methods=("standard", "projection")):
         simulate(fly, 1e-3, method=method, integrator="rk45", output_step=1e-3)
 
 
+def _warm_recursive():
+    from spatialmbd import models
+    from spatialmbd.simulate import simulate
+    simulate(models.chain(2, "revolute").compile(), 1e-3, method="recursive", output_step=1e-3)
+
+
 def _warm_core(parallel=False):
     """Compile (or load) the kernels nearly every test uses: the constraint dispatch and
     kinematics, the standard and projection right-hand sides with the force dispatch. With
     ``parallel`` (the controller of a parallel run, whose workers wait for it) the kinematics
-    compile in a second process at the same time (they share no compiled function)."""
+    and then the recursive method (the default for trees) compile in a second process at the
+    same time (the cache writes are atomic; the second process is done well before the
+    first)."""
     if not parallel:
         _warm_kinematics()
         _warm_dynamics()
@@ -42,7 +50,8 @@ def _warm_core(parallel=False):
     import subprocess
     here = os.path.dirname(os.path.abspath(__file__))
     child = subprocess.Popen([sys.executable, "-c", "import conftest; "
-                              "conftest._warm_kinematics()"], cwd=here)
+                              "conftest._warm_kinematics(); conftest._warm_recursive()"],
+                             cwd=here)
     _warm_dynamics()
     if child.wait() != 0:                 # compile them here then (the error shows in tests)
         _warm_kinematics()
