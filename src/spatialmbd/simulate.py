@@ -143,7 +143,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
                          model.n_eq)
     requests = parse_outputs(model, outputs)
     guards.check_integrator_name(integrator)
-    if isinstance(method, str) and method.lower() == "auto":
+    auto = isinstance(method, str) and method.lower() == "auto"
+    if auto:
         method = "projection"
         if not method_options and _recursive_applies(model, integrator, integrator_options, step,
                                                      atol, events, budget, max_steps,
@@ -171,6 +172,14 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
                                                       system=eom.system)
         guards.warn([guards.correction_warning(model, correction, q_given)])
 
+    if auto and getattr(meth, "joint_coordinates", False):
+        # "auto": an initial state the joints cannot place (correct_initial=False from an
+        # unassembled start) is left to the projection method, which projects it
+        from .dynamics.recursive import JointTree
+        try:
+            JointTree(model, q, v).check_initial(q)
+        except ModelError:
+            meth = guards.make_method("projection", None)
     mob = _redundancy(model, eom, q, t0)
     if mob is not None and mob.redundant:
         mob = _structural_redundancy(model, eom, q, v, t0, mob)

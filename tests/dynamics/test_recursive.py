@@ -152,3 +152,20 @@ def test_progress_and_streamed_chunks(tmp_path):
                                      method="recursive", output_step=0.01)
     assert last.status == "success" and written[tmp_path / "run.csv"][0] == full.t.size
     assert np.array_equal(last.q, full.q[-last.t.size:])
+
+
+def test_auto_takes_the_recursive_method_for_trees_and_projection_otherwise():
+    chain = models.chain(3, "revolute").compile()
+    assert simulate(chain, 0.1).settings["method"] == "recursive"
+    assert simulate(chain, 0.1, integrator="rk4", step=1e-3).settings["method"] == "projection"
+    assert simulate(chain, 0.1, events=[lambda t, s: 1.0]).settings["method"] == "projection"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert simulate(models.bricard().compile(), 0.1).settings["method"] == "projection"
+    # an unassembled start without the correction: the projection method projects it
+    q = np.array(chain.q0, dtype=float).reshape(chain.nb, 7)
+    q[1, 2] += 1e-3
+    res = simulate(chain, 0.1, q0=q, correct_initial=False)
+    assert res.settings["method"] == "projection" and res.status == "success"
+    with pytest.raises(ModelError, match="do not satisfy the joints"):
+        simulate(chain, 0.1, q0=q, correct_initial=False, method="recursive")
