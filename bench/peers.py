@@ -15,7 +15,8 @@ Peers (each optional: a peer that does not import is reported as missing):
   (bench/exudyn_peer.py) and its ``ObjectKinematicTree`` (minimal coordinates) with its
   explicit integrators RK44, RK67 (fixed step), ODE23 and DOPRI5 (automatic step).
 
-Problems: the revolute chain of ``spatialmbd.models.chain(n, "revolute")`` -- links 1 m, 1 kg,
+Problems: the revolute chain of ``spatialmbd.models.chain(n, "revolute")`` (and the spherical
+chain of ``chain(n, "spherical")``: ball joints at the same points, ``--spherical-sizes``) -- links 1 m, 1 kg,
 slender rods with centroidal inertia diag(1e-4, 1/12, 1/12) kg m^2, released at rest
 horizontally along +x, revolute joints about global y at (k, 0, 0), gravity 9.81 m/s^2 along
 -z, 1 s simulated. "pendulum" is N = 1 (one rod on one revolute joint).
@@ -169,13 +170,15 @@ def ours_families(n):
 
 
 # ---------------------------------------------------------------------------------- MuJoCo
-def mjcf(n):
-    """The revolute chain as MJCF: nested bodies, hinge about y at each body's origin."""
+def mjcf(n, joint="revolute"):
+    """The chain as MJCF: nested bodies, a hinge about y (revolute) or a ball joint
+    (spherical) at each body's origin."""
     ixx, iyy, izz = INERTIA
     body = ""
+    kind = 'type="hinge" axis="0 1 0"' if joint == "revolute" else 'type="ball"'
     for k in reversed(range(n)):
         pos = "0 0 0" if k == 0 else f"{L} 0 0"
-        body = (f'<body name="link{k}" pos="{pos}"><joint name="j{k}" type="hinge" axis="0 1 0"'
+        body = (f'<body name="link{k}" pos="{pos}"><joint name="j{k}" {kind}'
                 f' armature="0" damping="0" limited="false"/>'
                 f'<inertial pos="{L/2} 0 0" mass="{MASS}" diaginertia="{ixx} {iyy} {izz}"/>'
                 f'{body}</body>')
@@ -184,9 +187,9 @@ def mjcf(n):
             f'<worldbody>{body}</worldbody></mujoco>')
 
 
-def mujoco_runner(n, integrator):
+def mujoco_runner(n, integrator, joint="revolute"):
     import mujoco
-    m = mujoco.MjModel.from_xml_string(mjcf(n))
+    m = mujoco.MjModel.from_xml_string(mjcf(n, joint))
     m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
     d = mujoco.MjData(m)
 
@@ -201,6 +204,8 @@ def mujoco_runner(n, integrator):
             return time.perf_counter() - t0, None
         wall, _ = best_of(once)
         mujoco.mj_kinematics(m, d)
+        if joint != "revolute":                        # ball joints: MuJoCo's own centres
+            return wall, d.xipos[1:].copy(), dict(steps=steps, t=float(d.time))
         com = com_from_angles(d.qpos)
         check = com_error(d.xipos[1:], com)           # our mapping against MuJoCo's own
         if check > 1e-12:
@@ -210,13 +215,14 @@ def mujoco_runner(n, integrator):
 
 
 # ------------------------------------------------------------------------------- Pinocchio
-def pin_model(n):
+def pin_model(n, joint="revolute"):
     import pinocchio as pin
     model = pin.Model()
     parent = 0
     for k in range(n):
         place = pin.SE3(np.eye(3), np.array([0.0 if k == 0 else L, 0.0, 0.0]))
-        jid = model.addJoint(parent, pin.JointModelRY(), place, f"j{k}")
+        jm = pin.JointModelRY() if joint == "revolute" else pin.JointModelSpherical()
+        jid = model.addJoint(parent, jm, place, f"j{k}")
         model.appendBodyToJoint(jid, pin.Inertia(MASS, np.array([L / 2, 0, 0]),
                                                  np.diag(INERTIA)), pin.SE3.Identity())
         parent = jid
@@ -224,22 +230,50 @@ def pin_model(n):
     return model
 
 
-def pin_rhs(n):
+def pin_problem(n, joint="revolute"):
+    """(f, y0, com(y)) of the chain in Pinocchio: y = [q, v], ydot = [qdot, aba]. Revolute:
+    q the angles, qdot = v. Spherical: q the unit quaternions (x, y, z, w) of the joints, v their
+    angular velocities in the child's axes, qdot = 1/2 q (x) (v, 0) (used divided by |q|)."""
     import pinocchio as pin
-    model = pin_model(n)
+    model = pin_model(n, joint)
     data = model.createData()
-    tau = np.zeros(n)
+    tau = np.zeros(model.nv)
     aba = pin.aba
+    nq, nv = model.nq, model.nv
+    if joint == "revolute":
+        def f(t, y):
+            return np.concatenate([y[n:], aba(model, data, y[:n], y[n:], tau)])
+        y0 = np.zeros(2 * n)
+        return f, y0, lambda y: com_from_angles(y[:n])
+
+    def unit(q):
+        Q = q.reshape(n, 4)
+        return (Q / np.linalg.norm(Q, axis=1, keepdims=True)).ravel()
 
     def f(t, y):
-        return np.concatenate([y[n:], aba(model, data, y[:n], y[n:], tau)])
-    return f
+        q, v = unit(y[:nq]), y[nq:]
+        Q, W = q.reshape(n, 4), v.reshape(n, 3)
+        x, yy, z, w = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
+        a, b, c = W[:, 0], W[:, 1], W[:, 2]
+        qd = 0.5 * np.stack([w * a + yy * c - z * b, w * b + z * a - x * c,
+                             w * c + x * b - yy * a, -(x * a + yy * b + z * c)], axis=1)
+        return np.concatenate([qd.ravel(), aba(model, data, q, v, tau)])
+
+    y0 = np.concatenate([np.tile([0.0, 0.0, 0.0, 1.0], n), np.zeros(nv)])
+
+    def com(y):
+        pin.forwardKinematics(model, data, unit(y[:nq]))
+        return np.array([data.oMi[k + 1].act(np.array([L / 2, 0.0, 0.0])) for k in range(n)])
+    return f, y0, com
 
 
-def pin_scipy_runner(n, method):
+def pin_rhs(n):
+    return pin_problem(n)[0]
+
+
+def pin_scipy_runner(n, method, joint="revolute"):
     from scipy.integrate import solve_ivp
-    f = pin_rhs(n)
-    y0 = np.zeros(2 * n)
+    f, y0, com = pin_problem(n, joint)
 
     def run(tol):
         def once():
@@ -250,12 +284,12 @@ def pin_scipy_runner(n, method):
         wall, sol = best_of(once)
         if sol.status != 0:
             raise RuntimeError(sol.message)
-        return wall, com_from_angles(sol.y[:n, -1]), dict(nfev=int(sol.nfev))
+        return wall, com(sol.y[:, -1]), dict(nfev=int(sol.nfev))
     return run
 
 
-def pin_rk4_runner(n):
-    f = pin_rhs(n)
+def pin_rk4_runner(n, joint="revolute"):
+    f, y0, com = pin_problem(n, joint)
 
     def run(h):
         steps = int(round(T_END / h))
@@ -263,7 +297,7 @@ def pin_rk4_runner(n):
 
         def once():
             t0 = time.perf_counter()
-            y, t = np.zeros(2 * n), 0.0
+            y, t = y0.copy(), 0.0
             for _ in range(steps):
                 k1 = f(t, y)
                 k2 = f(t + hh / 2, y + hh / 2 * k1)
@@ -273,15 +307,15 @@ def pin_rk4_runner(n):
                 t += hh
             return time.perf_counter() - t0, y
         wall, y = best_of(once)
-        return wall, com_from_angles(y[:n]), dict(steps=steps, nfev=4 * steps)
+        return wall, com(y), dict(steps=steps, nfev=4 * steps)
     return run
 
 
 # ---------------------------------------------------------------------------------- Exudyn
-def exudyn_ga_runner(n):
+def exudyn_ga_runner(n, joint="revolute"):
     def run(h):
         wall, out = best_of(lambda: (lambda r: (r["wall_time"], r))(
-            ex.chain(n, "revolute", h, T_END)))
+            ex.chain(n, joint, h, T_END)))
         return wall, np.array(out["final_com"]), dict(steps=out["steps"])
     return run
 
@@ -411,19 +445,21 @@ def available(mod):
         return False
 
 
-def problem(n):
-    name = "pendulum (N = 1)" if n == 1 else f"revolute chain N = {n}"
+def problem(n, joint="revolute"):
+    name = ("pendulum (N = 1)" if n == 1 and joint == "revolute"
+            else f"{joint} chain N = {n}")
     log(f"\n== {name}")
-    model = models.chain(n, "revolute").compile()
+    model = models.chain(n, joint).compile()
     simulate(model, 0.01, output_step=0.01, rtol=1e-12, atol=1e-14)
     res = simulate(model, T_END, output_step=T_END, rtol=1e-12, atol=1e-14)
     ref = res.q[-1, :, :3]
     check = None
     if available("pinocchio"):
         from scipy.integrate import solve_ivp
-        sol = solve_ivp(pin_rhs(n), (0.0, T_END), np.zeros(2 * n), method="DOP853",
-                        rtol=1e-13, atol=1e-15, t_eval=[T_END])
-        check = com_error(com_from_angles(sol.y[:n, -1]), ref)
+        f, y0, com = pin_problem(n, joint)
+        sol = solve_ivp(f, (0.0, T_END), y0, method="DOP853", rtol=1e-13, atol=1e-15,
+                        t_eval=[T_END])
+        check = com_error(com(sol.y[:, -1]), ref)
         log(f"  reference: spatialmbd rk45 rtol 1e-12 vs pinocchio aba DOP853 rtol 1e-13: "
             f"{check:.1e} m")
     rows = []
@@ -431,28 +467,33 @@ def problem(n):
         rows += sweep(label, settings, ours_runner(model, **fixed), ref)
     if available("mujoco"):
         rows += sweep("mujoco RK4", STEPS,
-                      mujoco_runner(n, "RK4"), ref)
+                      mujoco_runner(n, "RK4", joint), ref)
         for integ in ("implicit", "implicitfast"):
             rows += sweep(f"mujoco {integ}", [1e-3, 1e-4, 1e-5, 5e-6, 2.5e-6],
-                          mujoco_runner(n, integ), ref)
+                          mujoco_runner(n, integ, joint), ref)
     if available("pinocchio"):
         tols = TOLS
         for meth in ("RK45", "DOP853"):
-            rows += sweep(f"pinocchio aba + scipy {meth}", tols, pin_scipy_runner(n, meth), ref)
-        rows += sweep("pinocchio aba + RK4 (Python loop)", STEPS, pin_rk4_runner(n), ref)
+            rows += sweep(f"pinocchio aba + scipy {meth}", tols,
+                          pin_scipy_runner(n, meth, joint), ref)
+        rows += sweep("pinocchio aba + RK4 (Python loop)", STEPS, pin_rk4_runner(n, joint), ref)
     if available("exudyn"):
-        rows += sweep("exudyn KinematicTree RK67", [0.2, 0.1, 0.05, 0.04, 0.025, 0.02, 1e-2, 5e-3,
-                                                    2.5e-3, 1e-3],
-                      exudyn_kt_runner(n, "RK67"), ref)
-        rows += sweep("exudyn KinematicTree RK44", STEPS, exudyn_kt_runner(n, "RK44"), ref)
-        for s in ("DOPRI5", "ODE23"):
-            rows += sweep(f"exudyn KinematicTree {s}", TOLS,
-                          exudyn_kt_runner(n, s), ref)
+        if joint == "revolute":                  # KinematicTree: 1-dof joints only
+            rows += sweep("exudyn KinematicTree RK67", [0.2, 0.1, 0.05, 0.04, 0.025, 0.02,
+                                                        1e-2, 5e-3, 2.5e-3, 1e-3],
+                          exudyn_kt_runner(n, "RK67"), ref)
+            rows += sweep("exudyn KinematicTree RK44", STEPS, exudyn_kt_runner(n, "RK44"), ref)
+            for s in ("DOPRI5", "ODE23"):
+                rows += sweep(f"exudyn KinematicTree {s}", TOLS,
+                              exudyn_kt_runner(n, s), ref)
         rows += sweep("exudyn gen.-alpha (Euler parameters)",
-                      [2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5], exudyn_ga_runner(n), ref)
-    log("  per-RHS cost ...")
-    costs = rhs_costs(n, model)
-    return dict(name=name, n=n, reference_check=check, rows=rows, rhs=costs)
+                      [2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5], exudyn_ga_runner(n, joint),
+                      ref)
+    costs = {}
+    if joint == "revolute":
+        log("  per-RHS cost ...")
+        costs = rhs_costs(n, model)
+    return dict(name=name, n=n, joint=joint, reference_check=check, rows=rows, rhs=costs)
 
 
 def best_rows(rows):
@@ -542,9 +583,11 @@ def tables(results, meta, rhs_only=None):
                              f"{r['wall']*1e3:.3f} | {r['error']:.1e} | | -- |")
             else:
                 lines.append(f"| {r['code']} | failed: {r.get('failed', '')} | | | | -- |")
-        lines += ["", "Per right-hand side (one call from Python, min over repetitions): " +
-                  ", ".join(f"{k} {v*1e6:.2f} µs" for k, v in p["rhs"].items()), ""]
-    all_rhs = {p["n"]: p["rhs"] for p in results}
+        if p["rhs"]:
+            lines += ["", "Per right-hand side (one call from Python, min over repetitions): "
+                      + ", ".join(f"{k} {v*1e6:.2f} µs" for k, v in p["rhs"].items())]
+        lines += [""]
+    all_rhs = {p["n"]: p["rhs"] for p in results if p["rhs"]}
     all_rhs.update(rhs_only or {})
     keys = list(dict.fromkeys(k for c in all_rhs.values() for k in c))
     lines += ["## Per right-hand side, revolute chain", "",
@@ -567,6 +610,9 @@ def tables(results, meta, rhs_only=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 4, 16, 64])
+    ap.add_argument("--spherical-sizes", type=int, nargs="*", default=[4, 16],
+                    help="spherical chains (MuJoCo ball joints, Pinocchio JointModelSpherical, "
+                         "Exudyn's Euler-parameter solver: its KinematicTree has 1-dof joints)")
     ap.add_argument("--rhs-sizes", type=int, nargs="*", default=[64, 256],
                     help="further chain sizes for the per-RHS cost only")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "peers"))
@@ -583,6 +629,7 @@ def main(argv=None):
                         f"load {os.getloadavg()[0]:.1f}",
                 versions=", ".join(f"{k} {v}" for k, v in versions.items()))
     results = [problem(n) for n in args.sizes]
+    results += [problem(n, "spherical") for n in args.spherical_sizes]
     rhs_only = {}
     for n in (k for k in args.rhs_sizes if k not in args.sizes):
         log(f"\n== per-RHS cost, revolute chain N = {n}")

@@ -169,3 +169,16 @@ def test_auto_takes_the_recursive_method_for_trees_and_projection_otherwise():
     assert res.settings["method"] == "projection" and res.status == "success"
     with pytest.raises(ModelError, match="do not satisfy the joints"):
         simulate(chain, 0.1, q0=q, correct_initial=False, method="recursive")
+
+
+def test_auto_keeps_projection_where_joint_coordinates_are_not_faster():
+    """Spherical joints (about 1.4x the projection method's step in joint coordinates) and
+    bodies without joints (nothing to save) keep the projection method by default."""
+    assert simulate(models.chain(2, "spherical").compile(), 0.05).settings["method"] == \
+        "projection"
+    assert simulate(_floating().compile(), 0.05).settings["method"] == "projection"
+    b = ModelBuilder("floating arm", gravity=(0.0, 0.0, -9.81))
+    b.add_body("base", 4.0, (0.2, 0.3, 0.4), r=(0, 0, 1))
+    b.add_body("arm", 0.5, (0.001, 0.04, 0.04), r=(-0.4, 0, 1.0))
+    b.add_joint("revolute", "elbow", "base", "arm", point=(-0.2, 0, 1.0), axis=(0, 1, 0))
+    assert simulate(b.compile(), 0.05).settings["method"] == "recursive"   # a floating base
