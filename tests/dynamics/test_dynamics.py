@@ -79,12 +79,13 @@ def test_rk4_shows_fourth_order_on_the_pendulum():
     assert abs(slope - 4.0) < 0.3
 
 
-def test_pendulum_reaction_matches_energy_solution():
+@pytest.mark.parametrize("method", ["projection", "recursive"])
+def test_pendulum_reaction_matches_energy_solution(method):
     """Pivot reaction of the chapter 15 pendulum against the exact relations of the physical
     pendulum: omega^2 = 2 m g d sin(phi) / I_O, alpha = m g d cos(phi) / I_O (phi below the
-    horizontal), R = m a_c - m g."""
+    horizontal), R = m a_c - m g; in body coordinates and in joint coordinates."""
     model = models.pendulum_ch15().compile()
-    res = simulate(model, 2.0, output_step=0.01, **TIGHT)
+    res = simulate(model, 2.0, output_step=0.01, method=method, **TIGHT)
     m, g, d = 7.02, 9.81, 0.5
     I_O = 0.5855265 + m * d * d
     r = res.body("pendulum")["r"]

@@ -53,6 +53,7 @@ from ..jit import njit
 from ..jit import array_view
 from ..rotations import A_into, pdot_scalar, quat_multiply_scalar
 from ..state import state_into
+from .fused import BETA, MAX_FACTOR, MIN_FACTOR, OK, RHS_FAILED, SAFETY, UNDERFLOW, _rms
 from .layout import body_views, force_views
 from .standard import rhs_standard
 from .system import _forces, body_terms
@@ -650,18 +651,8 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
 
 
 # ----------------------------------------------------------------------------- the driver
-#: status codes of :func:`dopri_joint`
-OK, RHS_FAILED, UNDERFLOW, TOO_MANY_STEPS = 0, 1, 2, 4
-SAFETY, MIN_FACTOR, MAX_FACTOR, BETA = 0.9, 0.2, 10.0, 0.04
-
-
-@njit
-def _rms(x, scale):
-    acc = 0.0
-    for i in range(x.size):
-        e = x[i] / scale[i]
-        acc += e * e
-    return math.sqrt(acc / x.size)
+# dopri_joint shares the status codes (OK, RHS_FAILED, UNDERFLOW), the controller's constants
+# (DormandPrince45's defaults) and the weighted norm of the compiled drivers of .fused
 
 
 @njit
