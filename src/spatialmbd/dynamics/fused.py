@@ -34,7 +34,8 @@ import math
 
 import numpy as np
 
-from ..integrators.controller import end_step, landing_steps, landing_time, min_step_size
+from ..integrators.controller import (end_step, landing_steps, landing_time, min_step_size,
+                                      pi_factor, rejected_factor, start_first_guess, start_step)
 from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
                                                 dopri_interpolate)
 from ..jit import njit
@@ -133,8 +134,7 @@ def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
         scale[i] = atol + abs(y[i]) * rtol
     d0 = _rms(y, scale)
     d1 = _rms(K0, scale)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, max_step, abs(span))
+    h0 = start_first_guess(d0, d1, max_step, span)
     y1 = np.empty(n)
     for i in range(n):
         y1[i] = y[i] + h0 * K0[i]
@@ -145,13 +145,7 @@ def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
     for i in range(n):
         y1[i] = f1[i] - K0[i]
     d2 = _rms(y1, scale) / h0
-    if not math.isfinite(d2):
-        return OK, h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
-    return OK, min(100.0 * h0, h1, max_step, abs(span))
+    return OK, start_step(h0, d1, d2, 1.0 / 5.0, max_step, span)
 
 
 @njit
@@ -214,11 +208,7 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             if err <= 1.0:
                 break
             counters[2] += 1
-            if not math.isfinite(err):
-                fac = MIN_FACTOR
-            else:
-                fac = max(MIN_FACTOR, min(0.9, SAFETY * err ** (-k_inv)))
-            h = hs * fac
+            h = hs * rejected_factor(err, k_inv, SAFETY, MIN_FACTOR)
             after_reject = True
         # accepted
         k_last = k_out
@@ -229,14 +219,8 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             for i in range(n):
                 K0[i] = K[0, i]
             return NEED_ROOM, t, h_start, err_prev, k_out
-        if err == 0.0:
-            fac = MAX_FACTOR
-        else:
-            fac = SAFETY * err ** (-alpha) * err_prev ** BETA
-        err_prev = max(err, 1e-4)
-        fac = min(MAX_FACTOR, max(MIN_FACTOR, fac))
-        if after_reject:
-            fac = min(fac, 1.0)
+        fac, err_prev = pi_factor(err, err_prev, alpha, BETA, SAFETY, MIN_FACTOR, MAX_FACTOR,
+                                  after_reject)
         after_reject = False
         for i in range(n):
             y_raw[i] = y_new[i]

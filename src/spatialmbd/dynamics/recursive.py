@@ -46,7 +46,8 @@ import math
 import numpy as np
 
 from ..errors import ModelError
-from ..integrators.controller import end_step, min_step_size
+from ..integrators.controller import (end_step, min_step_size, pi_factor, rejected_factor,
+                                      start_first_guess, start_step)
 from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
                                                 dopri_interpolate)
 from ..jit import njit
@@ -684,8 +685,7 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
         for i in range(n):
             scale[i] = atol + abs(x[i]) * rtol
         d0, d1 = _rms(x, scale), _rms(K0, scale)
-        h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-        h0 = min(h0, max_step, abs(span))
+        h0 = start_first_guess(d0, d1, max_step, span)
         x1 = np.empty(n)
         f1 = np.empty(n)
         for i in range(n):
@@ -695,13 +695,7 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
         counters[0] += 1
         for i in range(n):
             x1[i] = f1[i] - K0[i]
-        d2 = _rms(x1, scale) / h0
-        if not math.isfinite(d2):
-            h = h0
-        elif d1 <= 1e-15 and d2 <= 1e-15:
-            h = min(100.0 * h0, max(1e-6, h0 * 1e-3), max_step, abs(span))
-        else:
-            h = min(100.0 * h0, (0.01 / max(d1, d2)) ** 0.2, max_step, abs(span))
+        h = start_step(h0, d1, _rms(x1, scale) / h0, 0.2, max_step, span)
     K = np.empty((7, n))
     for i in range(n):
         K[0, i] = K0[i]
@@ -741,9 +735,7 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
             if err <= 1.0:
                 break
             counters[2] += 1
-            fac = MIN_FACTOR if not math.isfinite(err) else max(MIN_FACTOR,
-                                                                min(0.9, SAFETY * err ** -0.2))
-            h = hs * fac
+            h = hs * rejected_factor(err, 0.2, SAFETY, MIN_FACTOR)
             after_reject = True
         quats = T[10]                            # Euler parameters back to unit length
         for q in range(quats.size):              # (the right-hand side uses p / |p|)
@@ -752,11 +744,8 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
                             + x_new[o + 3] ** 2)
             for i in range(4):
                 x_new[o + i] /= nrm
-        fac = MAX_FACTOR if err == 0.0 else SAFETY * err ** (-alpha) * err_prev ** BETA
-        err_prev = max(err, 1e-4)
-        fac = min(MAX_FACTOR, max(MIN_FACTOR, fac))
-        if after_reject:
-            fac = min(fac, 1.0)
+        fac, err_prev = pi_factor(err, err_prev, alpha, BETA, SAFETY, MIN_FACTOR, MAX_FACTOR,
+                                  after_reject)
         after_reject = False
         while k_out < nt and t_out[k_out] <= t_new:
             to = t_out[k_out]

@@ -115,6 +115,51 @@ def newton_error(name: str, t: float, h: float, cause: str) -> SimulationError:
 
 # The rules below are shared by the Python driver and the compiled drivers of
 # ``dynamics.fused`` (compiled, callable from both), so both take the same steps.
+@njit(inline="always")
+def start_first_guess(d0: float, d1: float, max_step: float, span: float) -> float:
+    """Hairer's first guess of the starting step, h0 = 0.01 d0 / d1 (1e-6 when either norm is
+    below 1e-5), within max_step and the span (d0 = ||y0||, d1 = ||f(t0, y0)||, weighted)."""
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    return min(h0, max_step, abs(span))
+
+
+@njit(inline="always")
+def start_step(h0: float, d1: float, d2: float, k_inv: float, max_step: float,
+               span: float) -> float:
+    """Hairer's starting step from h0 and d2 = ||f(t0 + h0, y0 + h0 f0) - f0|| / h0:
+    h1 = (0.01 / max(d1, d2))^(1/k) (max(1e-6, 1e-3 h0) when both are below 1e-15), then
+    min(100 h0, h1, max_step, span); h0 itself when d2 is not finite."""
+    if not math.isfinite(d2):
+        return h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** k_inv
+    return min(100.0 * h0, h1, max_step, abs(span))
+
+
+@njit(inline="always")
+def rejected_factor(err: float, k_inv: float, safety: float, min_factor: float) -> float:
+    """Step factor after a rejected step: safety err^(-1/k) within [min_factor, 0.9]
+    (min_factor for a non-finite error)."""
+    if not math.isfinite(err):
+        return min_factor
+    return max(min_factor, min(0.9, safety * err ** (-k_inv)))
+
+
+@njit(inline="always")
+def pi_factor(err: float, err_prev: float, alpha: float, beta: float, safety: float,
+              min_factor: float, max_factor: float, after_reject: bool):
+    """(factor, err_prev for the next step) after an accepted step, the PI controller:
+    safety err^(-alpha) err_prev^beta within [min_factor, max_factor] (max_factor for a zero
+    error), at most 1 right after a rejection; err_prev is kept at least 1e-4."""
+    fac = max_factor if err == 0.0 else safety * err ** (-alpha) * err_prev ** beta
+    fac = min(max_factor, max(min_factor, fac))
+    if after_reject:
+        fac = min(fac, 1.0)
+    return fac, max(err, 1e-4)
+
+
 @njit
 def min_step_size(t: float, span: float, min_step: float) -> float:
     """Smallest admissible step near time t: max(min_step, 16 eps max(|t|, |span|))."""
