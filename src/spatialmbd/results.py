@@ -225,7 +225,6 @@ class Results:
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
         if not asm.couplers:                  # no angle to unwrap: the compiled rows
             model = self.model
-            nb = model.nb
             bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g in model.constraint_groups]
                                 ) if model.n_eq else np.zeros(0, np.int64)
             bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g in model.constraint_groups]
