@@ -158,7 +158,7 @@ class _QuietOrQuantity(argparse.Action):
 def _add_analysis_options(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("analysis options (override the model file's analysis)")
     g.add_argument("--method", metavar="M",
-                   help="formulation: auto (the default: recursive for trees of 1-dof joints, else "
+                   help="formulation: auto (the default: recursive for open trees, else "
                         "projection), standard, baumgarte, penalty, augmented_lagrangian, "
                         "projection, recursive (joint coordinates of open trees)")
     g.add_argument("--integrator", metavar="I",

@@ -90,8 +90,9 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
              events=None, event_tol: float = 1e-12, stream=None) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
-    method: "auto" (default: "recursive" for an open tree of revolute and translational joints
-        with the default rk45 and no events or budgets -- the fastest, no drift --, else
+    method: "auto" (default: "recursive" for an open tree of revolute, translational and
+        spherical joints with the default rk45 and no events or budgets -- faster than
+        projection, no drift --, else
         "projection", the recommendation of docs/choosing.md: no gains, the constraint
         violation stays at round-off), "projection", "standard", "baumgarte", "penalty",
         "augmented_lagrangian", "recursive" (joint coordinates of open trees of revolute,
@@ -328,10 +329,10 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
 
 def _recursive_applies(model, integrator, integrator_options, step, atol, events, budget,
                        max_steps, max_wall_time) -> bool:
-    """Whether method "auto" takes the recursive method: an open tree of revolute and
-    translational joints (free roots allowed; :class:`.dynamics.recursive.JointTree`),
-    integrated by the default rk45 with nothing the recursive run does not support (events,
-    budgets, force states, time laws)."""
+    """Whether method "auto" takes the recursive method: an open tree of revolute,
+    translational and spherical joints (free roots allowed, at least one joint;
+    :class:`.dynamics.recursive.JointTree`), integrated by the default rk45 with nothing the
+    recursive run does not support (events, budgets, force states, time laws)."""
     from .dynamics.recursive import JointTree
     if integrator != "rk45" or step is not None or events or budget is not None \
             or max_steps is not None or max_wall_time is not None or np.ndim(atol) != 0:
@@ -343,16 +344,12 @@ def _recursive_applies(model, integrator, integrator_options, step, atol, events
     from .forces.contact.memory import contact_groups
     if contact_groups(model):                 # contact memory: restart events at every touch
         return False
-    from .dynamics.recursive import FREE, REVOLUTE, TRANSLATIONAL
+    from .dynamics.recursive import FREE
     try:
         tree = JointTree(model, model.q0, model.v0)
     except (ModelError, ValueError, ZeroDivisionError, FloatingPointError):
         return False
-    # where it is faster: trees of 1-dof joints (free roots allowed). Spherical joints cost
-    # about 1.4x the projection method's step in joint coordinates (bench/peers.py, spherical
-    # chains), and free bodies alone have no constraints to save
-    kinds = set(tree.kind.tolist())
-    if not kinds & {REVOLUTE, TRANSLATIONAL} or kinds - {REVOLUTE, TRANSLATIONAL, FREE}:
+    if not set(tree.kind.tolist()) - {FREE}:   # free bodies alone: no constraints to save
         return False
     table = EquationsOfMotion(model).system.force_table
     return not table.n_states and not table.has_laws

@@ -443,6 +443,60 @@ def _articulate(H, K, Ic, pc, hp, u, L, Kt, Ia, row, n):
     return True
 
 
+@njit(inline="always")
+def _articulate3(H, K, Ic, pc, hp, u, Kt, Ia):
+    """:func:`_articulate` for three rates (a spherical joint), with D^-1 from an unrolled
+    3 x 3 Cholesky factor (False if D is not positive definite)."""
+    d00 = d01 = d02 = d11 = d12 = d22 = 0.0
+    h0 = h1 = h2 = 0.0
+    for l in range(6):
+        d00 += H[l, 0] * K[l, 0]
+        d01 += H[l, 0] * K[l, 1]
+        d02 += H[l, 0] * K[l, 2]
+        d11 += H[l, 1] * K[l, 1]
+        d12 += H[l, 1] * K[l, 2]
+        d22 += H[l, 2] * K[l, 2]
+        h0 += H[l, 0] * pc[l]
+        h1 += H[l, 1] * pc[l]
+        h2 += H[l, 2] * pc[l]
+    # D = L L^T (Cholesky, unrolled)
+    if not d00 > 0.0:
+        return False
+    l00 = math.sqrt(d00)
+    l10, l20 = d01 / l00, d02 / l00
+    s11 = d11 - l10 * l10
+    if not s11 > 0.0:
+        return False
+    l11 = math.sqrt(s11)
+    l21 = (d12 - l20 * l10) / l11
+    s22 = d22 - l20 * l20 - l21 * l21
+    if not s22 > 0.0:
+        return False
+    l22 = math.sqrt(s22)
+    hp[0], hp[1], hp[2] = h0, h1, h2
+    # x = D^-1 b by forward and back substitution with L (as _chol_solve, unrolled)
+    y0 = h0 / l00
+    y1 = (h1 - l10 * y0) / l11
+    y2 = (h2 - l20 * y0 - l21 * y1) / l22
+    u[2] = y2 / l22
+    u[1] = (y1 - l21 * u[2]) / l11
+    u[0] = (y0 - l10 * u[1] - l20 * u[2]) / l00
+    for i in range(6):                           # Kt = U D^-1, row by row
+        y0 = K[i, 0] / l00
+        y1 = (K[i, 1] - l10 * y0) / l11
+        y2 = (K[i, 2] - l20 * y0 - l21 * y1) / l22
+        x2 = y2 / l22
+        x1 = (y1 - l21 * x2) / l11
+        Kt[i, 0], Kt[i, 1], Kt[i, 2] = (y0 - l10 * x1 - l20 * x2) / l00, x1, x2
+    for i in range(6):                           # Ia = I_C - U D^-1 U^T
+        for j in range(6):
+            Ia[i, j] = Ic[i, j] - (Kt[i, 0] * K[j, 0] + Kt[i, 1] * K[j, 1]
+                                   + Kt[i, 2] * K[j, 2])
+    for i in range(6):
+        K[i, 0], K[i, 1], K[i, 2] = Kt[i, 0], Kt[i, 1], Kt[i, 2]
+    return True
+
+
 @njit
 def rhs_joint(t, x, xd, y, T, F, I, W):
     """xd = [zdot, zddot, power of the non-conservative forces] at x = [z, zdot, W]
@@ -567,6 +621,9 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
                     Ia[i, j] = Ic[i, j] - K[i, 0] * K[j, 0] / dk
             for i in range(6):
                 K[i, 0] /= dk
+        elif n == 3:
+            if not _articulate3(H, K, Ic, pc, hp, u, Kt, Ia):
+                return False
         else:
             if not _articulate(H, K, Ic, pc, hp, u, L, Kt, Ia, row, n):
                 return False

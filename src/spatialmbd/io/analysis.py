@@ -12,8 +12,8 @@ from .schema import (ANALYSIS_KEYS, ANALYSIS_TYPES, _describe, DYNAMIC_ONLY, _li
                      _string, _suggest, _vector)
 from .source import _plain_input
 
-#: the default method: simulate() takes "recursive" for an open tree of revolute and
-#: translational joints, else "projection"
+#: the default method: simulate() takes "recursive" for an open tree of revolute,
+#: translational and spherical joints, else "projection"
 AUTO = "auto"
 
 
