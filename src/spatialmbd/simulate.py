@@ -173,14 +173,19 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
                                                       system=eom.system)
         guards.warn([guards.correction_warning(model, correction, q_given)])
 
-    if auto and getattr(meth, "joint_coordinates", False):
-        # "auto": an initial state the joints cannot place (correct_initial=False from an
+    joint_tree = None
+    if getattr(meth, "joint_coordinates", False):
+        # the joint coordinates of the (corrected) initial state, built once for the run; under
+        # "auto" an initial state the joints cannot place (correct_initial=False from an
         # unassembled start) is left to the projection method, which projects it
         from .dynamics.recursive import JointTree
+        joint_tree = JointTree(model, q, v)
         try:
-            JointTree(model, q, v).check_initial(q)
+            joint_tree.check_initial(q)
         except ModelError:
-            meth = guards.make_method("projection", None)
+            if not auto:
+                raise
+            meth, joint_tree = guards.make_method("projection", None), None
     mob = _redundancy(model, eom, q, t0)
     if mob is not None and mob.redundant:
         mob = _structural_redundancy(model, eom, q, v, t0, mob)
@@ -261,7 +266,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         return out
 
     if getattr(meth, "joint_coordinates", False):      # method "recursive"
-        return _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results,
+        return _joint_run(model, meth, integ, joint_tree, t0, t_out, callback, chunk_results,
                           stream, dict(events=integ_events, budget=limits.active,
                                        force_states=n_z, couplers=bool(couplers),
                                        time_laws=eom.system.table.has_drivers), eom)
@@ -355,9 +360,10 @@ def _recursive_applies(model, integrator, integrator_options, step, atol, events
     return not table.n_states and not table.has_laws
 
 
-def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, stream, refuse,
+def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, stream, refuse,
                eom):
-    """The run of method "recursive": joint coordinates by :mod:`.dynamics.recursive`, in
+    """The run of method "recursive" from its :class:`.dynamics.recursive.JointTree` (the
+    initial state checked): joint coordinates by :mod:`.dynamics.recursive`, in
     compiled slices of about :data:`FUSED_SLICE_SECONDS` (progress and Ctrl-C between them),
     then the bodies' coordinates at the outputs, handed to the Results as any run's."""
     from .dynamics import recursive as rc
@@ -374,8 +380,6 @@ def _joint_run(model, meth, integ, q, v, t0, t_out, callback, chunk_results, str
             and integ.min_step == 0.0 and integ.first_step is None):
         raise ModelError(f"method 'recursive' integrates with rk45 (its compiled driver, "
                          f"scalar atol); got integrator {integ.name!r}")
-    tree = rc.JointTree(model, q, v)
-    tree.check_initial(q)
     T = tree.arrays()
     system = eom.system
     nb = model.nb
