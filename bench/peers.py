@@ -267,10 +267,6 @@ def pin_problem(n, joint="revolute"):
     return f, y0, com
 
 
-def pin_rhs(n):
-    return pin_problem(n)[0]
-
-
 def pin_scipy_runner(n, method, joint="revolute"):
     from scipy.integrate import solve_ivp
     f, y0, com = pin_problem(n, joint)
