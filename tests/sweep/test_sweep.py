@@ -207,6 +207,63 @@ def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
     assert c["status"].values[0] == "failed" and "contact" in str(c["message"].values[0])
 
 
+def test_batch_recursive_and_direct_members_equal_separate_runs(monkeypatch):
+    """With method "auto" the batch integrates the pendulum (a tree) in joint coordinates,
+    as simulate() does; members differing only in masses, inertias, gravity or initial
+    velocities are written into the packs without building their models (one build plus one
+    probe per parameter); invalid values still fail with the build's message."""
+    from spatialmbd.sweep import batch
+    from spatialmbd.sweep.core import SweepJob
+    builds = []
+    real_build = SweepJob.build
+    monkeypatch.setattr(SweepJob, "build", lambda self, m: builds.append(m) or
+                        real_build(self, m))
+    analysis = dict(type="dynamic", t_end=1.0, output_step=0.05, method="auto",
+                    integrator=dict(name="rk45", rtol=1e-8, atol=1e-10))
+    outs = ["min(pendulum.z)", "final(pendulum.wx)", "pivot.pendulum.fz",
+            "max(energy.kinetic)"]
+    direct = {"bodies.pendulum.mass": [2.0, 5.0, 7.0], "gravity.2": [-9.81, -5.0],
+              "bodies.pendulum.inertia.1": [0.001, 0.002]}
+    a = sweep(PENDULUM, direct, outs, analysis, engine="simulate")
+    builds.clear()
+    b = sweep(PENDULUM, direct, outs, analysis, engine="batch", chunk_size=12)
+    assert len(builds) == 1 + 3                  # the prototype and one probe per parameter
+    assert (b["status"] == "success").all()
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
+    # (the moment about the rod's own axis, inertia.1, does not change the swing)
+    assert len(set(np.round(b[outs[1]].values.ravel(), 9))) == 6
+    # the joint coordinates: the batch member is the recursive run of simulate()
+    model0, an0 = real_build(_job(direct, analysis), {n: v[0] for n, v in direct.items()})
+    assert batch.BatchSetup(model0, an0.method, an0.method_options, an0.integrator).recursive
+    # an initial velocity is direct too (its member's state is corrected, as simulate does)
+    spin = {"bodies.pendulum.angular_velocity.0": [0.0, 1.0, 2.5]}
+    a = sweep(PENDULUM, spin, outs, analysis, engine="simulate")
+    builds.clear()
+    b = sweep(PENDULUM, spin, outs, analysis, engine="batch", chunk_size=3)
+    assert len(builds) == 2 and (b["status"] == "success").all()
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-12, atol=1e-12)
+    # invalid values are built, so the member fails with the build's own message
+    bad = sweep(PENDULUM, {"bodies.pendulum.mass": [2.0, -3.0, 7.0, 1e30]}, outs, analysis,
+                engine="batch")
+    assert bad["status"].values.tolist() == ["success", "failed", "success", "failed"]
+    assert "must be positive" in str(bad["message"].values[1])
+    assert "out of range" in str(bad["message"].values[3])
+    # a joint axis is not a direct value: every member is built (and still recursive)
+    builds.clear()
+    geo = {"joints.pivot.axis.1": [0.0, 0.1, 0.2]}
+    _batch_equals_simulate(PENDULUM, geo, outs, analysis, distinct=3, rtol=1e-12)
+
+
+def _job(params, analysis):
+    from spatialmbd.sweep.core import _make_job
+    from spatialmbd.sweep.outputs import parse_outputs
+    from spatialmbd.sweep.params import as_space
+    return _make_job(PENDULUM, as_space(params), parse_outputs(["final(pendulum.z)"]),
+                     analysis, "batch", {})
+
+
 # ------------------------------------------------------------------------------ results
 def test_result_formats_dataframe_and_files(tmp_path):
     ds = sweep(PENDULUM, {"bodies.pendulum.mass": [1.0, 2.0], "analysis.t_end": [0.2, 0.3]},

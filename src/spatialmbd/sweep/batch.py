@@ -38,8 +38,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ..dynamics import recursive as rc
 from ..dynamics import system as cs
-from ..dynamics.fused import OK, STATUS_TEXT, dopri_run, projection_params, rk4_outputs
+from ..dynamics.fused import (OK, STATUS_TEXT, TOO_MANY_STEPS, dopri_run, projection_params,
+                              rk4_outputs)
 from ..errors import ModelError
 from ..jit import njit
 
@@ -74,18 +76,47 @@ def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, ma
                 max_steps, nb, lam_off, Y, Yd, Lam, status, t_fail, counters)
 
 
-def _run_members(args, B: int, threads: bool) -> None:
-    """integrate_batch over all B members: in one call, or (threads) in ranges of members
-    handed to one thread per core as each finishes its previous range."""
+@njit(nogil=True)
+def integrate_batch_joint(b0, b1, X0, Ti, Tf, F, I, W, t_out, rtol, atol, max_step,
+                          max_steps, nb, nq, mp, lam_off, X, Y, Yd, Lam, status, t_fail,
+                          counters):
+    """The recursive method's members b0 <= b < b1: the joint state X0[b] (tree packs Ti,
+    shared, and Tf[b], the member's geometry and work) integrated by
+    :func:`..dynamics.recursive.dopri_joint` into X[b] (nt, nx); the bodies' [q, v, work] at
+    the outputs into Y[b] and, when Yd and Lam have rows, vdot and lambda (standard method,
+    params mp) into Yd[b], Lam[b]. status, t_fail, counters as :func:`integrate_batch`."""
+    n = X0.shape[1]
+    nt = t_out.size
+    for b in range(b0, b1):
+        x = X0[b].copy()
+        K0 = np.empty(n)
+        T = (Ti, Tf[b])
+        code, t, h, err, done = rc.dopri_joint(0.0, x, K0, 0.0, 1e-4, T, F[b], I, W[b], 0.0,
+                                               t_out, 0, rtol, atol, max_step, max_steps,
+                                               X[b], counters[b])
+        if code == OK and done < nt:
+            code = TOO_MANY_STEPS
+        status[b] = code
+        t_fail[b] = t
+        rc.body_rows(X[b, :done], T, nb, nq, Y[b, :done])
+        if Yd.shape[1]:
+            rc.output_accelerations(t_out[:done], Y[b, :done], F[b], I, W[b], mp, lam_off,
+                                    Yd[b, :done], Lam[b, :done])
+
+
+def _run_members(args, B: int, threads: bool, kernel=None) -> None:
+    """kernel (default integrate_batch) over all B members: in one call, or (threads) in
+    ranges of members handed to one thread per core as each finishes its previous range."""
     import os
+    kernel = integrate_batch if kernel is None else kernel
     cores = os.cpu_count() or 1
     if not threads or cores < 2 or B < 2:
-        integrate_batch(0, B, *args)
+        kernel(0, B, *args)
         return
     from concurrent.futures import ThreadPoolExecutor
     size = max(1, B // (8 * cores))                  # small ranges: members differ in cost
     with ThreadPoolExecutor(max_workers=min(cores, B)) as pool:
-        futures = [pool.submit(integrate_batch, b0, min(B, b0 + size), *args)
+        futures = [pool.submit(kernel, b0, min(B, b0 + size), *args)
                    for b0 in range(0, B, size)]
         for f in futures:
             f.result()
@@ -114,19 +145,32 @@ class BatchMember:
 
 
 class BatchSetup:
-    """The prototype System of a topology and the checks that a model belongs to it."""
+    """The prototype System of a topology and the checks that a model belongs to it.
 
-    def __init__(self, model, method="standard", method_options=None):
+    integrator: the analysis' integrator. With "rk45", method "auto" takes the recursive
+    method for a tree of joints as simulate() does (joint coordinates,
+    :mod:`..dynamics.recursive`), else the projection method; "recursive" needs rk45 and a
+    tree."""
+
+    def __init__(self, model, method="standard", method_options=None, integrator=None):
         from ..dynamics import EquationsOfMotion, get_method
         from ..kinematics import mobility
         self._check_model(model)
-        if method == "auto":                    # the body-coordinate default of simulate()
-            method = "projection"
-        meth = get_method(method, **(method_options or {}))
-        if meth.name not in ("standard", "baumgarte", "projection") or \
-                getattr(meth, "solver", "") == "kkt":
-            raise ModelError(f"batch integration supports the 'standard', 'baumgarte' and "
-                             f"'projection' methods, not {meth.name!r}; use engine='simulate'")
+        self.recursive = False
+        self.tree = None                        # the prototype's JointTree (recursive)
+        if method in ("auto", "recursive"):
+            tree_error = self._tree_error(model, integrator)
+            if method == "recursive" and tree_error:
+                raise ModelError(f"batch integration with method 'recursive': {tree_error}")
+            self.recursive = not tree_error
+            # else the body-coordinate default of simulate()
+            method = "recursive" if self.recursive else "projection"
+        meth = get_method(method, **({} if self.recursive else (method_options or {})))
+        if not self.recursive and (meth.name not in ("standard", "baumgarte", "projection")
+                                   or getattr(meth, "solver", "") == "kkt"):
+            raise ModelError(f"batch integration supports the 'standard', 'baumgarte', "
+                             f"'projection' and 'recursive' methods, not {meth.name!r}; use "
+                             "engine='simulate'")
         self.eom = EquationsOfMotion(model)
         self.system = system = self.eom.system
         if not system.fused:
@@ -149,6 +193,33 @@ class BatchSetup:
         self._topology = self._signature(model)
         self._slots = self._f_slots()
         self._corrector = None                  # the System of the initial corrections
+
+    @staticmethod
+    def _tree_error(model, integrator) -> str:
+        """Why the recursive method cannot run this model's batch ('' when it can)."""
+        if integrator != "rk45":
+            return f"it integrates with rk45, not {integrator!r}"
+        try:
+            tree = rc.JointTree(model, model.q0, model.v0)
+        except ModelError as exc:
+            return str(exc)
+        if not set(tree.kind.tolist()) - {rc.FREE}:
+            return "the model has no joints (free bodies only)"
+        return ""
+
+    def joint_start(self, model, y0):
+        """(x0, Tf) of a recursive member from its corrected y0 = [q, v, 0]: the joint state
+        and the tree's float pack (the member's joint geometry and its own work arrays)."""
+        nb = self.nb
+        q, v = y0[:7 * nb].reshape(nb, 7), y0[7 * nb:13 * nb].reshape(nb, 6)
+        tree = rc.JointTree(model, q, v)
+        tree.check_initial(q)
+        if self.tree is None:
+            self.tree = tree
+        elif not np.array_equal(tree.Ti, self.tree.Ti):
+            raise ModelError(f"batch integration: member model {model.name!r} has another "
+                             "joint tree than the first member")
+        return tree.x0, tree.Tf
 
     @staticmethod
     def _check_model(model):
@@ -249,6 +320,20 @@ class BatchSetup:
             F[off:off + size] = np.asarray(value, dtype=float).reshape(size)
         return F
 
+    def pack_bodies(self, mass, inertia, gravity) -> np.ndarray:
+        """Float packs (B, nF) of members that differ from the prototype only in masses (B,
+        nb), inertias (B, nb, 3, 3) and gravity (B, 3): its F with the body fields rewritten
+        as :meth:`pack_F` writes them (vectorised over the members)."""
+        B = mass.shape[0]
+        Fs = np.repeat(self.system.F[None, :], B, axis=0)
+        arrays = dict(mass=mass, Jl=inertia, Jl_inv=np.linalg.inv(inertia),
+                      weight=mass[:, :, None] * gravity[:, None, :])
+        for name, off, shape in self._slots:
+            if name in arrays:
+                size = math.prod(shape)
+                Fs[:, off:off + size] = arrays[name].reshape(B, size)
+        return Fs
+
     def initial_state(self, model, F, analysis) -> np.ndarray:
         """y0 = [q, v, 0] of a member, corrected (chapter 14) as simulate() does."""
         from ..dynamics.correction import correct_initial_conditions, hold_mask
@@ -300,7 +385,8 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
     if not models:
         return []
     if setup is None:
-        setup = BatchSetup(models[0], analysis.method, analysis.method_options)
+        setup = BatchSetup(models[0], analysis.method, analysis.method_options,
+                           analysis.integrator)
     t_out = output_times(analysis.t_end, analysis.output_step, analysis.t_eval, 0.0)
     Fs = np.stack([setup.pack_F(m) for m in models])
     Y0 = np.stack([setup.initial_state(m, Fs[k], analysis) for k, m in enumerate(models)])
@@ -309,7 +395,12 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
 
 
 def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=True,
-               threads=False):
+               threads=False, starts=None):
+    """Integrate the members (F rows Fs, corrected initial states Y0; for the recursive
+    method, optionally their (x0, Tf) joint starts) in one compiled call."""
+    if setup.recursive:
+        return _integrate_joint(setup, models, analysis, t_out, Fs, Y0, max_steps,
+                                with_outputs, threads, starts)
     B, n = Y0.shape
     nb, m = setup.nb, setup.m
     W = np.repeat(setup.system.W[None, :], B, axis=0)
@@ -331,6 +422,47 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
                   atol, max_step, step, max_steps, nb, setup.lam_off, Y, Yd, Lam, status,
                   t_fail, counters), B, threads)
     wall = time.perf_counter() - start
+    return _members(setup, models, t_out, Y, Yd, Lam, status, t_fail, counters, wall,
+                    with_outputs)
+
+
+def _integrate_joint(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs,
+                     threads, starts=None):
+    """_integrate for the recursive method: each member's joint state and tree (from its
+    corrected y0 unless given in starts), all members in one compiled call
+    (:func:`integrate_batch_joint`)."""
+    B = Y0.shape[0]
+    nb, m, nt = setup.nb, setup.m, t_out.size
+    if starts is None:
+        starts = [setup.joint_start(model, Y0[b]) for b, model in enumerate(models)]
+    X0 = np.stack([x0 for x0, _ in starts])
+    Tf = np.stack([tf for _, tf in starts])
+    nq = setup.tree.nq
+    W = np.repeat(setup.system.W[None, :], B, axis=0)
+    X = np.zeros((B, nt, X0.shape[1]))
+    Y = np.zeros((B, nt, 13 * nb + 1))
+    rows = nt if with_outputs else 0
+    Yd = np.zeros((B, rows, 6 * nb))
+    Lam = np.zeros((B, rows, m))
+    status = np.zeros(B, dtype=np.int64)
+    t_fail = np.zeros(B)
+    counters = np.zeros((B, 3), dtype=np.int64)
+    rtol = 1e-6 if analysis.rtol is None else float(analysis.rtol)
+    atol = 1e-9 if analysis.atol is None else float(analysis.atol)
+    max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
+    start = time.perf_counter()
+    _run_members((X0, setup.tree.Ti, Tf, Fs, setup.system.I, W, t_out, rtol, atol, max_step,
+                  max_steps, nb, nq, setup.mp, setup.lam_off, X, Y, Yd, Lam, status, t_fail,
+                  counters), B, threads, integrate_batch_joint)
+    wall = time.perf_counter() - start
+    return _members(setup, models, t_out, Y, Yd, Lam, status, t_fail, counters, wall,
+                    with_outputs)
+
+
+def _members(setup, models, t_out, Y, Yd, Lam, status, t_fail, counters, wall,
+             with_outputs):
+    """One BatchMember per model from the stacked outputs."""
+    nb, m, nt, B = setup.nb, setup.m, t_out.size, len(models)
     out = []
     for b, model in enumerate(models):
         ok = status[b] == OK
@@ -361,8 +493,10 @@ def run_members_batched(job, members: list) -> list:
     :meth:`.core.SweepJob.run_member`."""
     from .core import FAILED, _describe
     rows = [None] * len(members)
+    left = _run_direct(job, members, rows)
     built = []
-    for k, member in enumerate(members):
+    for k in left:
+        member = members[k]
         try:
             model, analysis = job.build(member)
             built.append((k, model, analysis))
@@ -377,35 +511,227 @@ def run_members_batched(job, members: list) -> list:
         analysis = items[0][2]
         try:
             _check_analysis(analysis)
-            setup = BatchSetup(items[0][1], analysis.method, analysis.method_options)
+            setup = BatchSetup(items[0][1], analysis.method, analysis.method_options,
+                               analysis.integrator)
         except Exception as exc:
             for k, _, _ in items:
                 rows[k] = (FAILED, _describe(exc), job.empty(), None)
             continue
         from ..simulate import output_times
         t_out = output_times(analysis.t_end, analysis.output_step, analysis.t_eval, 0.0)
-        good, Fs, Y0 = [], [], []
+        good, Fs, Y0, starts = [], [], [], []
         for k, model, _ in items:
             try:
                 F = setup.pack_F(model)
-                Y0.append(setup.initial_state(model, F, analysis))
+                y0 = setup.initial_state(model, F, analysis)
+                if setup.recursive:
+                    starts.append(setup.joint_start(model, y0))
+                Y0.append(y0)
                 Fs.append(F)
                 good.append((k, model))
             except Exception as exc:
                 rows[k] = (FAILED, _describe(exc), job.empty(), None)
-        if not good:
-            continue
-        opts = job.batch_options
-        res = _integrate(setup, [m for _, m in good], analysis, t_out, np.stack(Fs),
-                         np.stack(Y0), int(opts.get("max_steps", 10_000_000)),
-                         with_outputs=_needs_accelerations(job.outputs),
-                         threads=bool(opts.get("threads", False)))
-        for (k, _), member in zip(good, res):
-            try:
-                rows[k] = job.reduce(as_results(member))
-            except Exception as exc:
-                rows[k] = (FAILED, _describe(exc), job.empty(), None)
+        if good:
+            _integrate_reduce(job, setup, analysis, t_out, good, np.stack(Fs), np.stack(Y0),
+                              starts or None, rows)
     return rows
+
+
+def _integrate_reduce(job, setup, analysis, t_out, good, Fs, Y0, starts, rows):
+    """Integrate the members good = [(row, model)] and reduce each to its sweep row."""
+    from .core import FAILED, _describe
+    opts = job.batch_options
+    res = _integrate(setup, [m for _, m in good], analysis, t_out, Fs, Y0,
+                     int(opts.get("max_steps", 10_000_000)),
+                     with_outputs=_needs_accelerations(job.outputs),
+                     threads=bool(opts.get("threads", False)), starts=starts)
+    for (k, _), member in zip(good, res):
+        try:
+            rows[k] = job.reduce(as_results(member))
+        except Exception as exc:
+            rows[k] = (FAILED, _describe(exc), job.empty(), None)
+
+
+# ------------------------------------------------------------------ members set without builds
+#: the Model arrays a sweep parameter may set directly, without building the member's model
+DIRECT_ARRAYS = ("mass", "inertia", "gravity", "q0", "v0")
+#: fewest members of a group for which the direct path is tried (it builds one probe model
+#: per parameter)
+DIRECT_MIN_MEMBERS = 3
+
+
+def _direct_entries(job, member0, model0, others, setup):
+    """For every model parameter of the sweep, the Model entry (array, flat index) it sets, or
+    None if no member changes it -- when building a member with that parameter changed is
+    exactly writing its value into that one entry of :data:`DIRECT_ARRAYS`. Probed: the
+    model is built with only that parameter set to another member's value and compared with
+    model0 entry by entry, point by point and pack by pack. None (the whole dict) when some
+    parameter is not of that kind (a joint's axis, a force element's stiffness, a velocity
+    given in body axes, ...): those members are built one by one."""
+    from .params import split
+    names = list(split(member0, False)[0])
+    F0 = setup.pack_F(model0)
+    entries = {}
+    for name in names:
+        other = next((m[name] for m in others if m[name] != member0[name]), None)
+        if other is None:
+            entries[name] = None
+            continue
+        probe = dict(member0)
+        probe[name] = other
+        try:
+            model_p, _ = job.build(probe)
+        except Exception:
+            return None
+        changed = []
+        for a in DIRECT_ARRAYS:
+            x0 = np.asarray(getattr(model0, a), dtype=float).ravel()
+            x1 = np.asarray(getattr(model_p, a), dtype=float).ravel()
+            if x0.shape != x1.shape:
+                return None
+            changed += [(a, int(i), float(x1[i])) for i in np.flatnonzero(x0 != x1)]
+        if len(changed) != 1 or changed[0][2] != float(other):
+            return None
+        a, i, _ = changed[0]
+        if model_p.points.keys() != model0.points.keys() or any(   # (body, local point)
+                model_p.points[p][0] != model0.points[p][0]
+                or not np.array_equal(model_p.points[p][1], model0.points[p][1])
+                for p in model0.points):
+            return None
+        patched = _patched(model0, {a: _with(getattr(model0, a), i, other)})
+        if not np.array_equal(setup.pack_F(model_p), setup.pack_F(patched)) or \
+                np.array_equal(F0, setup.pack_F(patched)) != (a in ("q0", "v0")):
+            return None
+        entries[name] = (a, i)
+    return entries
+
+
+def _with(x, i, value):
+    y = np.array(x, dtype=float)
+    y.reshape(-1)[i] = value
+    return y
+
+
+def _patched(model, arrays: dict):
+    """model with some of DIRECT_ARRAYS replaced (its builder snapshot, used for model files
+    and warnings, stays the prototype's: these members live only inside the sweep)."""
+    import dataclasses
+    return dataclasses.replace(model, **arrays)
+
+
+def _run_direct(job, members: list, rows: list) -> list:
+    """Members whose parameters are all direct (:func:`_direct_entries`), grouped by their
+    analysis values: one model built per group (and one probe per parameter); every other
+    member's masses, inertias, gravity and initial state are written into copies of its
+    arrays and packs, its initial state corrected only when a parameter sets it (the
+    correction is kinematic). Fills their rows; returns the indices of the members left to
+    the building path."""
+    from ..simulate import output_times
+    from .params import split
+    if job.factory is not None and not job.analysis:
+        return list(range(len(members)))        # the factory's own analysis may vary
+    groups: dict = {}
+    for k, member in enumerate(members):
+        key = tuple(sorted(split(member, False)[1].items()))
+        groups.setdefault(key, []).append(k)
+    left = []
+    for ks in groups.values():
+        if len(ks) < DIRECT_MIN_MEMBERS:
+            left += ks
+            continue
+        try:
+            model0, analysis = job.build(members[ks[0]])
+            _check_analysis(analysis)
+            setup = BatchSetup(model0, analysis.method, analysis.method_options,
+                               analysis.integrator)
+            entries = _direct_entries(job, members[ks[0]], model0,
+                                      [members[k] for k in ks[1:]], setup)
+        except Exception:
+            entries = None
+        if entries is None:
+            left += ks
+            continue
+        left += _direct_group(job, setup, model0, analysis, output_times(
+            analysis.t_end, analysis.output_step, analysis.t_eval, 0.0),
+            [(k, members[k]) for k in ks], entries, rows)
+    return sorted(left)
+
+
+def _direct_valid(model, member, entries) -> bool:
+    """Whether a direct member's values pass the checks a build applies to them: the model
+    file's range checks on each value (by the quantity its path names) and the builder's
+    checks of the masses and inertias it sets. (A member that fails is built, so that its
+    error is the build's.)"""
+    from ..io.schema import _Problems, _range_checks
+    from ..model.builder import check_inertia, check_mass
+    problems = _Problems()
+    bodies = set()
+    for name, entry in entries.items():
+        if entry is None:
+            continue
+        node = member[name]
+        for token in reversed(name.split(".")):
+            node = {token: node}
+        _range_checks(problems, node)
+        a, i = entry
+        if a == "mass":
+            bodies.add(i)
+        elif a == "inertia":
+            bodies.add(i // 9)
+    if len(problems):
+        return False
+    try:
+        for b in bodies:
+            check_mass(model.mass[b], "mass")
+            check_inertia(model.inertia[b], "inertia")
+    except ModelError:
+        return False
+    return all(np.all(np.isfinite(getattr(model, a))) for a in DIRECT_ARRAYS)
+
+
+def _direct_group(job, setup, model0, analysis, t_out, items, entries, rows) -> list:
+    """Run the members items = [(row, member)] of one direct group (see :func:`_run_direct`);
+    the rows of members whose values fail a check (:func:`_direct_valid`) are returned, for
+    the building path."""
+    from .core import FAILED, _describe
+    B = len(items)
+    arrays = {a: np.repeat(np.asarray(getattr(model0, a), dtype=float)[None], B, axis=0)
+              for a in DIRECT_ARRAYS}
+    for name, entry in entries.items():
+        if entry is not None:
+            a, i = entry
+            arrays[a].reshape(B, -1)[:, i] = [member[name] for _, member in items]
+    models = [_patched(model0, {a: arrays[a][b] for a in DIRECT_ARRAYS}) for b in range(B)]
+    valid = [_direct_valid(model, member, entries) for model, (_, member) in zip(models, items)]
+    declined = [k for (k, _), ok in zip(items, valid) if not ok]
+    items = [it for it, ok in zip(items, valid) if ok]
+    models = [m for m, ok in zip(models, valid) if ok]
+    arrays = {a: x[np.array(valid, dtype=bool)] for a, x in arrays.items()}
+    if not items:
+        return declined
+    Fs = setup.pack_bodies(arrays["mass"], arrays["inertia"], arrays["gravity"])
+    state_set = any(e is not None and e[0] in ("q0", "v0") for e in entries.values())
+    good, keep, Y0, starts = [], [], [], []
+    y_shared = start_shared = None
+    for b, ((k, _), model) in enumerate(zip(items, models)):
+        try:
+            if state_set or y_shared is None:
+                y0 = setup.initial_state(model, Fs[b], analysis)
+                start = setup.joint_start(model, y0) if setup.recursive else None
+                if not state_set:
+                    y_shared, start_shared = y0, start
+            else:
+                y0, start = y_shared, start_shared
+            Y0.append(y0)
+            starts.append(start)
+            good.append((k, model))
+            keep.append(b)
+        except Exception as exc:
+            rows[k] = (FAILED, _describe(exc), job.empty(), None)
+    if good:
+        _integrate_reduce(job, setup, analysis, t_out, good, Fs[keep], np.stack(Y0),
+                          starts if setup.recursive else None, rows)
+    return declined
 
 
 _STATE_COLUMNS = ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy", "vz", "wx", "wy", "wz")

@@ -27,6 +27,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import ModelError
+from ..jit import njit
 
 __all__ = ["Output", "parse_outputs", "REDUCTIONS", "period", "Columns"]
 
@@ -53,51 +54,67 @@ def period(t: np.ndarray, x: np.ndarray) -> float:
 def crossing_times(t: np.ndarray, x: np.ndarray) -> list:
     """Times (s) of the upward zero crossings of x(t) (x[k] < 0 <= x[k+1]), each the root in
     [t_k, t_k+1] of the cubic through the four samples around it (Newton's method on the
-    cubic, safeguarded by bisection of the bracket)."""
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
+    cubic, safeguarded by bisection of the bracket; compiled: a sweep locates thousands)."""
+    t = np.ascontiguousarray(t, dtype=float)
+    x = np.ascontiguousarray(x, dtype=float)
+    return _crossings(t, x).tolist()
+
+
+@njit
+def _crossings(t, x):
     idx = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
-    return [_cubic_root(t, x, int(k)) for k in idx]
+    out = np.empty(idx.size)
+    for j in range(idx.size):
+        out[j] = _cubic_root(t, x, idx[j])
+    return out
 
 
-def _window(n: int, k: int):
-    """Four sample indices around the bracket [k, k+1] (fewer when there are fewer samples)."""
-    lo = max(0, min(k - 1, n - 4))
-    return lo, min(n, lo + 4)
-
-
+@njit
 def cubic_coefficients(t, x, k):
-    """(a, c): the polynomial through the samples around [t_k, t_k+1] as
-    sum_i c[i] (s - a)^i, a = t_k (lowest degree first).
-
-    Newton's divided differences expanded into powers of (s - a), in plain floats (a 4 x 4
-    solve through NumPy costs more than the rest of a crossing; a sweep locates thousands)."""
-    lo, hi = _window(t.size, k)
-    a = float(t[k])
-    tt = [float(v) - a for v in t[lo:hi]]
-    d = [float(v) for v in x[lo:hi]]
-    n = len(tt)
+    """(a, c): the polynomial through the samples around [t_k, t_k+1] (four, fewer when
+    there are fewer samples) as sum_i c[i] (s - a)^i, a = t_k (lowest degree first): Newton's
+    divided differences expanded into powers of (s - a)."""
+    n_all = t.size
+    lo = max(0, min(k - 1, n_all - 4))
+    hi = min(n_all, lo + 4)
+    a = t[k]
+    n = hi - lo
+    tt = np.empty(n)
+    d = np.empty(n)
+    for i in range(n):
+        tt[i] = t[lo + i] - a
+        d[i] = x[lo + i]
     for j in range(1, n):                         # d[i] <- f[tt[i-j], ..., tt[i]]
         for i in range(n - 1, j - 1, -1):
             d[i] = (d[i] - d[i - 1]) / (tt[i] - tt[i - j])
-    c = [d[n - 1]]                                # Horner on the Newton form
-    for i in range(n - 2, -1, -1):                # c <- c (s - tt[i]) + d[i]
-        c = [0.0] + c
-        for m in range(len(c) - 1):
+    c = np.zeros(n)                               # Horner on the Newton form:
+    c[0] = d[n - 1]                               # c <- c (s - tt[i]) + d[i]
+    deg = 0
+    for i in range(n - 2, -1, -1):
+        deg += 1
+        for m in range(deg, 0, -1):               # multiply by s: shift up
+            c[m] = c[m - 1]
+        c[0] = 0.0
+        for m in range(deg):
             c[m] -= tt[i] * c[m + 1]
         c[0] += d[i]
-    return a, np.array(c)
+    return a, c
 
 
+@njit
 def _poly(c, s):
     value, slope = 0.0, 0.0
-    for ci in c[::-1]:
+    for i in range(c.size - 1, -1, -1):
         slope = slope * s + value
-        value = value * s + ci
+        value = value * s + c[i]
     return value, slope
 
 
-def _cubic_root(t, x, k) -> float:
+_EPS = float(np.finfo(float).eps)
+
+
+@njit
+def _cubic_root(t, x, k):
     a, c = cubic_coefficients(t, x, k)
     lo, hi = 0.0, t[k + 1] - a
     flo = x[k]
@@ -112,7 +129,7 @@ def _cubic_root(t, x, k) -> float:
         s_new = s - step
         if not lo < s_new < hi:                          # Newton left the bracket: bisect
             s_new = 0.5 * (lo + hi)
-        if abs(s_new - s) <= 1e-15 * max(1.0, abs(a)) + 4 * np.finfo(float).eps * abs(s):
+        if abs(s_new - s) <= 1e-15 * max(1.0, abs(a)) + 4 * _EPS * abs(s):
             return a + s_new
         s = s_new
     return a + s
