@@ -37,7 +37,9 @@ the closed-form crank-angle ODE.
 
 How each peer's model is built (a spanning tree of the mechanism: each body hangs from its
 parent by the joint that first reaches it from the ground; the remaining "cut" joints close
-the loops):
+the loops: C for the four-bar, the crank pivots O_1..O_N for the N-four-bar (a serial tree
+O_0, A_0, B_0, ..., B_{N-1}; see the notes for why not B_k), P5 for Bricard, none for the
+flyball governor):
 
 * MuJoCo (``mujoco``): the tree as nested MJCF bodies (body frame = spatialmbd's body frame:
   origin at the centre of mass, same axes; ``<inertial>`` mass and full inertia there; hinge,
@@ -139,6 +141,25 @@ PROX = (1e-12, 1e-8, 20)           # Pinocchio proximal accuracy, mu, max iterat
 peers.FIXED_STEP = peers.FIXED_STEP + ("rk4 projection", "RK44", "RK67")
 
 
+NOTES = [
+    "Pinocchio 4.1.0: with the N-four-bar's tree cut at the coupler-to-crank joints B_k (every "
+    "middle crank then in two closure constraints) `pin.constraintDynamics` returns wrong "
+    "accelerations (non-zero at rest in the vertical position, where the exact ones are 0; "
+    "independent of mu, Baumgarte gains and LOCAL / LOCAL_WORLD_ALIGNED). Cut at the crank "
+    "pivots O_1..O_N (a serial tree) it is right, so that is the tree used for every peer.",
+    "The closed form of the N-four-bar in the docstring of `models.n_four_bar` uses slender "
+    "bars (I = m L^2 ((N+1)/3 + N)); the builder's bars have a 0.02 m section, which changes I "
+    "by 3e-5 relatively and the positions at 0.6 s by ~1e-5 m. The reference check here uses "
+    "the builder's inertia.",
+    "spatialmbd `right_hand_side(model, method)` does no redundancy analysis (its docstring): "
+    "on the redundant models (N-four-bar, Bricard) every row enters the multiplier solve and "
+    "one call costs hundreds of microseconds, while `simulate` (redundant rows removed) pays "
+    "a few: see the 'in simulate (wall / nfev)' columns.",
+    "The flyball governor is stiff (k = 8e5 N/m, c = 4e4 N s/m): every explicit integrator is "
+    "held by stability, not accuracy; fixed steps above ~5e-4 s blow up.",
+]
+
+
 # --------------------------------------------------------------------------------- problems
 def _nfb(n):
     return dict(build=lambda: models.n_four_bar(n), t_end=0.6,
@@ -155,14 +176,23 @@ PROBLEMS = {
     "bricard": dict(build=models.bricard, t_end=1.0, cuts={"P5": "axis"},
                     exudyn_axes={"P5": [1, 1, 1, 0, 1, 0]}, note="1 s, released at rest"),
     "flyball": dict(build=models.flyball_governor, t_end=1.0, cuts={},
-                    note="1 s, spinning at 2 pi rad/s"),
+                    note="1 s, spinning at 2 pi rad/s",
+                    # stiff (k = 8e5 N/m, c = 4e4 N s/m): explicit fixed steps above ~5e-4 s
+                    # are unstable, so the fixed-step sweeps start finer
+                    steps=[1e-3, 5e-4, 4e-4, 2.5e-4, 2e-4, 1.25e-4, 1e-4, 5e-5]),
 }
 
 
 def n_four_bar_exact(n, t_end, builder):
-    """COM of n_four_bar(n) at t_end from I phi'' = K sin phi (models.py), DOP853 rtol 1e-13."""
+    """COM of n_four_bar(n) at t_end from I phi'' = K sin phi, DOP853 rtol 1e-13. The
+    docstring of models.n_four_bar gives I = m L^2 ((N+1)/3 + N) for slender bars; the builder's
+    cranks have the section 0.02 m, so I = (N+1) (J_zz + m (L/2)^2) + N m L^2 here (the slender
+    formula is off by 3e-5 relatively, 1e-5 m at 0.6 s)."""
     from scipy.integrate import solve_ivp
-    I, K = (n + 1) / 3 + n, models.G_TEXT * ((n + 1) / 2 + n)
+    crank = builder.bodies["crank0"]
+    m, jzz = float(crank.mass), float(np.asarray(crank.inertia)[2, 2])
+    I = (n + 1) * (jzz + m * 0.25) + n * m
+    K = models.G_TEXT * m * ((n + 1) / 2 + n)
     sol = solve_ivp(lambda t, y: [y[1], K / I * math.sin(y[0])], (0, t_end), [0.0, -1.0],
                     method="DOP853", rtol=1e-13, atol=1e-15)
     phi = sol.y[0, -1]
@@ -337,7 +367,13 @@ def mujoco_runner(prob, integrator):
             d.qvel[:] = qvel0
             t0 = time.perf_counter()
             mujoco.mj_step(m, d, nstep=steps)
-            return time.perf_counter() - t0, None
+            wall = time.perf_counter() - t0
+            bad = sum(d.warning[w].number for w in (mujoco.mjtWarning.mjWARN_BADQACC,
+                                                    mujoco.mjtWarning.mjWARN_BADQVEL,
+                                                    mujoco.mjtWarning.mjWARN_BADQPOS))
+            if bad:          # MuJoCo resets the state and carries on: not a result
+                raise RuntimeError(f"unstable (MuJoCo reset the state {bad} times)")
+            return wall, None
         wall, _ = best_of(once)
         mujoco.mj_kinematics(m, d)
         if not np.all(np.isfinite(d.qpos)):
@@ -445,23 +481,27 @@ def pin_problem(prob, baumgarte=BAUMGARTE):
             fv.append(fz)
         aba, fk = pin.aba, pin.forwardKinematics
 
+        def cross(a, b):                     # np.cross costs ~20 us on 3-vectors
+            return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                             a[0] * b[1] - a[1] * b[0]])
+
         def acc(q, v):
             fk(model, data, q, v)
             for k in range(model.njoints):
                 fv[k] = pin.Force.Zero()
             for ji, pi, jj, pj, k, c, l0 in sp:
                 Mi, Mj = data.oMi[ji], data.oMi[jj]
-                xi, xj = Mi.act(pi), Mj.act(pj)
+                Ri, Rj = Mi.rotation, Mj.rotation
                 vi, vj = data.v[ji], data.v[jj]
-                ui = Mi.rotation @ (vi.linear + np.cross(vi.angular, pi))
-                uj = Mj.rotation @ (vj.linear + np.cross(vj.angular, pj))
-                lv = xj - xi
-                ln = np.linalg.norm(lv)
+                lv = Mj.act(pj) - Mi.act(pi)
+                ln = math.sqrt(lv @ lv)
                 u = lv / ln
-                f = (k * (ln - l0) + c * float(u @ (uj - ui))) * u    # tension pulls i to j
-                fi, fj = Mi.rotation.T @ f, -(Mj.rotation.T @ f)
-                fv[ji] = fv[ji] + pin.Force(fi, np.cross(pi, fi))
-                fv[jj] = fv[jj] + pin.Force(fj, np.cross(pj, fj))
+                ldot = u @ (Rj @ (vj.linear + cross(vj.angular, pj))
+                            - Ri @ (vi.linear + cross(vi.angular, pi)))
+                f = (k * (ln - l0) + c * ldot) * u           # tension pulls i towards j
+                fi, fj = Ri.T @ f, -(Rj.T @ f)
+                fv[ji] = fv[ji] + pin.Force(fi, cross(pi, fi))
+                fv[jj] = fv[jj] + pin.Force(fj, cross(pj, fj))
             return aba(model, data, q, v, tau, fv)
 
     def f(t, y):
@@ -525,24 +565,24 @@ def exudyn_runner(prob):
             pair = [item[j.body_i], item[j.body_j]]
             pt = list(np.asarray(j.geometry["point"], float))
             if j.name in axes:
-                mbs.CreateGenericJoint(bodyNumbers=pair, position=pt,
+                mbs.CreateGenericJoint(itemNumbers=pair, position=pt,
                                        constrainedAxes=axes[j.name], useGlobalFrame=True,
                                        show=False)
             elif j.type == "revolute":
-                mbs.CreateRevoluteJoint(bodyNumbers=pair, position=pt,
+                mbs.CreateRevoluteJoint(itemNumbers=pair, position=pt,
                                         axis=list(j.geometry["axis"]), useGlobalFrame=True,
                                         show=False)
             elif j.type == "spherical":
-                mbs.CreateSphericalJoint(bodyNumbers=pair, position=pt, useGlobalFrame=True,
+                mbs.CreateSphericalJoint(itemNumbers=pair, position=pt, useGlobalFrame=True,
                                          show=False)
             elif j.type == "translational":
-                mbs.CreatePrismaticJoint(bodyNumbers=pair, position=pt,
+                mbs.CreatePrismaticJoint(itemNumbers=pair, position=pt,
                                          axis=list(j.geometry["axis"]), useGlobalFrame=True,
                                          show=False)
             else:
                 raise ValueError(j.type)
         for bi, pi, bj, pj, k, c, l0 in springs(b):
-            mbs.CreateSpringDamper(bodyNumbers=[item[bi], item[bj]], localPosition0=list(pi),
+            mbs.CreateSpringDamper(itemNumbers=[item[bi], item[bj]], localPosition0=list(pi),
                                    localPosition1=list(pj), referenceLength=l0, stiffness=k,
                                    damping=c, show=False)
         mbs.Assemble()
@@ -666,7 +706,7 @@ def ours_families(prob, quick):
            ("spatialmbd scipy-dop853 projection",
             dict(integrator="scipy-dop853", method="projection"), tols),
            ("spatialmbd rk4 projection", dict(integrator="rk4", method="projection"),
-            peers.STEPS)]
+            prob.get("steps", peers.STEPS))]
     if not quick:
         fam.append(("spatialmbd abm4 projection", dict(integrator="abm4", method="projection"),
                     tols))
@@ -704,6 +744,13 @@ def rhs_costs(prob):
             log(f"  right_hand_side({method}) failed: {exc}")
             continue
         out[f"spatialmbd {method}"] = per_call(lambda: f(0.0, y0))
+    for method in ("standard", "projection"):        # what a run pays per evaluation
+        best = math.inf
+        for _ in range(3):
+            res = simulate(model, prob["t_end"], output_step=prob["t_end"], method=method,
+                           rtol=1e-8, atol=1e-10)
+            best = min(best, res.wall_time / res.counters["nfev"])
+        out[f"spatialmbd {method} in simulate (wall / nfev, rk45 rtol 1e-8)"] = best
     if available("pinocchio"):
         f, y0, _, ext = pin_problem(prob)
         nq = ext["model"].nq
@@ -774,13 +821,15 @@ def problem(key, quick):
         except Exception as exc:
             rows.append(dict(code=label, setting=settings[0], failed=str(exc)[:120]))
             log(f"    {label}: failed {exc}")
-    steps = peers.STEPS[::2] if quick else peers.STEPS
+    steps = prob.get("steps", peers.STEPS)
+    steps = steps[::2] if quick else steps
     fine = [1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5] if not quick else [1e-3, 2.5e-4]
     tols = peers.TOLS[::2] if quick else peers.TOLS
     if available("mujoco"):
         runs = {"RK4": mujoco_runner(prob, "RK4")}
         if check_peer("mujoco RK4", runs["RK4"], 1e-4, ref_check, checks):
-            rows += sweep("mujoco RK4", steps + [1e-4, 5e-5], runs["RK4"], ref)
+            rows += sweep("mujoco RK4", sorted(set(steps + [1e-4, 5e-5]), reverse=True),
+                          runs["RK4"], ref)
             for integ in ("implicit", "implicitfast"):
                 rows += sweep(f"mujoco {integ}", [1e-3, 1e-4, 1e-5, 5e-6, 2.5e-6],
                               mujoco_runner(prob, integ), ref)
@@ -809,8 +858,8 @@ def problem(key, quick):
         if key == "flyball":
             run = exudyn_kt_runner(prob, "RK67")
             if check_peer("exudyn KinematicTree RK67", run, 1e-4, ref_check, checks):
-                rows += sweep("exudyn KinematicTree RK67", steps + [1e-4], run, ref)
-                rows += sweep("exudyn KinematicTree RK44", steps + [1e-4],
+                rows += sweep("exudyn KinematicTree RK67", steps, run, ref)
+                rows += sweep("exudyn KinematicTree RK44", steps,
                               exudyn_kt_runner(prob, "RK44"), ref)
                 for s in ("DOPRI5", "ODE23"):
                     rows += sweep(f"exudyn KinematicTree {s}", tols,
@@ -889,6 +938,7 @@ def tables(results, meta):
                       "min over repetitions): "
                       + ", ".join(f"{k} {v * 1e6:.2f} µs" for k, v in p["rhs"].items())]
         lines += [""]
+    lines += ["## Notes", ""] + [f"* {n}" for n in NOTES] + [""]
     keys = list(dict.fromkeys(k for p in results for k in p["rhs"]))
     lines += ["## Per right-hand side", "", "µs per call from Python (call overhead "
               "included): spatialmbd `right_hand_side(model, method)`; Pinocchio "

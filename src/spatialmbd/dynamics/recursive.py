@@ -417,7 +417,7 @@ def _bodies_stage(y, F, I, W):
     q = array_view(y, 0, (nb, 7))
     v = array_view(y, 7 * nb, (nb, 6))
     state_into(q, v, False, bo.r, bo.A, bo.rdot, bo.omega, bo.p)
-    body_terms(bo.A, bo.omega, bo.Jl, bo.Jl_inv, bo.weight, bo.J, bo.Jinv, bo.g)
+    body_terms(bo.A, bo.omega, bo.Jl, bo.Jl_inv, bo.weight, bo.J, bo.Jinv, bo.g, False)
     _forces(bo, fo)
     for i in range(bo.g.size):
         if not math.isfinite(bo.g[i]):

@@ -102,11 +102,13 @@ def congruence(A, X, b, out):
 
 
 @njit
-def body_terms(A, omega, Jl, Jl_inv, weight, J, Jinv, g):
-    """J = A J' A^T and its inverse (10.6); g = [m gravity (11.1), -omega~ J omega (10.4)]."""
+def body_terms(A, omega, Jl, Jl_inv, weight, J, Jinv, g, inverse=True):
+    """J = A J' A^T and (inverse) its inverse (10.6); g = [m gravity (11.1), -omega~ J omega
+    (10.4)]."""
     for b in range(J.shape[0]):
         congruence(A, Jl, b, J)
-        congruence(A, Jl_inv, b, Jinv)
+        if inverse:
+            congruence(A, Jl_inv, b, Jinv)
         w0, w1, w2 = omega[b, 0], omega[b, 1], omega[b, 2]
         h0 = J[b, 0, 0] * w0 + J[b, 0, 1] * w1 + J[b, 0, 2] * w2
         h1 = J[b, 1, 0] * w0 + J[b, 1, 1] * w1 + J[b, 1, 2] * w2
