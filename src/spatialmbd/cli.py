@@ -960,6 +960,10 @@ def _warm_batch():
         simulate_batch([pendulum], Analysis(t_end=1e-3, output_step=1e-3, method="standard",
                                             integrator=integrator, step=1e-3 if integrator ==
                                             "rk4" else None))
+    simulate_batch([pendulum], Analysis(t_end=1e-3, output_step=1e-3, method="recursive"))
+    import numpy as np
+    from .sweep.outputs import period
+    period(np.linspace(0.0, 1.0, 5), np.linspace(-1.0, 1.0, 5))       # compiled crossings
 
 
 def cmd_warmup(args) -> int:

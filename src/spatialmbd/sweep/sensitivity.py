@@ -200,9 +200,12 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     if an.type != "dynamic":
         raise ModelError("forward sensitivities need a dynamic analysis")
     if an.method not in ("standard", "baumgarte"):
+        what = ("the default 'auto' runs the recursive (joint coordinates) or the projection "
+                "method" if an.method == "auto" else f"method {an.method!r} is not "
+                "differentiated")
         raise ModelError(f"forward sensitivities integrate the equations of the 'standard' or "
-                         f"'baumgarte' method (the projection step of {an.method!r} is not "
-                         "differentiated); set the analysis method to 'standard'")
+                         f"'baumgarte' method ({what}); set the analysis method to "
+                         "'standard'")
     h = float(step if step is not None else (an.step or 1e-3))
     setup = BatchSetup(m0, an.method, an.method_options)
     F0 = setup.pack_F(m0)
