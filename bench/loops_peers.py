@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """spatialmbd against its pip-installable peers on CLOSED-LOOP mechanisms, at equal accuracy.
 
-    OPENBLAS_NUM_THREADS=1 python bench/loops_peers.py          # all problems (~30 min)
+    OPENBLAS_NUM_THREADS=1 python bench/loops_peers.py          # all problems (~6 min)
     python bench/loops_peers.py --problems four_bar bricard      # some of them
     python bench/loops_peers.py --quick                          # fewer settings (smoke run)
 
@@ -86,9 +86,16 @@ differences are printed and in the tables.
 
 "Best setting": for each code and setting family (integrator and, for spatialmbd, method)
 the step or tolerance is swept from coarse to fine and the first (cheapest) setting with
-error <= 1e-6 m is kept (``peers.sweep``: a family stops once one run exceeds 3 s, or is
-estimated above 9 s). Families that never reach it are shown "not reached" with their best
-error and its time.
+error <= 1e-6 m is kept (tolerances rtol = 1e-2 .. 1e-12 in half decades, atol = 1e-2 rtol;
+fixed steps 0.1 .. 2.5e-4 s, finer for the stiff flyball governor; ``peers.sweep``: a family
+stops once one run exceeds 3 s, or is estimated above 9 s). Families that never reach it are
+shown "not reached" with their best error and its time. spatialmbd's families:
+``simulate(model, t_end, output_step=t_end, method=M, integrator=I, rtol, atol)`` (or
+``step``) with (I, M) = (rk45, projection), (rk45, standard), (rk45, baumgarte),
+(scipy-dop853, projection), (rk4, projection), (abm4, projection), and for the flyball
+governor also scipy-radau and bdf4 (stiff) and its recursive method (joint coordinates: an
+open tree). Pinocchio: RK45, DOP853 (and Radau for the flyball governor); MuJoCo: RK4,
+implicit, implicitfast; Exudyn: generalized-alpha (and the KinematicTree integrators).
 
 Timing: as bench/peers.py: the minimum over repetitions (at least 3, spread over >= 0.3 s) of
 the integration alone: spatialmbd's ``Results.wall_time``, MuJoCo's ``mj_step`` loop, the
@@ -137,6 +144,11 @@ CHECK_TOL = 1e-5       # m
 LEVER = 1.0            # m, second closure point along a spatial revolute cut's axis
 BAUMGARTE = (100.0, 20.0)          # Pinocchio Kp (1/s^2), Kd (1/s)
 PROX = (1e-12, 1e-8, 20)           # Pinocchio proximal accuracy, mu, max iterations
+#: relative tolerances swept (absolute = 1e-2 x relative): peers.TOLS and two coarser ones (a
+#: smooth 1-DoF loop reaches 1e-6 m at rtol 1e-3)
+TOLS = [1e-2, 10.0**-2.5] + peers.TOLS
+#: Exudyn generalized-alpha steps (s): all divide 0.6 s and 1 s
+GA_STEPS = [1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5]
 # fixed-step families (for peers.fmt_setting / peers.best_rows)
 peers.FIXED_STEP = peers.FIXED_STEP + ("rk4 projection", "RK44", "RK67")
 
@@ -699,7 +711,7 @@ def exudyn_kt_runner(prob, solver):
 
 # ------------------------------------------------------------------------------- spatialmbd
 def ours_families(prob, quick):
-    tols = peers.TOLS[::2] if quick else peers.TOLS
+    tols = TOLS[::2] if quick else TOLS
     fam = [("spatialmbd rk45 projection", dict(integrator="rk45", method="projection"), tols),
            ("spatialmbd rk45 standard", dict(integrator="rk45", method="standard"), tols),
            ("spatialmbd rk45 baumgarte", dict(integrator="rk45", method="baumgarte"), tols),
@@ -823,8 +835,7 @@ def problem(key, quick):
             log(f"    {label}: failed {exc}")
     steps = prob.get("steps", peers.STEPS)
     steps = steps[::2] if quick else steps
-    fine = [1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5] if not quick else [1e-3, 2.5e-4]
-    tols = peers.TOLS[::2] if quick else peers.TOLS
+    tols = TOLS[::2] if quick else TOLS
     if available("mujoco"):
         runs = {"RK4": mujoco_runner(prob, "RK4")}
         if check_peer("mujoco RK4", runs["RK4"], 1e-4, ref_check, checks):
@@ -851,7 +862,8 @@ def problem(key, quick):
         run = exudyn_runner(prob)
         if check_peer("exudyn gen.-alpha", run, 1e-4 if key != "flyball" else 2.5e-5,
                       ref_check, checks):
-            rows += sweep("exudyn gen.-alpha (Euler parameters)", [2e-3] + fine, run, ref)
+            rows += sweep("exudyn gen.-alpha (Euler parameters)",
+                          GA_STEPS[::2] if quick else GA_STEPS, run, ref)
         else:
             rows.append(dict(code="exudyn gen.-alpha", setting=0,
                              failed="model check at t = 0.1 s"))
