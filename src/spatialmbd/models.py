@@ -314,7 +314,9 @@ def n_four_bar(n: int = 2) -> ModelBuilder:
     neighbouring tips. Gravity 9.81 m/s^2 along -y. Initially every crank turns at
     omega = -1 rad/s about z and the couplers translate at 1 m/s along x. On the parallelogram
     branch every crank angle phi (from the vertical, about z) obeys I phi'' = K sin phi with
-    I = m L^2 ((N+1)/3 + N), K = m g L ((N+1)/2 + N). Each time the cranks are horizontal the
+    I = (N+1) (I_c + m L^2/4) + N m L^2, K = m g L ((N+1)/2 + N), I_c = m (L^2 + a^2)/12 the
+    bars' centroidal moment (a = 0.02 m; slender bars, I_c = m L^2/12, give
+    I = m L^2 ((N+1)/3 + N)). Each time the cranks are horizontal the
     mechanism passes a singular configuration.
     """
     b = ModelBuilder(f"n_four_bar{n}", gravity=(0.0, -G_TEXT, 0.0))

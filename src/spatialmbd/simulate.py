@@ -718,12 +718,19 @@ def right_hand_side(model, method="standard", method_options: Optional[dict] = N
     y = [q (7 nb), v (6 nb), z, W] (see the module docstring; z: the internal states of force
     elements such as LuGre friction, usually none). For benchmarks and for driving the
     equations of motion with an integrator of one's own (W is a quadrature: the rhs does not
-    depend on it; declare it with ``ODEProblem(rhs, n_quadrature=1)`` for the implicit ones). No initial-condition correction and
-    no redundancy analysis: every constraint row enters the multiplier solve.
+    depend on it; declare it with ``ODEProblem(rhs, n_quadrature=1)`` for the implicit ones). No initial-condition correction. Redundant constraint
+    equations (found at the model's initial state, as :func:`simulate` finds them) are left
+    out of the multiplier solve, as in :func:`simulate`: with them every evaluation would take
+    the least-squares fallback, tens of times slower.
     """
     meth = get_method(method, **(method_options or {}))
     eom = EquationsOfMotion(model)
-    meth.setup(eom, None)
+    q0 = normalize_q(np.asarray(model.q0, dtype=float))
+    mob = _redundancy(model, eom, q0, 0.0)
+    if mob is not None and mob.redundant:
+        mob = _structural_redundancy(model, eom, q0, np.asarray(model.v0, dtype=float), 0.0,
+                                     mob)
+    meth.setup(eom, np.array([r[0] for r in mob.redundant], dtype=int) if mob else None)
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
     rhs = _compiled_rhs(model, eom, meth, track_work)

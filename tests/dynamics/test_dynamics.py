@@ -249,3 +249,27 @@ def test_result_tables_equal_the_per_output_evaluation(build):
         assert np.isclose(viol["phi_squared"][k], phi @ phi, rtol=1e-9, atol=1e-30)
         assert np.isclose(viol["velocity"][k], np.linalg.norm(np.concatenate(
             [d.ravel() for d in Dv])), rtol=1e-9, atol=1e-18)
+
+
+def test_right_hand_side_leaves_out_redundant_rows_as_simulate_does():
+    """On the N-four-bar (9 redundant equations for N = 3) the stand-alone right-hand side solves
+    with the independent rows, as simulate() does: same accelerations, without the
+    least-squares fallback on every call."""
+    from spatialmbd.dynamics import standard
+    from spatialmbd.simulate import right_hand_side
+    model = models.n_four_bar(3).compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RedundantConstraintsWarning)
+        res = simulate(model, 0.1, output_step=0.1, method="standard")
+    f, y0 = right_hand_side(model, "standard")
+    y1 = np.concatenate([res.q[-1].ravel(), res.v[-1].ravel(), [res.work[-1]]])
+    calls = []
+    real = standard.fallback_multipliers
+    standard.fallback_multipliers = lambda *a, **k: calls.append(1) or real(*a, **k)
+    try:
+        ydot = f(0.1, y1)
+    finally:
+        standard.fallback_multipliers = real
+    assert not calls
+    np.testing.assert_allclose(ydot[7 * model.nb:13 * model.nb], res.vdot[-1].ravel(),
+                               rtol=1e-10, atol=1e-10)
