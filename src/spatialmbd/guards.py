@@ -307,6 +307,32 @@ def conditioning(model, q, t, rank0=None):
     return np.linalg.svd(D, compute_uv=False), D
 
 
+#: a failed run whose bodies move this many times faster than the start and free fall explain
+#: is taken for an unstable integration, not a singular position
+BLOW_UP_FACTOR = 1e3
+
+
+def blow_up_diagnosis(model, v0, v_last, t0: float, t: float) -> Optional[str]:
+    """Why a run stopped, if its velocities had grown without bound first (an explicit
+    integrator unstable with its step, e.g. on a stiff spring): the bodies then reach
+    arbitrary positions, where the constraint Jacobian may look singular although the
+    mechanism is not. None when the speeds are plausible: at most BLOW_UP_FACTOR times
+    the start's speed plus what gravity gives over the elapsed time (plus 1 m/s)."""
+    if v_last is None:
+        return None
+    v_last = np.asarray(v_last, dtype=float).reshape(-1, 6)
+    speed = float(np.abs(v_last[:, :3]).max(initial=0.0)) if np.all(np.isfinite(v_last)) \
+        else math.inf
+    start = float(np.abs(np.asarray(v0, dtype=float).reshape(-1, 6)[:, :3]).max(initial=0.0))
+    scale = start + float(np.linalg.norm(model.gravity)) * abs(t - t0) + 1.0
+    if speed <= BLOW_UP_FACTOR * scale:
+        return None
+    return (f"the speeds grew from {start:.3g} m/s to {speed:.3g} m/s before t = {t:.6g} s: "
+            "the integration became unstable (a step too large for the stiffest element, "
+            "e.g. a stiff spring or a fast rotation); use a smaller step, the adaptive rk45, "
+            "or an implicit integrator (bdf4)")
+
+
 def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float] = None,
                        t_fail=None) -> Optional[str]:
     """Why a run stopped, if it stopped at (or near) a singular position: the rank of D at

@@ -273,3 +273,15 @@ def test_right_hand_side_leaves_out_redundant_rows_as_simulate_does():
     assert not calls
     np.testing.assert_allclose(ydot[7 * model.nb:13 * model.nb], res.vdot[-1].ravel(),
                                rtol=1e-10, atol=1e-10)
+
+
+def test_an_unstable_explicit_run_is_named_so_not_a_singular_position():
+    """rk4 with a step too large for the flyball governor's stiff springs blows up; the
+    bodies then reach positions where D looks singular, but the message names the
+    instability (and what to do), not a singular position."""
+    model = models.flyball_governor().compile()
+    res = simulate(model, 0.05, output_step=0.01, method="projection", integrator="rk4",
+                   step=1e-3)
+    assert res.status == "failed"
+    assert "integration became unstable" in res.message and "smaller step" in res.message
+    assert "singular position" not in res.message
