@@ -486,6 +486,22 @@ _RANGE_KEYS = {"position": "length", "points": "length", "center": "length", "si
 _RANGE_KEYS.update({k: "length" for k in ("point", "point2", "point_i", "point_j")})
 
 
+def _range_kind(path: tuple, key, kind: str) -> str:
+    """The quantity a value at path + (key,) is checked as (RANGES), given its parent's:
+    the nearest key naming one (a point's name under "points" names none)."""
+    return _RANGE_KEYS.get(key, kind) if isinstance(key, str) and not (
+        path and path[-1] == "points") else kind
+
+
+def range_of(path) -> tuple:
+    """(low, high) of RANGES for the value at a model-file path (a tuple of keys): a finite
+    non-zero value x passes the range check when low <= |x| <= high."""
+    kind = "number"
+    for k, key in enumerate(path):
+        kind = _range_kind(tuple(path[:k]), key, kind)
+    return RANGES[kind][:2]
+
+
 def _range_checks(P, data) -> None:
     """Record every finite number outside RANGES (by the nearest key naming a quantity)."""
     stack = [(data, (), "number")]
@@ -493,9 +509,7 @@ def _range_checks(P, data) -> None:
         value, path, kind = stack.pop()
         if isinstance(value, dict):
             for k, v in value.items():
-                stack.append((v, path + (k,), _RANGE_KEYS.get(k, kind)
-                              if isinstance(k, str) and not (path and path[-1] == "points")
-                              else kind))
+                stack.append((v, path + (k,), _range_kind(path, k, kind)))
         elif isinstance(value, list):
             stack.extend((v, path + (k,), kind) for k, v in enumerate(value))
         elif _is_number(value) and _finite(value) and value != 0:

@@ -657,36 +657,37 @@ def _run_direct(job, members: list, rows: list) -> list:
     return sorted(left)
 
 
-def _direct_valid(model, member, entries) -> bool:
-    """Whether a direct member's values pass the checks a build applies to them: the model
-    file's range checks on each value (by the quantity its path names) and the builder's
-    checks of the masses and inertias it sets. (A member that fails is built, so that its
-    error is the build's.)"""
-    from ..io.schema import _Problems, _range_checks
-    from ..model.builder import check_inertia, check_mass
-    problems = _Problems()
-    bodies = set()
+def _direct_valid(arrays, items, entries) -> np.ndarray:
+    """Which direct members' values pass the checks a build applies to them (a boolean per
+    member): the model file's range checks on each value (by the quantity its path names,
+    :func:`..io.schema.range_of`), positive masses, the builder's inertia check and finite
+    arrays. (A member that fails is built, so that its error is the build's.)"""
+    from ..io.schema import range_of
+    from ..model.builder import check_inertia
+    B = len(items)
+    ok = np.ones(B, dtype=bool)
+    for a, x in arrays.items():
+        ok &= np.all(np.isfinite(x.reshape(B, -1)), axis=1)
+    inertias = set()
     for name, entry in entries.items():
         if entry is None:
             continue
-        node = member[name]
-        for token in reversed(name.split(".")):
-            node = {token: node}
-        _range_checks(problems, node)
+        vals = np.array([member[name] for _, member in items], dtype=float)
+        low, high = range_of(tuple(name.split(".")))
+        size = np.abs(vals)
+        ok &= (size == 0.0) | ((size >= low) & (size <= high))
         a, i = entry
         if a == "mass":
-            bodies.add(i)
+            ok &= vals > 0.0
         elif a == "inertia":
-            bodies.add(i // 9)
-    if len(problems):
-        return False
-    try:
-        for b in bodies:
-            check_mass(model.mass[b], "mass")
-            check_inertia(model.inertia[b], "inertia")
-    except ModelError:
-        return False
-    return all(np.all(np.isfinite(getattr(model, a))) for a in DIRECT_ARRAYS)
+            inertias.add(i // 9)
+    for b in np.flatnonzero(ok) if inertias else ():
+        try:
+            for body in inertias:
+                check_inertia(arrays["inertia"][b, body], "inertia")
+        except ModelError:
+            ok[b] = False
+    return ok
 
 
 def _direct_group(job, setup, model0, analysis, t_out, items, entries, rows) -> list:
@@ -701,14 +702,14 @@ def _direct_group(job, setup, model0, analysis, t_out, items, entries, rows) -> 
         if entry is not None:
             a, i = entry
             arrays[a].reshape(B, -1)[:, i] = [member[name] for _, member in items]
-    models = [_patched(model0, {a: arrays[a][b] for a in DIRECT_ARRAYS}) for b in range(B)]
-    valid = [_direct_valid(model, member, entries) for model, (_, member) in zip(models, items)]
+    valid = _direct_valid(arrays, items, entries)
     declined = [k for (k, _), ok in zip(items, valid) if not ok]
     items = [it for it, ok in zip(items, valid) if ok]
-    models = [m for m, ok in zip(models, valid) if ok]
-    arrays = {a: x[np.array(valid, dtype=bool)] for a, x in arrays.items()}
+    arrays = {a: x[valid] for a, x in arrays.items()}
     if not items:
         return declined
+    models = [_patched(model0, {a: arrays[a][b] for a in DIRECT_ARRAYS})
+              for b in range(len(items))]
     Fs = setup.pack_bodies(arrays["mass"], arrays["inertia"], arrays["gravity"])
     state_set = any(e is not None and e[0] in ("q0", "v0") for e in entries.values())
     good, keep, Y0, starts = [], [], [], []

@@ -200,9 +200,10 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     if an.type != "dynamic":
         raise ModelError("forward sensitivities need a dynamic analysis")
     if an.method not in ("standard", "baumgarte"):
-        what = ("the default 'auto' runs the recursive (joint coordinates) or the projection "
-                "method" if an.method == "auto" else f"method {an.method!r} is not "
-                "differentiated")
+        what = {"auto": "the default 'auto' runs the recursive (joint coordinates) or the "
+                        "projection method",
+                "projection": "the projection step of 'projection' is not differentiated"
+                }.get(an.method, f"method {an.method!r} is not differentiated")
         raise ModelError(f"forward sensitivities integrate the equations of the 'standard' or "
                          f"'baumgarte' method ({what}); set the analysis method to "
                          "'standard'")
