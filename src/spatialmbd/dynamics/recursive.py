@@ -666,9 +666,10 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
                 return False
             hp[0] = hp0
             u[0] = hp0 / dk
-            for i in range(6):
-                for j in range(6):
-                    Ia[i, j] = Ic[i, j] - K[i, 0] * K[j, 0] / dk
+            if P < nb:                           # (a root's Ia and w go nowhere)
+                for i in range(6):
+                    for j in range(6):
+                        Ia[i, j] = Ic[i, j] - K[i, 0] * K[j, 0] / dk
             for i in range(6):
                 K[i, 0] /= dk
         elif n == 3:
@@ -677,6 +678,8 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
         else:
             if not _articulate(H, K, Ic, pc, hp, u, L, Kt, Ia, row, n):
                 return False
+        if P >= nb:
+            continue
         for i in range(6):                       # w = p~ - Ia c, p~ = p_C - U D^-1 H^T p_C
             s = pc[i]
             for l in range(n):
@@ -684,8 +687,6 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
             for l in range(6):
                 s -= Ia[i, l] * c[l]
             wv[i] = s
-        if P >= nb:
-            continue
         IP, pP = TI[P], Tp[P]
         d0, d1, d2 = r[C, 0] - r[P, 0], r[C, 1] - r[P, 1], r[C, 2] - r[P, 2]
         # X = [[I, S], [0, I]], S x = x cross d; X^T Ia X = [[Ar, G], [G^T, S^T G + B^T S + C]]
