@@ -580,11 +580,49 @@ def _integrate_reduce(job, setup, analysis, t_out, good, Fs, Y0, starts, rows):
                      int(opts.get("max_steps", 10_000_000)),
                      with_outputs=_needs_accelerations(job.outputs),
                      threads=bool(opts.get("threads", False)), starts=starts)
+    plan = _state_plan(job.outputs, setup.model)
     for (k, _), member in zip(good, res):
         try:
-            rows[k] = job.reduce(as_results(member))
+            rows[k] = _reduce_states(job, member, plan) if plan is not None else \
+                job.reduce(as_results(member))
         except Exception as exc:
             rows[k] = (FAILED, _describe(exc), job.empty(), None)
+
+
+def _state_plan(outputs, model):
+    """[(reduction, "q" or "v", body, column)] when every output is a reduction of a body's
+    position, Euler parameter or velocity column (what the member's arrays hold as they
+    are); None otherwise (the outputs are then evaluated on a Results, as in a separate run)."""
+    from .outputs import _BODY_Q, _BODY_V
+    plan = []
+    for o in outputs:
+        if o.function is not None or o.reduction is None:
+            return None
+        parts = o.column.split(".")
+        if len(parts) != 2 or parts[0] not in model.body_names:
+            return None
+        k = model.body_names.index(parts[0])
+        if parts[1] in _BODY_Q:
+            plan.append((o.reduction, "q", k, _BODY_Q.index(parts[1])))
+        elif parts[1] in _BODY_V:
+            plan.append((o.reduction, "v", k, _BODY_V.index(parts[1])))
+        else:
+            return None
+    return plan
+
+
+def _reduce_states(job, member, plan):
+    """The sweep row of a member whose outputs are all in ``plan``: the values
+    :meth:`.core.SweepJob.reduce` gives, read from the member's arrays without a Results."""
+    from .core import FAILED, SUCCESS
+    from .outputs import REDUCTIONS
+    if member.status != SUCCESS:
+        return FAILED, str(member.message), job.empty(), None
+    vals = []
+    for red, arr, k, i in plan:
+        x = (member.q if arr == "q" else member.v)[:, k, i]
+        vals.append(math.nan if x.size == 0 else REDUCTIONS[red](member.t, x))
+    return SUCCESS, "", vals, None
 
 
 # ------------------------------------------------------------------ members set without builds
