@@ -13,7 +13,8 @@
    worker-seconds spent per member outside the member's own work. Target: < 20 ms.
 3. Batches of one topology: the same members by engine="batch" (one compiled call per chunk)
    and engine="simulate" (one simulate() per member), both serial, for the pendulum and the
-   free slider-crank (rod mass and initial crank speed varied); also the batch with its
+   free slider-crank (rod mass and initial crank speed varied), both engines with the default
+   method (recursive for the pendulum, projection for the slider-crank); also the batch with its
    members spread over threads, one per core (batch_options={"threads": True}, the default of the
    serial scheduler on several cores). Target: >= 10x.
 
