@@ -313,7 +313,10 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         rank0 = mob.rank if mob is not None else model.n_eq
         sv = getattr(mob, "singular_values", None)
         ratio0 = float(sv[rank0 - 1] / sv[0]) if sv is not None and rank0 and sv[0] else None
-        v_last = last_state.y[7 * nb:13 * nb] if last_state.y is not None else None
+        # a fixed step can make an explicit integration unstable; an adaptive one shrinks its
+        # step instead (its trial states near a singular position are not a blow-up)
+        v_last = last_state.y[7 * nb:13 * nb] if last_state.y is not None and not getattr(
+            integ, "adaptive", False) else None
         diagnosis = guards.blow_up_diagnosis(model, v, v_last, t0, float(t_last)) or \
             guards.singular_diagnosis(model, last, float(t_last), rank0, ratio0,
                                       t_fail=res.t_fail)
