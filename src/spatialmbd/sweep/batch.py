@@ -16,12 +16,22 @@ members that integrates each with the compiled drivers of :mod:`..dynamics.fused
 * ``rk4``: classic RK4 with a common fixed step, landing on every output time as
   :class:`..integrators.fixed_step.RungeKutta4` does.
 
+With the recursive method (what "auto" gives a tree of joints with rk45, as in simulate())
+each member's joint coordinates and joint tree (:class:`..dynamics.recursive.JointTree`)
+come from its corrected initial state and the members are integrated by
+:func:`..dynamics.recursive.dopri_joint` in one compiled call
+(:func:`integrate_batch_joint`), the bodies' coordinates evaluated at the outputs.
+
 vdot and lambda at the output times are evaluated in the same call. A member whose right-hand
 side fails (singular S, non-finite values) or whose step size underflows stops with a status
 code and is reported as failed; the others continue.
 
+In a sweep (:func:`run_members_batched`), members whose parameters each set one entry of the
+model's masses, inertias, gravity or initial state (probed, :func:`_direct_entries`) are not
+built: their values are written into copies of one built model's arrays and packs.
+
 Scope (checked, with a ModelError naming what is not supported): dynamic analyses with the
-"standard", "baumgarte" or "projection" method (where simulate() would fall back to least
+"standard", "baumgarte", "projection" or "recursive" method (where simulate() would fall back to least
 squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
 fully compiled (every joint type and force element compiled), without drivers or
 time-dependent force laws (set from Python at every evaluation), contact elements (their
@@ -400,8 +410,8 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
     """Integrate the members ``models`` (one topology) with ``analysis`` in one compiled call.
 
     models: Models that differ only in values (masses, inertias, geometry, gravity, initial
-    state). analysis: an Analysis (dynamic; method standard/baumgarte/projection; rk45 with
-    rtol/atol/max_step or rk4 with step). Returns one :class:`BatchMember` per model (arrays
+    state). analysis: an Analysis (dynamic; method auto/standard/baumgarte/projection/recursive
+    -- "auto" as simulate() chooses it; rk45 with rtol/atol/max_step or rk4 with step). Returns one :class:`BatchMember` per model (arrays
     shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
     accelerations: also evaluate vdot and lambda at the output times (one more right-hand
     side per output; False leaves them NaN). threads: spread the members over one thread per
