@@ -672,25 +672,7 @@ def exudyn_kt_runner(prob, solver):
     def run(s, t_end=t_end):
         def once():
             exu, mbs, node, kt, com_local = build()
-            st = exu.SimulationSettings()
-            ti = st.timeIntegration
-            ti.endTime = t_end
-            ti.verboseMode = 0
-            if adaptive:
-                ti.numberOfSteps = 10
-                ti.automaticStepSize = True
-                ti.relativeTolerance = s
-                ti.absoluteTolerance = s * 1e-2
-                ti.minimumStepSize = 1e-12
-            else:
-                ti.numberOfSteps = int(round(t_end / s))
-                ti.automaticStepSize = False
-            st.parallel.numberOfThreads = 1
-            st.solution.file.write = False
-            st.solution.sensors.active = False
-            st.solution.restart.write = False
-            st.show.computationTime = False
-            st.show.statistics = False
+            st = peers.kt_settings(exu, s, adaptive, t_end)
             t0 = time.perf_counter()
             ok = mbs.SolveDynamic(st, solverType=getattr(exu.DynamicSolverType, solver))
             wall = time.perf_counter() - t0

@@ -316,6 +316,32 @@ def exudyn_ga_runner(n, joint="revolute"):
     return run
 
 
+def kt_settings(exu, s, adaptive, t_end):
+    """Exudyn SimulationSettings for its explicit solvers: tolerance s (rtol, atol = 1e-2 s;
+    at most 10 steps' worth of h_max) when adaptive, else the fixed step s; one thread, no
+    files, no sensors, nothing printed."""
+    st = exu.SimulationSettings()
+    ti = st.timeIntegration
+    ti.endTime = t_end
+    ti.verboseMode = 0
+    if adaptive:
+        ti.numberOfSteps = 10                  # h_max = t_end / 10
+        ti.automaticStepSize = True
+        ti.relativeTolerance = s
+        ti.absoluteTolerance = s * 1e-2
+        ti.minimumStepSize = 1e-12
+    else:
+        ti.numberOfSteps = int(round(t_end / s))
+        ti.automaticStepSize = False
+    st.parallel.numberOfThreads = 1
+    st.solution.file.write = False
+    st.solution.sensors.active = False
+    st.solution.restart.write = False
+    st.show.computationTime = False
+    st.show.statistics = False
+    return st
+
+
 def exudyn_kt_runner(n, solver):
     """Exudyn ObjectKinematicTree (minimal coordinates) with an explicit solver."""
     import exudyn as exu
@@ -348,25 +374,7 @@ def exudyn_kt_runner(n, solver):
     def run(s):
         def once():
             mbs, node = build()
-            st = exu.SimulationSettings()
-            ti = st.timeIntegration
-            ti.endTime = T_END
-            ti.verboseMode = 0
-            if adaptive:
-                ti.numberOfSteps = 10          # h_max = 0.1 s
-                ti.automaticStepSize = True
-                ti.relativeTolerance = s
-                ti.absoluteTolerance = s * 1e-2
-                ti.minimumStepSize = 1e-12
-            else:
-                ti.numberOfSteps = int(round(T_END / s))
-                ti.automaticStepSize = False
-            st.parallel.numberOfThreads = 1
-            st.solution.file.write = False
-            st.solution.sensors.active = False
-            st.solution.restart.write = False
-            st.show.computationTime = False
-            st.show.statistics = False
+            st = kt_settings(exu, s, adaptive, T_END)
             solver_type = getattr(exu.DynamicSolverType, solver)
             t0 = time.perf_counter()
             ok = mbs.SolveDynamic(st, solverType=solver_type)
