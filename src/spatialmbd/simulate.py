@@ -186,9 +186,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
             if not auto:
                 raise
             meth, joint_tree = guards.make_method("projection", None), None
-    mob = _redundancy(model, eom, q, t0)
-    if mob is not None and mob.redundant:
-        mob = _structural_redundancy(model, eom, q, v, t0, mob)
+    mob = _start_mobility(model, eom, q, v, t0)
     redundant_rows = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
     redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
     messages = []
@@ -671,6 +669,16 @@ def _state_events(events, nb):
 DENSE_MOBILITY_MAX = 4_000_000
 
 
+def _start_mobility(model, eom, q, v, t0):
+    """The mobility analysis that decides which rows the multiplier solve leaves out
+    (:func:`_redundancy`, moved a short way along the motion when the start has dependent
+    rows, :func:`_structural_redundancy`); None without constraints."""
+    mob = _redundancy(model, eom, q, t0)
+    if mob is not None and mob.redundant:
+        mob = _structural_redundancy(model, eom, q, v, t0, mob)
+    return mob
+
+
 def _redundancy(model, eom, q, t0):
     """The mobility analysis that names redundant constraint rows (None: none).
 
@@ -730,11 +738,8 @@ def right_hand_side(model, method="standard", method_options: Optional[dict] = N
     """
     meth = get_method(method, **(method_options or {}))
     eom = EquationsOfMotion(model)
-    q0 = normalize_q(np.asarray(model.q0, dtype=float))
-    mob = _redundancy(model, eom, q0, 0.0)
-    if mob is not None and mob.redundant:
-        mob = _structural_redundancy(model, eom, q0, np.asarray(model.v0, dtype=float), 0.0,
-                                     mob)
+    mob = _start_mobility(model, eom, normalize_q(np.asarray(model.q0, dtype=float)),
+                          np.asarray(model.v0, dtype=float), 0.0)
     meth.setup(eom, np.array([r[0] for r in mob.redundant], dtype=int) if mob else None)
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
