@@ -75,10 +75,9 @@ def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, ma
     counters[b] = (nfev, steps, rejected). Without the GIL: ranges of members run in threads
     at once (each member has its own F, W, state and outputs; I is read only). The arrays
     are read as uncounted views, as in :func:`integrate_batch_joint`."""
-    B = Y0.shape[0]
     I, mp, pp, t_out = bare(I), bare(mp), bare(pp), bare(t_out)
+    nF, nW, nt, n = F.shape[1], W.shape[1], Y.shape[1], Y.shape[2]
     F, W = _rows(F), _rows(W)
-    nF, nW, nt, n = F.size // B, W.size // B, Y.shape[1], Y.shape[2]
     rows, nd, nl = Yd.shape[1], Yd.shape[2], Lam.shape[2]
     Yf, Ydf, Lamf, cf = _rows(Y), _rows(Yd), _rows(Lam), _rows(counters)
     for b in range(b0, b1):
@@ -112,6 +111,7 @@ def integrate_batch_joint(b0, b1, X0, Ti, Tf, F, I, W, t_out, rtol, atol, max_st
     # right-hand side would otherwise update the reference counts of the arrays all threads
     # share (one cache line ping-ponged between the cores: 1.2x instead of 2x on two threads)
     Ti, I, t_out, mp = bare(Ti), bare(I), bare(t_out), bare(mp)
+    nT, nF, nW = Tf.shape[1], F.shape[1], W.shape[1]
     Tf, F, W = _rows(Tf), _rows(F), _rows(W)
     nx, ny, nd, nl = X.shape[2], Y.shape[2], Yd.shape[2], Lam.shape[2]
     Xf, Yf = bare(X.reshape(-1)), bare(Y.reshape(-1))
@@ -120,9 +120,8 @@ def integrate_batch_joint(b0, b1, X0, Ti, Tf, F, I, W, t_out, rtol, atol, max_st
     for b in range(b0, b1):
         x = X0[b].copy()
         K0 = np.empty(n)
-        T = (Ti, array_view(Tf, b * Tf.size // X0.shape[0], (Tf.size // X0.shape[0],)))
-        Fb = array_view(F, b * (F.size // X0.shape[0]), (F.size // X0.shape[0],))
-        Wb = array_view(W, b * (W.size // X0.shape[0]), (W.size // X0.shape[0],))
+        T = (Ti, array_view(Tf, b * nT, (nT,)))
+        Fb, Wb = array_view(F, b * nF, (nF,)), array_view(W, b * nW, (nW,))
         Xb = array_view(Xf, b * nt * nx, (nt, nx))
         code, t, h, err, done = rc.dopri_joint(0.0, x, K0, 0.0, 1e-4, T, Fb, I, Wb, 0.0,
                                                t_out, 0, rtol, atol, max_step, max_steps,
