@@ -32,8 +32,12 @@ def _warm_dynamics(methods=("standard", "projection")):
 
 def _warm_recursive():
     from spatialmbd import models
+    from spatialmbd.io import Analysis
     from spatialmbd.simulate import simulate
-    simulate(models.chain(2, "revolute").compile(), 1e-3, method="recursive", output_step=1e-3)
+    from spatialmbd.sweep.batch import simulate_batch
+    chain = models.chain(2, "revolute").compile()
+    simulate(chain, 1e-3, method="recursive", output_step=1e-3)
+    simulate_batch([chain], Analysis(t_end=1e-3, output_step=1e-3, method="recursive"))
 
 
 def _warm_core(parallel=False):
