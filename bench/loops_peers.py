@@ -904,21 +904,11 @@ def tables(results, meta):
                       + "; ".join(f"{k} " + (v if isinstance(v, str) else f"{v:.1e} m")
                                   for k, v in p["model_checks"].items()) + ".", ""]
         ok, missed = peers.best_rows(p["rows"])
-        pr = [r for r in ok if not r["code"].startswith("spatialmbd")]
-        best_peer = pr[0]["wall"] if pr else math.nan
-        ordered = pr[:1] + [r for r in ok if r is not (pr[0] if pr else None)]
-        lines += ["| code, setting family | cheapest setting | wall (ms) | error (m) | "
-                  "evaluations / steps | ratio to best peer |",
-                  "|---|---|---:|---:|---:|---:|"]
-        for r in ordered:
-            ev = r.get("nfev", r.get("steps", ""))
-            ev = f"{ev} {'f' if 'nfev' in r else 'steps'}" if ev != "" else ""
-            lines.append(f"| {r['code']} | {peers.fmt_setting(r)} | {_ms(r['wall'])} | "
-                         f"{r['error']:.1e} | {ev} | {r['wall'] / best_peer:.2f} |")
+        table, best_peer = peers.reached_rows(ok)
+        lines += table
         for r in missed:
             if "error" in r:
-                ev = r.get("nfev", r.get("steps", ""))
-                ev = f"{ev} {'f' if 'nfev' in r else 'steps'}" if ev != "" else ""
+                ev = peers.evaluations(r)
                 est = ""
                 if "wall_star" in r and r["order"] > 0.5:
                     est = (f"; error ~ h^{r['order']:.2f} extrapolates to "
