@@ -118,7 +118,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import platform  # noqa: E402
 import sys  # noqa: E402
@@ -962,11 +961,7 @@ def main(argv=None):
     results = [problem(k, args.quick) for k in keys]
     meta["machine"] += f" -> {os.getloadavg()[0]:.1f} at the end"
     md = tables(results, meta)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".md").write_text(md + "\n")
-    out.with_suffix(".json").write_text(json.dumps(dict(meta=meta, results=results), indent=1,
-                                                   default=str))
+    peers.write_results(args.out, md, meta, results)
     print(md)
     return 0
 

@@ -535,6 +535,17 @@ def fmt_setting(r):
     return f"rtol = {s:.3g}"
 
 
+def write_results(out, md, meta, results):
+    """<out>.md (the tables) and <out>.json (meta and every row), each written atomically."""
+    from spatialmbd.atomic import atomic_write
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for suffix, text in ((".md", md + "\n"), (".json", json.dumps(
+            dict(meta=meta, results=results), indent=1, default=str))):
+        with atomic_write(out.with_suffix(suffix)) as tmp:
+            Path(tmp).write_text(text)
+
+
 def evaluations(r) -> str:
     """'123 f' or '45 steps' (what a row counted), or ''."""
     ev = r.get("nfev", r.get("steps", ""))
@@ -652,11 +663,7 @@ def main(argv=None):
         rhs_only[n] = rhs_costs(n, models.chain(n, "revolute").compile())
     meta["machine"] += f" -> {os.getloadavg()[0]:.1f} at the end"
     md = tables(results, meta, rhs_only)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".md").write_text(md + "\n")
-    out.with_suffix(".json").write_text(json.dumps(dict(meta=meta, results=results), indent=1,
-                                                   default=str))
+    write_results(args.out, md, meta, results)
     print(md)
     return 0
 
