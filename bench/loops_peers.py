@@ -530,21 +530,8 @@ def pin_problem(prob, baumgarte=BAUMGARTE):
 
 
 def pin_scipy_runner(prob, method):
-    from scipy.integrate import solve_ivp
     f, y0, com, _ = pin_problem(prob)
-    t_end = prob["t_end"]
-
-    def run(tol, t_end=t_end):
-        def once():
-            t0 = time.perf_counter()
-            sol = solve_ivp(f, (0.0, t_end), y0, method=method, rtol=tol, atol=tol * 1e-2,
-                            t_eval=[t_end])
-            return time.perf_counter() - t0, sol
-        wall, sol = best_of(once)
-        if sol.status != 0:
-            raise RuntimeError(sol.message)
-        return wall, com(sol.y[:, -1]), dict(nfev=int(sol.nfev))
-    return run
+    return peers.scipy_runner(f, y0, com, method, prob["t_end"])
 
 
 # ---------------------------------------------------------------------------------- Exudyn

@@ -267,21 +267,27 @@ def pin_problem(n, joint="revolute"):
     return f, y0, com
 
 
-def pin_scipy_runner(n, method, joint="revolute"):
+def scipy_runner(f, y0, com, method, t_end=T_END):
+    """run(tol[, t_end]) -> (wall, centres of mass at t_end, counters): y' = f(t, y) from y0
+    by SciPy's solve_ivp (method, rtol = tol, atol = 1e-2 tol), best of repetitions."""
     from scipy.integrate import solve_ivp
-    f, y0, com = pin_problem(n, joint)
 
-    def run(tol):
+    def run(tol, t_end=t_end):
         def once():
             t0 = time.perf_counter()
-            sol = solve_ivp(f, (0.0, T_END), y0, method=method, rtol=tol, atol=tol * 1e-2,
-                            t_eval=[T_END])
+            sol = solve_ivp(f, (0.0, t_end), y0, method=method, rtol=tol, atol=tol * 1e-2,
+                            t_eval=[t_end])
             return time.perf_counter() - t0, sol
         wall, sol = best_of(once)
         if sol.status != 0:
             raise RuntimeError(sol.message)
         return wall, com(sol.y[:, -1]), dict(nfev=int(sol.nfev))
     return run
+
+
+def pin_scipy_runner(n, method, joint="revolute"):
+    f, y0, com = pin_problem(n, joint)
+    return scipy_runner(f, y0, com, method)
 
 
 def pin_rk4_runner(n, joint="revolute"):
