@@ -119,7 +119,6 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import math  # noqa: E402
-import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
@@ -933,18 +932,7 @@ def main(argv=None):
     keys = []
     for p in args.problems:
         keys += [k for k in PROBLEMS if k == p or k.split()[0] == p]
-    versions = {}
-    for mod, key in (("numpy", "numpy"), ("scipy", "scipy"), ("mujoco", "mujoco"),
-                     ("pinocchio", "pin"), ("exudyn", "exudyn")):
-        try:
-            versions[key] = __import__(mod).__version__
-        except Exception:
-            versions[key] = "missing"
-    meta = dict(date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-                machine=f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                        f"load {os.getloadavg()[0]:.1f}",
-                versions=", ".join(f"{k} {v}" for k, v in versions.items()),
-                quick=args.quick)
+    meta = dict(peers.run_meta(), quick=args.quick)
     results = [problem(k, args.quick) for k in keys]
     meta["machine"] += f" -> {os.getloadavg()[0]:.1f} at the end"
     md = tables(results, meta)

@@ -541,6 +541,21 @@ def fmt_setting(r):
     return f"rtol = {s:.3g}"
 
 
+def run_meta() -> dict:
+    """date, machine (with the load average at the start) and the versions of the codes."""
+    versions = {}
+    for mod, key in (("numpy", "numpy"), ("scipy", "scipy"), ("mujoco", "mujoco"),
+                     ("pinocchio", "pin"), ("exudyn", "exudyn")):
+        try:
+            versions[key] = __import__(mod).__version__
+        except Exception:
+            versions[key] = "missing"
+    return dict(date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                machine=f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+                        f"load {os.getloadavg()[0]:.1f}",
+                versions=", ".join(f"{k} {v}" for k, v in versions.items()))
+
+
 def write_results(out, md, meta, results):
     """<out>.md (the tables) and <out>.json (meta and every row), each written atomically."""
     from spatialmbd.atomic import atomic_write
@@ -650,17 +665,7 @@ def main(argv=None):
                     help="further chain sizes for the per-RHS cost only")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "peers"))
     args = ap.parse_args(argv)
-    versions = {}
-    for mod, key in (("numpy", "numpy"), ("scipy", "scipy"), ("mujoco", "mujoco"),
-                     ("pinocchio", "pin"), ("exudyn", "exudyn")):
-        try:
-            versions[key] = __import__(mod).__version__
-        except Exception:
-            versions[key] = "missing"
-    meta = dict(date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-                machine=f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                        f"load {os.getloadavg()[0]:.1f}",
-                versions=", ".join(f"{k} {v}" for k, v in versions.items()))
+    meta = run_meta()
     results = [problem(n) for n in args.sizes]
     results += [problem(n, "spherical") for n in args.spherical_sizes]
     rhs_only = {}
