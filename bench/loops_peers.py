@@ -92,9 +92,9 @@ stops once one run exceeds 3 s, or is estimated above 9 s). Families that never 
 shown "not reached" with their best error and its time. spatialmbd's families:
 ``simulate(model, t_end, output_step=t_end, method=M, integrator=I, rtol, atol)`` (or
 ``step``) with (I, M) = (rk45, projection), (rk45, standard), (rk45, baumgarte),
-(scipy-dop853, projection), (rk4, projection), (abm4, projection), and for the flyball
-governor also scipy-radau and bdf4 (stiff) and its recursive method (joint coordinates: an
-open tree). Pinocchio: RK45, DOP853 (and Radau for the flyball governor); MuJoCo: RK4,
+(dop853, projection), (scipy-dop853, projection), (rk4, projection), (abm4, projection), and
+for the flyball governor also scipy-radau and bdf4 (stiff) and its recursive method with rk45
+and dop853 (joint coordinates: an open tree). Pinocchio: RK45, DOP853 (and Radau for the flyball governor); MuJoCo: RK4,
 implicit, implicitfast; Exudyn: generalized-alpha (and the KinematicTree integrators).
 
 Timing: as bench/peers.py: the minimum over repetitions (at least 3, spread over >= 0.3 s) of
@@ -682,6 +682,8 @@ def ours_families(prob, quick):
     fam = [("spatialmbd rk45 projection", dict(integrator="rk45", method="projection"), tols),
            ("spatialmbd rk45 standard", dict(integrator="rk45", method="standard"), tols),
            ("spatialmbd rk45 baumgarte", dict(integrator="rk45", method="baumgarte"), tols),
+           ("spatialmbd dop853 projection", dict(integrator="dop853", method="projection"),
+            tols),
            ("spatialmbd scipy-dop853 projection",
             dict(integrator="scipy-dop853", method="projection"), tols),
            ("spatialmbd rk4 projection", dict(integrator="rk4", method="projection"),
@@ -695,6 +697,8 @@ def ours_families(prob, quick):
                 ("spatialmbd bdf4 projection", dict(integrator="bdf4", method="projection"),
                  tols),
                 ("spatialmbd rk45 recursive", dict(integrator="rk45", method="recursive"),
+                 tols),
+                ("spatialmbd dop853 recursive", dict(integrator="dop853", method="recursive"),
                  tols)]
     return fam
 

@@ -161,6 +161,7 @@ def ours_families(n):
     tols = TOLS
     return [
         ("spatialmbd rk45 recursive", dict(integrator="rk45", method="recursive"), tols),
+        ("spatialmbd dop853 recursive", dict(integrator="dop853", method="recursive"), tols),
         ("spatialmbd rk45 standard", dict(integrator="rk45", method="standard"), tols),
         ("spatialmbd scipy-dop853 standard", dict(integrator="scipy-dop853", method="standard"),
          tols),

@@ -91,18 +91,19 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
     """Forward dynamics of ``model`` from t0 to t_end.
 
     method: "auto" (default: "recursive" for an open tree of revolute, translational and
-        spherical joints with the default rk45 and no events or budgets -- faster than
+        spherical joints with rk45 (the default) or dop853 and no events or budgets -- faster than
         projection, no drift --, else
         "projection", the recommendation of docs/choosing.md: no gains, the constraint
         violation stays at round-off), "projection", "standard", "baumgarte", "penalty",
         "augmented_lagrangian", "recursive" (joint coordinates of open trees of revolute,
-        translational and spherical joints and free bodies, rk45 only:
+        translational and spherical joints and free bodies, rk45 or dop853:
         :mod:`.dynamics.recursive`) or a Method instance
         (method_options: its parameters, e.g. alpha, beta).
-    integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "scipy-..." or an Integrator
+    integrator: "euler", "heun", "rk4", "abm4", "bdf4", "rk45", "dop853" (Dormand-Prince
+        8(5,3), for tight tolerances), "scipy-..." or an Integrator
         (step: fixed step size in s; rtol/atol for adaptive ones; integrator_options: others).
-        rk45 and rk4 runs of a fully compiled model with the standard, Baumgarte or projection
-        method go through the compiled drivers of :mod:`.dynamics.fused` (same steps and
+        rk45, dop853 and rk4 runs of a fully compiled model with the standard, Baumgarte or
+        projection method go through the compiled drivers of :mod:`.dynamics.fused` (same steps and
         results, no Python per step; docs/integrators.md).
     output_step / t_eval: the output times (dense output; default 500 intervals).
     q0, v0: initial state (nb, 7) and (nb, 6); default the model's. correct_initial: apply the
@@ -339,11 +340,12 @@ def _recursive_applies(model, integrator, integrator_options, step, atol, events
                        max_steps, max_wall_time) -> bool:
     """Whether method "auto" takes the recursive method: an open tree of revolute,
     translational and spherical joints (free roots allowed, at least one joint;
-    :class:`.dynamics.recursive.JointTree`), integrated by the default rk45 with nothing the
-    recursive run does not support (events, budgets, force states, time laws)."""
+    :class:`.dynamics.recursive.JointTree`), integrated by rk45 (the default) or dop853 with
+    nothing the recursive run does not support (events, budgets, force states, time laws)."""
     from .dynamics.recursive import JointTree
-    if integrator != "rk45" or step is not None or events or budget is not None \
-            or max_steps is not None or max_wall_time is not None or np.ndim(atol) != 0:
+    if integrator not in ("rk45", "dop853") or step is not None or events \
+            or budget is not None or max_steps is not None or max_wall_time is not None \
+            or np.ndim(atol) != 0:
         return False
     if integrator_options and set(integrator_options) - {"rtol", "atol", "max_step"}:
         return False
@@ -371,7 +373,7 @@ def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, str
     then the bodies' coordinates at the outputs, handed to the Results as any run's."""
     from .dynamics import recursive as rc
     from .integrators.base import Counters
-    from .integrators.runge_kutta_adaptive import DormandPrince45
+    from .integrators.pairs import pair_of
     for what, present in (("events", refuse["events"]), ("budgets", refuse["budget"]),
                           ("force-element states (LuGre)", refuse["force_states"]),
                           ("couplers", refuse["couplers"]),
@@ -379,10 +381,11 @@ def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, str
         if present:
             raise ModelError(f"method 'recursive' does not support {what} yet; use method "
                              "'standard' or 'projection'")
-    if not (type(integ) is DormandPrince45 and np.ndim(integ.atol) == 0
-            and integ.min_step == 0.0 and integ.first_step is None):
-        raise ModelError(f"method 'recursive' integrates with rk45 (its compiled driver, "
-                         f"scalar atol); got integrator {integ.name!r}")
+    pair = pair_of(integ)
+    if pair is None:
+        raise ModelError(f"method 'recursive' integrates with rk45 or dop853 (its compiled "
+                         f"driver: scalar atol, the default controller, no min_step or "
+                         f"first_step); got integrator {integ.name!r} with those options")
     T = tree.arrays()
     system = eom.system
     nb = model.nb
@@ -398,7 +401,7 @@ def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, str
         while code == rc.OK and (h == 0.0 or t < t_out[-1]):
             began, before = time.perf_counter(), int(counters[1])
             code, t, h, err_prev, done = rc.dopri_joint(
-                t, x, K0, h, err_prev, T, system.F, system.I, system.W, t0, t_out, done,
+                t, x, K0, h, err_prev, T, system.F, system.I, system.W, pair, t0, t_out, done,
                 rtol, atol, max_step, slice_steps, X, counters)
             if callback is not None:
                 callback(t)
@@ -457,11 +460,11 @@ def _fused_eligible(eom, meth, integ, compiled, couplers, events, limits, callba
                     n_z) -> bool:
     """Whether this run can go through :mod:`.dynamics.fused` with the arithmetic of the Python
     driver: a fully compiled right-hand side of the standard / Baumgarte / projection method,
-    rk45 with its default controller (scalar atol) or rk4, and none of what the Python driver
-    does between steps (events and contact memory, drivers' and force laws' times, couplers,
-    budgets, force-element states)."""
+    rk45 or dop853 with its default controller (scalar atol; :func:`.integrators.pairs.pair_of`)
+    or rk4, and none of what the Python driver does between steps (events and contact memory,
+    drivers' and force laws' times, couplers, budgets, force-element states)."""
     from .integrators.fixed_step import RungeKutta4
-    from .integrators.runge_kutta_adaptive import DormandPrince45
+    from .integrators.pairs import pair_of
     system = eom.system
     if not (FUSED_RUNS and compiled and system.fused) or system.python_groups:
         return False
@@ -472,10 +475,7 @@ def _fused_eligible(eom, meth, integ, compiled, couplers, events, limits, callba
         return False
     if type(integ) is RungeKutta4:
         return True
-    return (type(integ) is DormandPrince45 and np.ndim(integ.atol) == 0
-            and integ.min_step == 0.0 and integ.first_step is None
-            and integ._ctrl == ("pi", dict(safety=0.9, min_factor=0.2, max_factor=10.0,
-                                           beta=0.04)))
+    return pair_of(integ) is not None
 
 
 def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, progress=None):
@@ -489,8 +489,9 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     holds the outputs after the last full chunk, as the Python driver's does."""
     from .dynamics import fused as fz
     from .integrators.base import Counters, IntegrationResult
-    from .integrators.runge_kutta_adaptive import DormandPrince45
+    from .integrators.pairs import pair_of
     system = eom.system
+    pair = pair_of(integ)
     F, I, W, mp = system.F, system.I, system.W, meth._mp
     nb, m = system.nb, system.model.n_eq
     lam_off = system._layout["lam"][0]
@@ -539,7 +540,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
             Y, Yd, Lam = (np.concatenate([arr, np.empty_like(arr)]) for arr in (Y, Yd, Lam))
 
     try:
-        if type(integ) is DormandPrince45:
+        if pair is not None:                             # rk45 or dop853
             K0 = np.empty(n)
             rtol, atol = float(integ.rtol), float(integ.atol)
             max_step = float(integ.max_step)
@@ -547,7 +548,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
             while code in (fz.OK, fz.NEED_ROOM) and (h == 0.0 or t < t_out[-1]):
                 began, before = time.perf_counter(), int(counters[1])
                 code, t, h, err_prev, done = fz.dopri_steps(
-                    t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, done, k_base, rtol,
+                    t, y, K0, h, err_prev, F, I, W, mp, pp, pair, t0, t_out, done, k_base, rtol,
                     atol, max_step, slice_steps, nb, Y, Yd, Lam, lam_off, counters)
                 flush(code == fz.NEED_ROOM)
                 next_slice(t, began, before)

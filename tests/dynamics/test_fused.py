@@ -27,6 +27,7 @@ def _both(model, **kw):
 
 @pytest.mark.parametrize("method", ["projection", "standard", "baumgarte"])
 @pytest.mark.parametrize("integrator, opts", [("rk45", dict(rtol=1e-8, atol=1e-10)),
+                                              ("dop853", dict(rtol=1e-8, atol=1e-10)),
                                               ("rk4", dict(step=2e-3))])
 def test_compiled_driver_takes_the_python_drivers_steps(method, integrator, opts):
     model, _ = load_model(EXAMPLES / "sweeps" / "slider_crank_free.yaml")

@@ -107,6 +107,29 @@ def test_runs_agree_with_the_projection_method(name):
     assert np.abs(a.energy()["error"]).max() < 1e-7 * np.abs(a.energy()["kinetic"]).max()
 
 
+@pytest.mark.parametrize("name", ["revolute chain", "floating base (free, spherical, "
+                                  "revolute)"])
+def test_dop853_runs_agree_with_the_projection_method_and_keep_max_step(name):
+    """The compiled driver with the DOP853 pair: the projection method's result (the Python
+    stepper's arithmetic there), fewer evaluations than rk45 at rtol 1e-10, and max_step
+    held on every step (not only the first)."""
+    model = TREES[name]().compile()
+    kw = dict(t_end=0.5, rtol=1e-10, atol=1e-12, output_step=0.05)
+    a = simulate(model, method="recursive", integrator="dop853", **kw)
+    b = simulate(model, method="projection", integrator="dop853", **kw)
+    c = simulate(model, method="recursive", **kw)
+    assert a.status == b.status == "success"
+    assert a.settings["integrator"] == "dop853"
+    assert np.abs(a.q - b.q).max() < 1e-8 and np.abs(a.v - b.v).max() < 1e-7
+    assert a.counters["nfev"] < 0.7 * c.counters["nfev"], (a.counters, c.counters)
+    auto = simulate(model, method="auto", integrator="dop853", **kw)
+    assert auto.settings["method"] == "recursive"
+    assert np.array_equal(auto.q, a.q)
+    short = simulate(model, method="recursive", integrator="dop853",
+                     integrator_options=dict(max_step=0.01), **kw)
+    assert short.counters["steps"] >= 50
+
+
 def test_driver_error_follows_the_tolerance():
     """The compiled Dormand-Prince driver of the joint coordinates: the final error against a
     1e-12 run falls with the tolerance, about in proportion (the pendulum reaction against

@@ -11,7 +11,7 @@ from spatialmbd.integrators import Event, ODEProblem, get_integrator
 from spatialmbd.simulate import simulate
 
 G = 9.81
-OWN = ["euler", "heun", "rk4", "abm4", "bdf4", "rk45"]
+OWN = ["euler", "heun", "rk4", "abm4", "bdf4", "rk45", "dop853"]
 SCIPY = ["scipy-rk45", "scipy-dop853", "scipy-radau", "scipy-bdf", "scipy-lsoda"]
 FIXED = {"euler": dict(step=1e-3), "heun": dict(step=1e-2), "rk4": dict(step=1e-2)}
 

@@ -12,7 +12,7 @@ from spatialmbd.integrators import INTEGRATORS, Counters, ODEProblem, get_integr
 from spatialmbd.integrators.controller import resample_matrix
 from spatialmbd.integrators.runge_kutta_adaptive import DOPRI_DENSE, DOPRI_WEIGHTS, dopri_dense
 
-OWN = ["euler", "heun", "rk4", "abm4", "bdf4", "rk45"]
+OWN = ["euler", "heun", "rk4", "abm4", "bdf4", "rk45", "dop853"]
 SCIPY = ["scipy-rk45", "scipy-dop853", "scipy-radau", "scipy-bdf", "scipy-lsoda"]
 FIXED_OPTS = {"euler": dict(step=1e-3), "heun": dict(step=1e-3), "rk4": dict(step=1e-2)}
 
@@ -178,6 +178,72 @@ def test_rk45_per_component_atol_and_max_step():
     with pytest.raises(ValueError, match="atol"):
         get_integrator("rk45", atol=[1e-6, 1e-6, 1e-6]).integrate(ODEProblem(limit_cycle), 0.0,
                                                                   Y0_LC, [1.0])
+
+
+# --------------------------------------------------------------------------- dop853
+def _one_dop853_step(h):
+    """(y_new, dense output at the step's middle) of one DOP853 step of h from the exact state
+    at t = 0.3 of the limit cycle."""
+    from spatialmbd.integrators.dop853 import Dop853Stepper
+    t0 = 0.3
+    y0 = limit_cycle_exact(t0)
+    st = Dop853Stepper(1e-6, 1e-6, None, math.inf)
+    st.start(ODEProblem(limit_cycle), t0, y0, t0 + 1.0, Counters())
+    step = st.step(t0, y0, t0 + h)
+    return step.y_new, step.dense(t0 + 0.5 * h)
+
+
+def test_dop853_step_and_dense_output_orders():
+    """Local error of a step ~ h^9 (order 8), of the dense output ~ h^8 (order 7)."""
+    hs = np.array([0.4, 0.2, 0.1])
+    step_err, dense_err = [], []
+    for h in hs:
+        y_new, y_mid = _one_dop853_step(h)
+        step_err.append(np.abs(y_new - limit_cycle_exact(0.3 + h)).max())
+        dense_err.append(np.abs(y_mid - limit_cycle_exact(0.3 + 0.5 * h)).max())
+    step_slope = np.polyfit(np.log(hs), np.log(step_err), 1)[0]
+    dense_slope = np.polyfit(np.log(hs), np.log(dense_err), 1)[0]
+    assert 8.5 < step_slope < 10.0, (step_slope, step_err)
+    assert 7.5 < dense_slope < 9.5, (dense_slope, dense_err)
+
+
+def test_dop853_against_scipy_and_rk45_at_tight_tolerance():
+    """About SciPy's DOP853 step count (its own controller differs slightly: factors 0.2..10),
+    every evaluation counted, the error following the tolerance, and far fewer evaluations
+    than rk45 at rtol 1e-10."""
+    t_end = 10.0
+    for tol in (1e-6, 1e-8, 1e-10):
+        fun = Counted(limit_cycle)
+        res = get_integrator("dop853", rtol=tol, atol=tol).integrate(ODEProblem(fun), 0.0,
+                                                                     Y0_LC, [t_end])
+        assert res.success, res.message
+        ref = solve_ivp(limit_cycle, (0.0, t_end), Y0_LC, method="DOP853", rtol=tol, atol=tol)
+        ref_steps = len(ref.t) - 1
+        assert abs(res.counters.steps - ref_steps) <= 0.25 * ref_steps + 2, (tol, res.counters,
+                                                                             ref_steps)
+        assert res.counters.nfev == fun.calls
+        # FSAL: 12 evaluations per attempted step, + f(t0) + 1 for the initial step
+        assert fun.calls == 2 + 12 * (res.counters.steps + res.counters.rejected)
+        assert np.abs(res.y[-1] - limit_cycle_exact(t_end)).max() < 100 * tol
+    rk45 = get_integrator("rk45", rtol=1e-10, atol=1e-10).integrate(ODEProblem(limit_cycle),
+                                                                    0.0, Y0_LC, [t_end])
+    assert res.counters.nfev < rk45.counters.nfev / 2.5, (res.counters, rk45.counters)
+
+
+def test_dop853_dense_output_costs_three_stages_per_step_with_outputs():
+    tol = 1e-9
+    t_eval = np.linspace(0.0, 10.0, 501)
+    fun = Counted(limit_cycle)
+    res = get_integrator("dop853", rtol=tol, atol=tol).integrate(ODEProblem(fun), 0.0, Y0_LC,
+                                                                 t_eval)
+    assert res.success and res.counters.nfev == fun.calls
+    assert res.counters.steps < len(t_eval) / 5          # most outputs are interpolated
+    # every step holds outputs here: 12 + 3 evaluations per accepted step
+    assert fun.calls == 2 + 12 * (res.counters.steps + res.counters.rejected) \
+        + 3 * res.counters.steps
+    # the interpolated outputs as accurate as the step ends (the global error peaks near
+    # t = 2 on this problem, 3.6e-9, then decays onto the attracting circle)
+    assert np.abs(res.y - limit_cycle_exact(t_eval)).max() < 10 * tol
 
 
 # --------------------------------------------------------------------------- multistep, adaptive

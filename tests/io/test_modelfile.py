@@ -371,7 +371,7 @@ BAD = [
      "valid keys: name, alpha, beta, solver"),
     (("analysis", "method"), {"name": "penalty", "alpha": 0}, "analysis.method: ", "> 0"),
     (("analysis", "integrator"), {"name": "rk5"}, "analysis.integrator.name: ",
-     "valid names: abm4, bdf4, euler, heun, rk4, rk45"),
+     "valid names: abm4, bdf4, dop853, euler, heun, rk4, rk45"),
     (("analysis", "integrator"), {"name": "rk45", "rtol": -1e-6},
      "analysis.integrator.rtol: ", "must be > 0"),
     (("analysis", "integrator"), {"name": "rk45", "atol": 0}, "analysis.integrator.atol: ",

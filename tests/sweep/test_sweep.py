@@ -136,7 +136,8 @@ def test_schedulers_give_identical_ordered_results_and_failures_are_recorded():
 
 # ------------------------------------------------------------------------------ batch engine
 @pytest.mark.parametrize("integrator,method", [("rk45", "standard"), ("rk4", "standard"),
-                                               ("rk45", "projection"), ("rk4", "projection")])
+                                               ("rk45", "projection"), ("rk4", "projection"),
+                                               ("dop853", "projection")])
 def test_batch_equals_separate_runs_slider_crank(integrator, method):
     from spatialmbd.io import Analysis
     from spatialmbd.sweep.batch import simulate_batch
@@ -147,8 +148,8 @@ def test_batch_equals_separate_runs_slider_crank(integrator, method):
         b.bodies["rod"].mass = mass
         models.append(b.compile())
     an = Analysis(t_end=0.3, output_step=0.01, integrator=integrator, method=method,
-                  rtol=1e-8 if integrator == "rk45" else None,
-                  atol=1e-10 if integrator == "rk45" else None,
+                  rtol=1e-8 if integrator != "rk4" else None,
+                  atol=1e-10 if integrator != "rk4" else None,
                   step=2e-3 if integrator == "rk4" else None)
     out = simulate_batch(models, an)
     for model, member in zip(models, out):
@@ -157,8 +158,9 @@ def test_batch_equals_separate_runs_slider_crank(integrator, method):
         np.testing.assert_allclose(member.q, ref.q, rtol=0, atol=1e-12)
         np.testing.assert_allclose(member.v, ref.v, rtol=0, atol=1e-10)
         np.testing.assert_allclose(member.lam, ref.lam, rtol=1e-9, atol=1e-9)
-        if integrator == "rk45":
+        if integrator != "rk4":
             assert member.counters["steps"] == ref.counters["steps"]
+            assert member.counters["nfev"] == ref.counters["nfev"]
     assert not np.allclose(out[0].q, out[1].q)
     other = ModelBuilder("x")
     other.add_body("a", 1.0, (1, 1, 1))
@@ -254,6 +256,9 @@ def test_batch_recursive_and_direct_members_equal_separate_runs(monkeypatch):
     builds.clear()
     geo = {"joints.pivot.axis.1": [0.0, 0.1, 0.2]}
     _batch_equals_simulate(PENDULUM, geo, outs, analysis, distinct=3, rtol=1e-12)
+    # the DOP853 pair runs in the recursive batch too
+    dop = dict(analysis, integrator=dict(name="dop853", rtol=1e-10, atol=1e-12))
+    _batch_equals_simulate(PENDULUM, spin, outs, dop, distinct=3, rtol=1e-12)
 
 
 def _job(params, analysis):

@@ -36,8 +36,8 @@ import numpy as np
 
 from ..integrators.controller import (end_step, landing_steps, landing_time, min_step_size,
                                       pi_factor, rejected_factor, start_first_guess, start_step)
-from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
-                                                dopri_interpolate)
+from ..integrators.pairs import (DP8, pair_dense, pair_error, pair_interpolate,
+                                 pair_stages)
 from ..jit import njit
 from . import system as cs
 from .projection import project
@@ -59,10 +59,6 @@ STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jaco
                TOO_MANY_STEPS: "more steps than max_steps",
                NOT_PROJECTED: "the projection onto the constraints failed (D D^T singular or "
                               "Newton not converged)"}
-
-#: the controller of DormandPrince45 with its defaults (k = 5)
-SAFETY, MIN_FACTOR, MAX_FACTOR, BETA = 0.9, 0.2, 10.0, 0.04
-
 
 @njit
 def _rms(x, scale):
@@ -122,9 +118,10 @@ def project_state(t, y, F, I, W, pp, nb, dx):
 
 
 @njit
-def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
-    """K0 = f(t, y) and the starting step of DormandPrince45 (Hairer, Norsett & Wanner
-    II.4, as ``controller.initial_step``). Returns (status, h); counters[0] counts f."""
+def dopri_start(t, y, K0, F, I, W, mp, k_inv, rtol, atol, max_step, span, counters):
+    """K0 = f(t, y) and the starting step of an embedded pair whose error behaves like h^k
+    (Hairer, Norsett & Wanner II.4, as ``controller.initial_step``). Returns (status, h);
+    counters[0] counts f."""
     n = y.size
     if rhs_standard(t, y, K0, F, I, W, mp) < 0:
         return RHS_FAILED, 0.0
@@ -145,13 +142,14 @@ def dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, span, counters):
     for i in range(n):
         y1[i] = f1[i] - K0[i]
     d2 = _rms(y1, scale) / h0
-    return OK, start_step(h0, d1, d2, 1.0 / 5.0, max_step, span)
+    return OK, start_step(h0, d1, d2, k_inv, max_step, span)
 
 
 @njit
-def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base, rtol,
+def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, pair, t0, t_out, k_out, k_base, rtol,
                 atol, max_step, max_steps, nb, Y, Yd, Lam, lam_off, counters):
-    """Up to ``max_steps`` accepted Dormand-Prince steps from (t, y) with FSAL derivative K0
+    """Up to ``max_steps`` accepted steps of the embedded Dormand-Prince pair ``pair``
+    (:mod:`..integrators.pairs`: rk45 or dop853) from (t, y) with FSAL derivative K0
     and proposed step h (in place on y and K0), every output time t_out[k_out:] reached
     written into Y[k - k_base] (projected as simulate() does) and, when Yd and Lam have rows,
     vdot and lambda there. The first call passes h = 0: the output at t (if t_out[k_out] ==
@@ -159,6 +157,9 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
     k_out): call again with them to continue (t == t_out[-1]: done). Status NEED_ROOM: the
     next step's outputs do not fit in Y; nothing of that step is kept (state and counters as
     before it). counters: (nfev, steps, rejected), accumulated."""
+    kind, tableau, nodes, ctrl = pair
+    k_inv, beta, safety, min_factor, max_factor = ctrl[0], ctrl[1], ctrl[2], ctrl[3], ctrl[4]
+    S = pair_stages(kind)
     n = y.size
     ydot = np.empty(n)
     t_end = t_out[-1]
@@ -170,11 +171,11 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             k_out += 1
         if t >= t_end:
             return OK, t, h, err_prev, k_out
-        code, h = dopri_start(t, y, K0, F, I, W, mp, rtol, atol, max_step, t_end - t0,
+        code, h = dopri_start(t, y, K0, F, I, W, mp, ctrl[5], rtol, atol, max_step, t_end - t0,
                               counters)
         if code != OK:
             return code, t, h, err_prev, k_out
-    K = np.empty((7, n))
+    K = np.empty((tableau.shape[0], n))
     for i in range(n):
         K[0, i] = K0[i]
     y_new = np.empty(n)
@@ -182,12 +183,11 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
     delta = np.zeros(n)
     yo = np.empty(n)
     atol_v = np.full(n, atol)
-    Kd = np.empty((7, n))
+    coef = np.empty((7, n))
     dx = np.zeros(6 * nb)
     span = t_end - t0
     nt = t_out.size
-    k_inv = 1.0 / 5.0
-    alpha = k_inv - 0.75 * BETA
+    alpha = k_inv - 0.75 * beta
     after_reject = False
     steps = 0
     while t < t_end and steps < max_steps:
@@ -198,17 +198,17 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             if hs < h_min:
                 return UNDERFLOW, t, h, err_prev, k_out
             t_new = t_end if hs == t_end - t else t + hs
-            done = stages_standard(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, K, 1, 7, y_new, t_new,
-                                   F, I, W, mp)
-            counters[0] += 6
-            if done < 7:
+            done = stages_standard(t, y, hs, tableau, nodes, K, 1, S, y_new, t_new, F, I, W,
+                                   mp)
+            counters[0] += S - 1
+            if done < S:
                 err = math.inf
             else:
-                err = dopri_error(y, y_new, K, hs, atol_v, rtol)
+                err = pair_error(kind, y, y_new, K, hs, atol_v, rtol)
             if err <= 1.0:
                 break
             counters[2] += 1
-            h = hs * rejected_factor(err, k_inv, SAFETY, MIN_FACTOR)
+            h = hs * rejected_factor(err, k_inv, safety, min_factor)
             after_reject = True
         # accepted
         k_last = k_out
@@ -219,7 +219,7 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             for i in range(n):
                 K0[i] = K[0, i]
             return NEED_ROOM, t, h_start, err_prev, k_out
-        fac, err_prev = pi_factor(err, err_prev, alpha, BETA, SAFETY, MIN_FACTOR, MAX_FACTOR,
+        fac, err_prev = pi_factor(err, err_prev, alpha, beta, safety, min_factor, max_factor,
                                   after_reject)
         after_reject = False
         for i in range(n):
@@ -230,11 +230,15 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
         for i in range(n):
             delta[i] = y_new[i] - y_raw[i]
             changed = changed or delta[i] != 0.0
-        for j in range(7):
-            for i in range(n):
-                Kd[j, i] = K[j, i]                   # the stages of the interpolant
+        if k_out < nt and t_out[k_out] < t_new:      # an output inside: the dense output
+            if kind == DP8:                          # its extra stages
+                if stages_standard(t, y, hs, tableau, nodes, K, S, S + 3, yo,
+                                   t + nodes[S + 2] * hs, F, I, W, mp) < S + 3:
+                    return RHS_FAILED, t, h, err_prev, k_out
+                counters[0] += 3
+            pair_dense(kind, y, y_raw, K, hs, coef)
         if pp[0] != 0.0 and changed:                 # FSAL derivative at the projected state
-            if rhs_standard(t_new, y_new, K[6], F, I, W, mp) < 0:
+            if rhs_standard(t_new, y_new, K[S - 1], F, I, W, mp) < 0:
                 return RHS_FAILED, t_new, h, err_prev, k_out
             counters[0] += 1
         if not _finite(y_new):
@@ -245,13 +249,13 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, t0, t_out, k_out, k_base
             if to == t_new:
                 _output_row(to, Y, Yd, Lam, row, y_new, F, I, W, mp, nb, lam_off, ydot)
             else:
-                dopri_interpolate(y, hs, Kd, (to - t) / hs, delta, yo)
+                pair_interpolate(kind, y, hs, coef, (to - t) / hs, delta, yo)
                 if not project_state(to, yo, F, I, W, pp, nb, dx):
                     return NOT_PROJECTED, to, h, err_prev, k_out
                 _output_row(to, Y, Yd, Lam, row, yo, F, I, W, mp, nb, lam_off, ydot)
             k_out += 1
         for i in range(n):
-            K[0, i] = K[6, i]
+            K[0, i] = K[S - 1, i]
             y[i] = y_new[i]
         t = t_new
         steps += 1
@@ -313,14 +317,15 @@ def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, Yd, Lam,
 
 
 @njit
-def dopri_run(y0, F, I, W, mp, pp, t0, t_out, rtol, atol, max_step, max_steps, nb, Y, Yd, Lam,
-              lam_off, counters):
-    """A whole Dormand-Prince run from (t0, y0) through t_out (outputs into Y (nt, n), and
-    vdot, lambda into Yd, Lam when they have rows), at most max_steps accepted steps. Returns
-    (status, t)."""
+def dopri_run(y0, F, I, W, mp, pp, pair, t0, t_out, rtol, atol, max_step, max_steps, nb, Y,
+              Yd, Lam, lam_off, counters):
+    """A whole run of the Dormand-Prince pair ``pair`` from (t0, y0) through t_out (outputs
+    into Y (nt, n), and vdot, lambda into Yd, Lam when they have rows), at most max_steps
+    accepted steps. Returns (status, t)."""
     y = y0.copy()
     K0 = np.empty(y.size)
-    code, t, h, err_prev, k_out = dopri_steps(t0, y, K0, 0.0, 1e-4, F, I, W, mp, pp, t0, t_out,
+    code, t, h, err_prev, k_out = dopri_steps(t0, y, K0, 0.0, 1e-4, F, I, W, mp, pp, pair, t0,
+                                              t_out,
                                               0, 0, rtol, atol, max_step, max_steps, nb, Y,
                                               Yd, Lam, lam_off, counters)
     if code == OK and t < t_out[-1]:

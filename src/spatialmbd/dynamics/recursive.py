@@ -49,13 +49,13 @@ import numpy as np
 from ..errors import ModelError
 from ..integrators.controller import (end_step, min_step_size, pi_factor, rejected_factor,
                                       start_first_guess, start_step)
-from ..integrators.runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, dopri_error,
-                                                dopri_interpolate)
+from ..integrators.pairs import (DP8, pair_dense, pair_error, pair_interpolate,
+                                 pair_stages)
 from ..jit import njit
 from ..jit import array_view
 from ..rotations import A_into, pdot_scalar, quat_multiply_scalar
 from ..state import state_into
-from .fused import BETA, MAX_FACTOR, MIN_FACTOR, OK, RHS_FAILED, SAFETY, UNDERFLOW, _rms
+from .fused import OK, RHS_FAILED, UNDERFLOW, _rms
 from .layout import bare, body_views, force_views
 from .standard import rhs_standard
 from .system import _forces, body_terms
@@ -760,19 +760,40 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
 
 
 # ----------------------------------------------------------------------------- the driver
-# dopri_joint shares the status codes (OK, RHS_FAILED, UNDERFLOW), the controller's constants
-# (DormandPrince45's defaults) and the weighted norm of the compiled drivers of .fused
+# dopri_joint shares the status codes (OK, RHS_FAILED, UNDERFLOW), the embedded pairs
+# (..integrators.pairs: rk45 and dop853 with their default controllers) and the weighted norm
+# of the compiled drivers of .fused
 
 
 @njit
-def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol, max_step,
-                max_steps, X, counters):
-    """Up to ``max_steps`` accepted Dormand-Prince 5(4) steps of the joint state x from t
-    (FSAL derivative K0, proposed step h; h = 0 starts the run: output at t, K0 and Hairer's
-    starting step), every output time t_out[k_out:] reached written into X[k]. The controller
-    of DormandPrince45 (PI, beta 0.04, safety 0.9, factors 0.2..10, dense output). Returns
+def _joint_stages(t, x, hs, tableau, nodes, K, s0, s1, tmp, t_last, yb, T, F, I, W):
+    """Stages s0 .. s1-1 of the joint state: tmp = x + hs sum_j tableau[s, j] K[j],
+    K[s] = f(t + nodes[s] hs, tmp) (t_last for the last). False if one failed."""
+    n = x.size
+    for s in range(s0, s1):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += tableau[s, j] * K[j, i]
+            tmp[i] = x[i] + hs * acc
+        ts = t_last if s == s1 - 1 else t + nodes[s] * hs
+        if not rhs_joint(ts, tmp, K[s], yb, T, F, I, W):
+            return False
+    return True
+
+
+@njit
+def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, pair, t0, t_out, k_out, rtol, atol,
+                max_step, max_steps, X, counters):
+    """Up to ``max_steps`` accepted steps of the Dormand-Prince pair ``pair`` (rk45 or
+    dop853 with its default controller) of the joint state x from t (FSAL derivative K0,
+    proposed step h; h = 0 starts the run: output at t, K0 and Hairer's starting step), every
+    output time t_out[k_out:] reached written into X[k] (dense output). Returns
     (status, t, h, err_prev, k_out); call again to continue. counters: (nfev, steps,
     rejected)."""
+    kind, tableau, nodes, ctrl = pair
+    k_inv, beta, safety, min_factor, max_factor = ctrl[0], ctrl[1], ctrl[2], ctrl[3], ctrl[4]
+    S = pair_stages(kind)
     n = x.size
     nb = body_views(F, I, W).mass.size
     yb = np.zeros(13 * nb + 1)
@@ -803,16 +824,17 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
         counters[0] += 1
         for i in range(n):
             x1[i] = f1[i] - K0[i]
-        h = start_step(h0, d1, _rms(x1, scale) / h0, 0.2, max_step, span)
-    K = np.empty((7, n))
+        h = start_step(h0, d1, _rms(x1, scale) / h0, ctrl[5], max_step, span)
+    K = np.empty((tableau.shape[0], n))
     for i in range(n):
         K[0, i] = K0[i]
     x_new = np.empty(n)
     xo = np.empty(n)
     tmp = np.empty(n)
     atol_v = np.full(n, atol)
+    coef = np.empty((7, n))
     empty = np.zeros(0)
-    alpha = 0.2 - 0.75 * BETA
+    alpha = k_inv - 0.75 * beta
     after_reject = False
     steps = 0
     while t < t_end and steps < max_steps:
@@ -822,29 +844,26 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
             if hs < h_min:
                 return UNDERFLOW, t, h, err_prev, k_out
             t_new = t_end if hs == t_end - t else t + hs
-            ok = True
-            for s in range(1, 7):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += DOPRI_TABLEAU[s, j] * K[j, i]
-                    tmp[i] = x[i] + hs * acc
-                ts = t_new if s == 6 else t + DOPRI_NODES[s] * hs
-                if not rhs_joint(ts, tmp, K[s], yb, T, F, I, W):
-                    ok = False
-                    break
-            counters[0] += 6
+            ok = _joint_stages(t, x, hs, tableau, nodes, K, 1, S, tmp, t_new, yb, T, F, I, W)
+            counters[0] += S - 1
             if ok:
                 for i in range(n):
                     x_new[i] = tmp[i]
-                err = dopri_error(x, x_new, K, hs, atol_v, rtol)
+                err = pair_error(kind, x, x_new, K, hs, atol_v, rtol)
             else:
                 err = math.inf
             if err <= 1.0:
                 break
             counters[2] += 1
-            h = hs * rejected_factor(err, 0.2, SAFETY, MIN_FACTOR)
+            h = hs * rejected_factor(err, k_inv, safety, min_factor)
             after_reject = True
+        if k_out < nt and t_out[k_out] < t_new:      # an output inside: the dense output
+            if kind == DP8:
+                if not _joint_stages(t, x, hs, tableau, nodes, K, S, S + 3, tmp,
+                                     t + nodes[S + 2] * hs, yb, T, F, I, W):
+                    return RHS_FAILED, t, h, err_prev, k_out
+                counters[0] += 3
+            pair_dense(kind, x, x_new, K, hs, coef)
         quats = tree_views(T).quats              # Euler parameters back to unit length
         for q in range(quats.size):              # (the right-hand side uses p / |p|)
             o = quats[q]
@@ -852,7 +871,7 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
                             + x_new[o + 3] ** 2)
             for i in range(4):
                 x_new[o + i] /= nrm
-        fac, err_prev = pi_factor(err, err_prev, alpha, BETA, SAFETY, MIN_FACTOR, MAX_FACTOR,
+        fac, err_prev = pi_factor(err, err_prev, alpha, beta, safety, min_factor, max_factor,
                                   after_reject)
         after_reject = False
         while k_out < nt and t_out[k_out] <= t_new:
@@ -861,15 +880,15 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, t0, t_out, k_out, rtol, atol,
                 for i in range(n):
                     X[k_out, i] = x_new[i]
             else:
-                dopri_interpolate(x, hs, K, (to - t) / hs, empty, xo)
+                pair_interpolate(kind, x, hs, coef, (to - t) / hs, empty, xo)
                 for i in range(n):
                     X[k_out, i] = xo[i]
             k_out += 1
         for i in range(n):
             x[i] = x_new[i]
-            K[0, i] = K[6, i]
+            K[0, i] = K[S - 1, i]
         t = t_new
-        h = hs * fac
+        h = min(hs * fac, max_step)
         steps += 1
         counters[1] += 1
     for i in range(n):

@@ -1,7 +1,8 @@
 """Time integrators of text ch. 13 behind one contract (see :mod:`.base`).
 
 Registered names: ``euler``, ``heun``, ``rk4`` (fixed step), ``abm4`` (Adams-Bashforth-Moulton
-PECE), ``bdf4`` (Gear), ``rk45`` (Dormand-Prince 5(4)) and the SciPy methods ``scipy-rk45``,
+PECE), ``bdf4`` (Gear), ``rk45`` (Dormand-Prince 5(4)), ``dop853`` (Dormand-Prince 8(5,3))
+and the SciPy methods ``scipy-rk45``,
 ``scipy-dop853``, ``scipy-radau``, ``scipy-bdf``, ``scipy-lsoda``. Get one with
 ``get_integrator(name, **options)``.
 
@@ -18,6 +19,7 @@ from .fixed_step import FixedStepIntegrator, ForwardEuler, Heun, RungeKutta4
 from .adams import AdamsBashforthMoulton4
 from .gear import GearBDF4
 from .runge_kutta_adaptive import DormandPrince45
+from .dop853 import DormandPrince853
 from .scipy_ivp import (ScipyBDF, ScipyDOP853, ScipyIntegrator, ScipyLSODA, ScipyRadau,
                         ScipyRK45)
 
@@ -27,5 +29,6 @@ __all__ = [
     "FixedStepController", "Event", "EventRecord", "Step", "Stepper", "FixedStepIntegrator",
     "ForwardEuler",
     "Heun", "RungeKutta4", "AdamsBashforthMoulton4", "GearBDF4", "DormandPrince45",
+    "DormandPrince853",
     "ScipyIntegrator", "ScipyRK45", "ScipyDOP853", "ScipyRadau", "ScipyBDF", "ScipyLSODA",
 ]

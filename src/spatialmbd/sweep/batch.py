@@ -13,10 +13,14 @@ members that integrates each with the compiled drivers of :mod:`..dynamics.fused
   controller with beta = 0.04, FSAL, Shampine's dense output, p renormalised -- and with the
   projection method q and v projected, the FSAL derivative re-evaluated -- after every accepted
   step and at every output), so a member's result equals its separate run to round-off;
+* ``dop853``: Dormand-Prince 8(5,3) with per-member step control, the arithmetic of
+  :class:`..integrators.dop853.DormandPrince853` (for tight tolerances: about a third of
+  rk45's evaluations at rtol 1e-8);
 * ``rk4``: classic RK4 with a common fixed step, landing on every output time as
   :class:`..integrators.fixed_step.RungeKutta4` does.
 
-With the recursive method (what "auto" gives a tree of joints with rk45, as in simulate())
+With the recursive method (what "auto" gives a tree of joints with rk45 or dop853, as in
+simulate())
 each member's joint coordinates and joint tree (:class:`..dynamics.recursive.JointTree`)
 come from its corrected initial state and the members are integrated by
 :func:`..dynamics.recursive.dopri_joint` in one compiled call
@@ -54,6 +58,7 @@ from ..dynamics.fused import (OK, STATUS_TEXT, TOO_MANY_STEPS, dopri_run, projec
                               rk4_outputs)
 from ..errors import ModelError
 from ..dynamics.layout import bare
+from ..integrators.pairs import PAIR_DP5, pair_by_name
 from ..jit import array_view, njit
 
 __all__ = ["simulate_batch", "BatchSetup", "run_members_batched", "STATUS_TEXT"]
@@ -67,14 +72,15 @@ def _rows(A):
 
 
 @njit(nogil=True)
-def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, max_step, step,
-                    max_steps, nb, lam_off, Y, Yd, Lam, status, t_fail, counters):
+def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, pair, rtol, atol, max_step,
+                    step, max_steps, nb, lam_off, Y, Yd, Lam, status, t_fail, counters):
     """Members b0 <= b < b1: integrate Y0[b] with F[b], W[b] (the shared I) into Y[b] (nt, n)
     and, when Yd and Lam have rows (nt each, else none), vdot into Yd[b] (nt, 6 nb) and
     lambda into Lam[b] (nt, m). status[b]: 0 or a failure code (t_fail[b] the time);
-    counters[b] = (nfev, steps, rejected). Without the GIL: ranges of members run in threads
-    at once (each member has its own F, W, state and outputs; I is read only). The arrays
-    are read as uncounted views, as in :func:`integrate_batch_joint`."""
+    counters[b] = (nfev, steps, rejected). adaptive: the Dormand-Prince pair ``pair``
+    (:mod:`..integrators.pairs`), else RK4 with ``step``. Without the GIL: ranges of members
+    run in threads at once (each member has its own F, W, state and outputs; I is read
+    only). The arrays are read as uncounted views, as in :func:`integrate_batch_joint`."""
     I, mp, pp, t_out = bare(I), bare(mp), bare(pp), bare(t_out)
     nF, nW, nt, n = F.shape[1], W.shape[1], Y.shape[1], Y.shape[2]
     F, W = _rows(F), _rows(W)
@@ -87,8 +93,8 @@ def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, ma
         Lamb = array_view(Lamf, b * rows * nl, (rows, nl))
         cb = array_view(cf, 3 * b, (3,))
         if adaptive:
-            code, tf = dopri_run(Y0[b], Fb, I, Wb, mp, pp, 0.0, t_out, rtol, atol, max_step,
-                                 max_steps, nb, Yb, Ydb, Lamb, lam_off, cb)
+            code, tf = dopri_run(Y0[b], Fb, I, Wb, mp, pp, pair, 0.0, t_out, rtol, atol,
+                                 max_step, max_steps, nb, Yb, Ydb, Lamb, lam_off, cb)
         else:
             code, tf = rk4_outputs(0.0, Y0[b].copy(), Fb, I, Wb, mp, pp, t_out, 0, t_out.size,
                                    0, step, nb, Yb, Ydb, Lamb, lam_off, cb)
@@ -97,14 +103,15 @@ def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, rtol, atol, ma
 
 
 @njit(nogil=True)
-def integrate_batch_joint(b0, b1, X0, Ti, Tf, F, I, W, t_out, rtol, atol, max_step,
+def integrate_batch_joint(b0, b1, X0, Ti, Tf, F, I, W, t_out, pair, rtol, atol, max_step,
                           max_steps, nb, nq, mp, lam_off, X, Y, Yd, Lam, status, t_fail,
                           counters):
     """The recursive method's members b0 <= b < b1: the joint state X0[b] (tree packs Ti,
     shared, and Tf[b], the member's geometry and work) integrated by
-    :func:`..dynamics.recursive.dopri_joint` into X[b] (nt, nx); the bodies' [q, v, work] at
-    the outputs into Y[b] and, when Yd and Lam have rows, vdot and lambda (standard method,
-    params mp) into Yd[b], Lam[b]. status, t_fail, counters as :func:`integrate_batch`."""
+    :func:`..dynamics.recursive.dopri_joint` (the pair ``pair``) into X[b] (nt, nx); the
+    bodies' [q, v, work] at the outputs into Y[b] and, when Yd and Lam have rows, vdot and
+    lambda (standard method, params mp) into Yd[b], Lam[b]. status, t_fail, counters as
+    :func:`integrate_batch`."""
     n = X0.shape[1]
     nt = t_out.size
     # shared arrays and rows as uncounted views: every call of the driver and of the
@@ -123,9 +130,9 @@ def integrate_batch_joint(b0, b1, X0, Ti, Tf, F, I, W, t_out, rtol, atol, max_st
         T = (Ti, array_view(Tf, b * nT, (nT,)))
         Fb, Wb = array_view(F, b * nF, (nF,)), array_view(W, b * nW, (nW,))
         Xb = array_view(Xf, b * nt * nx, (nt, nx))
-        code, t, h, err, done = rc.dopri_joint(0.0, x, K0, 0.0, 1e-4, T, Fb, I, Wb, 0.0,
-                                               t_out, 0, rtol, atol, max_step, max_steps,
-                                               Xb, array_view(cf, 3 * b, (3,)))
+        code, t, h, err, done = rc.dopri_joint(0.0, x, K0, 0.0, 1e-4, T, Fb, I, Wb, pair,
+                                               0.0, t_out, 0, rtol, atol, max_step,
+                                               max_steps, Xb, array_view(cf, 3 * b, (3,)))
         if code == OK and done < nt:
             code = TOO_MANY_STEPS
         status[b] = code
@@ -187,10 +194,10 @@ class BatchMember:
 class BatchSetup:
     """The prototype System of a topology and the checks that a model belongs to it.
 
-    integrator: the analysis' integrator. With "rk45", method "auto" takes the recursive
-    method for a tree of joints as simulate() does (joint coordinates,
-    :mod:`..dynamics.recursive`), else the projection method; "recursive" needs rk45 and a
-    tree."""
+    integrator: the analysis' integrator. With "rk45" or "dop853", method "auto" takes the
+    recursive method for a tree of joints as simulate() does (joint coordinates,
+    :mod:`..dynamics.recursive`), else the projection method; "recursive" needs one of them
+    and a tree."""
 
     def __init__(self, model, method="standard", method_options=None, integrator=None):
         from ..dynamics import EquationsOfMotion, get_method
@@ -237,8 +244,8 @@ class BatchSetup:
     @staticmethod
     def _tree_error(model, integrator) -> str:
         """Why the recursive method cannot run this model's batch ('' when it can)."""
-        if integrator != "rk45":
-            return f"it integrates with rk45, not {integrator!r}"
+        if integrator not in ("rk45", "dop853"):
+            return f"it integrates with rk45 or dop853, not {integrator!r}"
         try:
             tree = rc.JointTree(model, model.q0, model.v0)
         except ModelError as exc:
@@ -394,9 +401,10 @@ class BatchSetup:
 def _check_analysis(analysis):
     if analysis.type != "dynamic":
         raise ModelError(f"batch integration runs dynamic analyses, not {analysis.type!r}")
-    if analysis.integrator not in ("rk45", "rk4"):
-        raise ModelError(f"batch integration supports the integrators 'rk45' (per-member step "
-                         f"control) and 'rk4' (common fixed step), not {analysis.integrator!r}")
+    if analysis.integrator not in ("rk45", "dop853", "rk4"):
+        raise ModelError(f"batch integration supports the integrators 'rk45' and 'dop853' "
+                         f"(per-member step control) and 'rk4' (common fixed step), not "
+                         f"{analysis.integrator!r}")
     extra = set(analysis.integrator_options or {}) - {"max_step"}
     if extra:
         raise ModelError(f"batch integration: integrator options {sorted(extra)} are not "
@@ -410,8 +418,8 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
 
     models: Models that differ only in values (masses, inertias, geometry, gravity, initial
     state). analysis: an Analysis (dynamic; method auto/standard/baumgarte/projection/recursive
-    -- "auto" as simulate() chooses it; rk45 with rtol/atol/max_step or rk4 with step). Returns one :class:`BatchMember` per model (arrays
-    shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
+    -- "auto" as simulate() chooses it; rk45 or dop853 with rtol/atol/max_step, or rk4 with
+    step). Returns one :class:`BatchMember` per model (arrays shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
     accelerations: also evaluate vdot and lambda at the output times (one more right-hand
     side per output; False leaves them NaN). threads: spread the members over one thread per
     core (the compiled loop releases the GIL).
@@ -452,15 +460,16 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     status = np.zeros(B, dtype=np.int64)
     t_fail = np.zeros(B)
     counters = np.zeros((B, 3), dtype=np.int64)
-    adaptive = analysis.integrator == "rk45"
+    pair = pair_by_name(analysis.integrator)
+    adaptive = pair is not None
     rtol = 1e-6 if analysis.rtol is None else float(analysis.rtol)
     atol = 1e-9 if analysis.atol is None else float(analysis.atol)
     max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
     step = 1e-3 if analysis.step is None else float(analysis.step)
     start = time.perf_counter()
-    _run_members((Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive, rtol,
-                  atol, max_step, step, max_steps, nb, setup.lam_off, Y, Yd, Lam, status,
-                  t_fail, counters), B, threads)
+    _run_members((Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive,
+                  pair or PAIR_DP5, rtol, atol, max_step, step, max_steps, nb,
+                  setup.lam_off, Y, Yd, Lam, status, t_fail, counters), B, threads)
     wall = time.perf_counter() - start
     return _members(setup, models, t_out, Y, Yd, Lam, status, t_fail, counters, wall,
                     with_outputs)
@@ -491,7 +500,8 @@ def _integrate_joint(setup, models, analysis, t_out, Fs, Y0, max_steps, with_out
     atol = 1e-9 if analysis.atol is None else float(analysis.atol)
     max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
     start = time.perf_counter()
-    _run_members((X0, setup.tree.Ti, Tf, Fs, setup.system.I, W, t_out, rtol, atol, max_step,
+    _run_members((X0, setup.tree.Ti, Tf, Fs, setup.system.I, W, t_out,
+                  pair_by_name(analysis.integrator), rtol, atol, max_step,
                   max_steps, nb, nq, setup.mp, setup.lam_off, X, Y, Yd, Lam, status, t_fail,
                   counters), B, threads, integrate_batch_joint)
     wall = time.perf_counter() - start

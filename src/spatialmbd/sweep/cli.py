@@ -55,8 +55,8 @@ def add_parser(command, add_analysis_options) -> None:
                    help="worker processes of processes/dask (default: the number of cores)")
     p.add_argument("--engine", choices=("simulate", "batch"), default="simulate",
                    help="batch: integrate the members of a chunk together in one compiled "
-                        "call (standard method, rk45/rk4, models without force elements and "
-                        "drivers)")
+                        "call (methods auto, standard, baumgarte, projection, recursive; "
+                        "rk45, dop853 or rk4; fully compiled models without drivers)")
     p.add_argument("--chunk-size", type=int, metavar="N", help="members per task")
     add_analysis_options(p)
     p.add_argument("-o", "--out", action="append", metavar="FILE",

@@ -318,7 +318,7 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
     format: "xarray" (a Dataset: one dimension per parameter for a grid, else "member") or
         "dataframe" (tidy: one row per member, or per member and time with series outputs).
     engine: "simulate" (one :func:`simulate` per member) or "batch" (the members of a chunk
-        integrated together in one compiled call, :mod:`.batch`; standard method, rk45/rk4).
+        integrated together in one compiled call, :mod:`.batch`; rk45, dop853 or rk4).
     chunk_size: members per task (default: about two tasks per worker, at most 64 members
         with the simulate engine, 1024 with the batch engine).
     batch_options: options of the batch engine: ``threads`` (True: a chunk's members spread
