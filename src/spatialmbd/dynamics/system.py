@@ -261,7 +261,9 @@ def add_transpose_times(R, lam, out):
 @njit(inline="always")
 def assemble_schur(M, R, P, use_mass):
     """Cx = values of S = D M^-1 D^T (use_mass) or D D^T over the kept rows, body by body:
-    S = sum_b D_b W_b D_b^T with D_b the columns of body b."""
+    S = sum_b D_b W_b D_b^T with D_b the columns of body b. wk (rows incident to the body,
+    12): the row of D_b (columns 6..11) and of D_b M_b^-1 (0..5), gathered once per body so
+    that the pairs below are 6-term products of contiguous rows."""
     mass, J, Jinv = M
     D = R[0]
     keep, inc_ptr, inc_row, inc_side, pair_ptr, pair_pos, wk, Cx = P[:8]
@@ -271,20 +273,21 @@ def assemble_schur(M, R, P, use_mass):
         for t in range(p0, p1):
             a = keep[inc_row[t]]
             c0 = 6 * inc_side[t]
+            w = wk[t - p0]
+            for c in range(6):
+                w[6 + c] = D[a, c0 + c]
             if use_mass:                        # a row of D M^-1 (M^-1 is symmetric)
-                block_apply(mass, Jinv, b, D[a], c0, wk[t - p0], 0, True)
+                block_apply(mass, Jinv, b, w, 6, w, 0, True)
             else:
                 for c in range(6):
-                    wk[t - p0, c] = D[a, c0 + c]
+                    w[c] = w[6 + c]
         q = pair_ptr[b]
-        for ta in range(p0, p1):
-            for tc in range(ta, p1):
-                a = keep[inc_row[tc]]
-                c0 = 6 * inc_side[tc]
-                val = 0.0
-                for c in range(6):
-                    val += wk[ta - p0, c] * D[a, c0 + c]
-                Cx[pair_pos[q]] += val
+        for ta in range(p1 - p0):
+            wa = wk[ta]
+            for tc in range(ta, p1 - p0):
+                wc = wk[tc]
+                Cx[pair_pos[q]] += (wa[0] * wc[6] + wa[1] * wc[7] + wa[2] * wc[8]
+                                    + wa[3] * wc[9] + wa[4] * wc[10] + wa[5] * wc[11])
                 q += 1
 
 
@@ -454,7 +457,8 @@ class System:
             Jinv=np.zeros((nb, 3, 3)), g=np.zeros(6 * nb), phi=np.zeros(m),
             D=np.zeros((m, 12)), nu=np.zeros(m), gamma=np.zeros(m), law=np.zeros((G[0].size, 3)),
             lam=np.zeros(m), vdot=np.zeros(6 * nb), rg=np.zeros(m), t6=np.zeros(6 * nb),
-            u6=np.zeros(6 * nb), wk=np.zeros((max(1, int(np.diff(inc["inc_ptr"]).max(initial=0))), 6)),
+            u6=np.zeros(6 * nb),
+            wk=np.zeros((max(1, int(np.diff(inc["inc_ptr"]).max(initial=0))), 12)),
             Cx=np.zeros(self.S.Ci.size), Lx=np.zeros(self.S.nnz_L), xs=np.zeros(keep.size),
             ys=np.zeros(keep.size), bs=np.zeros(keep.size), q=np.zeros((nb, 7)),
             v=np.zeros(6 * nb))
