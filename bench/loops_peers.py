@@ -92,7 +92,7 @@ stops once one run exceeds 3 s, or is estimated above 9 s). Families that never 
 shown "not reached" with their best error and its time. spatialmbd's families:
 ``simulate(model, t_end, output_step=t_end, method=M, integrator=I, rtol, atol)`` (or
 ``step``) with (I, M) = (rk45, projection), (rk45, standard), (rk45, baumgarte),
-(dop853, projection), (scipy-dop853, projection), (rk4, projection), (abm4, projection), and
+(dop853, projection), (dop853, standard), (scipy-dop853, projection), (rk4, projection), (abm4, projection), and
 for the flyball governor also scipy-radau and bdf4 (stiff) and its recursive method with rk45
 and dop853 (joint coordinates: an open tree). Pinocchio: RK45, DOP853 (and Radau for the flyball governor); MuJoCo: RK4,
 implicit, implicitfast; Exudyn: generalized-alpha (and the KinematicTree integrators).
@@ -684,6 +684,7 @@ def ours_families(prob, quick):
            ("spatialmbd rk45 baumgarte", dict(integrator="rk45", method="baumgarte"), tols),
            ("spatialmbd dop853 projection", dict(integrator="dop853", method="projection"),
             tols),
+           ("spatialmbd dop853 standard", dict(integrator="dop853", method="standard"), tols),
            ("spatialmbd scipy-dop853 projection",
             dict(integrator="scipy-dop853", method="projection"), tols),
            ("spatialmbd rk4 projection", dict(integrator="rk4", method="projection"),
