@@ -269,19 +269,19 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
                           stream, dict(events=integ_events, budget=limits.active,
                                        force_states=n_z, couplers=bool(couplers),
                                        time_laws=eom.system.table.has_drivers), eom)
-    sink = None
-    if stream is not None:
-        def sink(times, outputs):
-            stream.add(chunk_results(times, np.array(outputs), "running", "", {}, 0.0))
+
+    def sink(times, outputs):                      # streamed chunks (stream given)
+        stream.add(chunk_results(times, np.array(outputs), "running", "", {}, 0.0))
+
+    def emit(times, states, acc):
+        stream.add(chunk_results(times, states, "running", "", {}, 0.0, acc))
+    streaming = stream is not None
     fused = None
     if _fused_eligible(eom, meth, integ, compiled, couplers, integ_events, limits, callback,
                        n_z):
-        emit = None
-        if stream is not None:
-            def emit(times, states, acc):
-                stream.add(chunk_results(times, states, "running", "", {}, 0.0, acc))
         try:
-            fused = _fused_run(eom, meth, integ, t0, y0, t_out, project, emit,
+            fused = _fused_run(eom, meth, integ, t0, y0, t_out, project,
+                               emit if streaming else None,
                                getattr(stream, "chunk_rows", 0), callback)
         finally:
             if fused is not None and hasattr(callback, "close"):
@@ -297,7 +297,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
             problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
                                  stages=stages, n_quadrature=1)   # W does not enter the rhs
             res = integ.integrate(problem, t0, y0, t_out, progress=callback,
-                                  events=integ_events, event_tol=event_tol, sink=sink,
+                                  events=integ_events, event_tol=event_tol,
+                                  sink=sink if streaming else None,
                                   chunk=getattr(stream, "chunk_rows", 0))
         finally:
             if hasattr(callback, "close"):

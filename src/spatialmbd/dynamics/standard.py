@@ -197,7 +197,7 @@ from .system import (NOT_FINITE, OK, SINGULAR, _M, _P, _R, _write_ydot, baumgart
 @njit
 def rhs_gamma_into(y, F, I, W, mp):
     """rg of :func:`baumgarte_rhs` at the evaluation in W (v read from y)."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    bo, co = body_views(F, I, W), cons_views(F, I, W)
     copy_v(y, bo.v)
     baumgarte_rhs(_R(co), co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
 
@@ -244,7 +244,7 @@ def stages_standard(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp):
 @njit
 def fallback_finish(y, ydot, F, I, W):
     """vdot and ydot after a fallback solve that has put lam into co.lam."""
-    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    bo, co = body_views(F, I, W), cons_views(F, I, W)
     finish(_M(bo), _R(co), bo.g, co.lam, bo.t6, bo.vdot)
     _write_ydot(bo, co, force_views(F, I, W), ydot)
     return OK if finite(ydot) else NOT_FINITE

@@ -36,8 +36,6 @@ from scipy.integrate import DOP853 as _COEFFICIENTS
 from ..jit import njit
 from .base import register
 from .explicit import rk_stages
-from .controller import atol_vector, initial_step, raise_if_nonfinite
-from .driver import Step
 from .runge_kutta_adaptive import DormandPrince45, DormandPrinceStepper
 
 #: stages of a step including the FSAL derivative at its end (k_1 .. k_13)
@@ -116,49 +114,14 @@ class Dop853Stepper(DormandPrinceStepper):
     """The DOP853 stepping formula (FSAL, 12 evaluations per step); see the module docstring."""
 
     name = "dop853"
+    slope_rows, fsal_row, start_order = 16, STAGES - 1, 7
+    tableau, nodes, k = DOP853_TABLEAU, DOP853_NODES, 8
 
-    def start(self, problem, t0, y0, t_end, counters):
-        f = problem.rhs
-        self.f, self.counters = f, counters
-        self.stages = problem.stages
-        self.project_keeps_rhs = problem.project_keeps_rhs
-        n = y0.size
-        self.atol = atol_vector(self.atol_opt, n)
-        self.slopes = np.empty((16, n))       # k_1 .. k_13 and the dense output's k_14 .. k_16
-        self.slopes[0] = f(t0, y0)
-        self.fsal = False
-        counters.nfev += 1
-        raise_if_nonfinite(t0, self.slopes[0], "derivative")
-        span = t_end - t0
-        if self.first_step is not None:
-            return min(self.first_step, self.max_step, span)
-        return initial_step(f, t0, y0, self.slopes[0], 7, self.rtol, self.atol, self.max_step,
-                            span, counters)
+    def error(self, y, y_new, slopes, hs):
+        return dop853_error(y, y_new, slopes, hs, self.atol, self.rtol)
 
-    def step(self, t, y, t_new):
-        hs = t_new - t
-        slopes = self.slopes
-        if self.fsal:
-            slopes[0] = slopes[STAGES - 1]
-            self.fsal = False
-        y_new = np.empty(y.size)
-        done = 1 if self.stages is None else self.stages(
-            t, y, hs, DOP853_TABLEAU, DOP853_NODES, slopes, 1, STAGES, y_new, t_new)
-        if done < STAGES:
-            rk_stages(self.f, t, y, hs, DOP853_TABLEAU, DOP853_NODES, slopes, done, STAGES,
-                      y_new, t_new)
-        self.counters.nfev += STAGES - 1
-        err = dop853_error(y, y_new, slopes, hs, self.atol, self.rtol)
-        return Step(t_new, y_new, err, 8, _Dop853Dense(self, y, y_new, hs, t, slopes))
-
-    def accept(self, step, y_final):
-        slopes = self.slopes
-        if y_final is not step.y_new and not self.project_keeps_rhs \
-                and not np.array_equal(y_final, step.y_new):
-            step.dense.own_slopes()
-            slopes[STAGES - 1] = self.f(step.t_new, y_final)
-            self.counters.nfev += 1
-        self.fsal = True
+    def dense_output(self, y, y_new, hs, t, slopes):
+        return _Dop853Dense(self, y, y_new, hs, t, slopes)
 
 
 class _Dop853Dense:

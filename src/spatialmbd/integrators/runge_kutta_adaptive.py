@@ -129,6 +129,12 @@ class DormandPrinceStepper(Stepper):
     """The Dormand-Prince 5(4) stepping formula (FSAL); see the module docstring."""
 
     name = "rk45"
+    #: rows of ``slopes`` (the stages with the FSAL derivative, and any stages of the dense
+    #: output), the row of the FSAL derivative, and the order of the error estimate that the
+    #: starting step uses
+    slope_rows, fsal_row, start_order = 7, 6, 4
+    #: the pair: tableau (with the weights as the FSAL row), nodes, the controller's exponent k
+    tableau, nodes, k = DOPRI_TABLEAU, DOPRI_NODES, 5
 
     def __init__(self, rtol, atol, first_step, max_step):
         self.rtol, self.atol_opt = rtol, atol
@@ -141,7 +147,7 @@ class DormandPrinceStepper(Stepper):
         self.project_keeps_rhs = problem.project_keeps_rhs
         n = y0.size
         self.atol = atol_vector(self.atol_opt, n)
-        self.slopes = np.empty((7, n))        # the stage derivatives k_1 .. k_7
+        self.slopes = np.empty((self.slope_rows, n))          # the stage derivatives k_j
         self.slopes[0] = f(t0, y0)
         self.fsal = False
         counters.nfev += 1
@@ -149,30 +155,40 @@ class DormandPrinceStepper(Stepper):
         span = t_end - t0
         if self.first_step is not None:
             return min(self.first_step, self.max_step, span)
-        return initial_step(f, t0, y0, self.slopes[0], 4, self.rtol, self.atol, self.max_step,
-                            span, counters)
+        return initial_step(f, t0, y0, self.slopes[0], self.start_order, self.rtol, self.atol,
+                            self.max_step, span, counters)
 
     def step(self, t, y, t_new):
         hs = t_new - t
         slopes = self.slopes
+        stages = self.fsal_row + 1                    # with the FSAL derivative
         if self.fsal:
-            slopes[0] = slopes[6]                     # FSAL (kept until now for the dense output)
+            slopes[0] = slopes[self.fsal_row]         # FSAL (kept until now for the dense output)
             self.fsal = False
         y_new = np.empty(y.size)
-        done = 1 if self.stages is None else self.stages(t, y, hs, DOPRI_TABLEAU, DOPRI_NODES,
-                                                         slopes, 1, 7, y_new, t_new)
-        if done < 7:                                  # (the rest of) the stages in Python
-            rk_stages(self.f, t, y, hs, DOPRI_TABLEAU, DOPRI_NODES, slopes, done, 7, y_new, t_new)
-        self.counters.nfev += 6
-        err = dopri_error(y, y_new, slopes, hs, self.atol, self.rtol)
-        return Step(t_new, y_new, err, 5, _DopriDense(y, hs, t, slopes))
+        done = 1 if self.stages is None else self.stages(t, y, hs, self.tableau, self.nodes,
+                                                         slopes, 1, stages, y_new, t_new)
+        if done < stages:                             # (the rest of) the stages in Python
+            rk_stages(self.f, t, y, hs, self.tableau, self.nodes, slopes, done, stages, y_new,
+                      t_new)
+        self.counters.nfev += stages - 1
+        err = self.error(y, y_new, slopes, hs)
+        return Step(t_new, y_new, err, self.k, self.dense_output(y, y_new, hs, t, slopes))
+
+    def error(self, y, y_new, slopes, hs):
+        """The weighted norm of the step's local error estimate."""
+        return dopri_error(y, y_new, slopes, hs, self.atol, self.rtol)
+
+    def dense_output(self, y, y_new, hs, t, slopes):
+        """The dense output of the step (a callable of the time)."""
+        return _DopriDense(y, hs, t, slopes)
 
     def accept(self, step, y_final):
         slopes = self.slopes
         if y_final is not step.y_new and not self.project_keeps_rhs \
                 and not np.array_equal(y_final, step.y_new):
             step.dense.own_slopes()                   # before the FSAL slope changes
-            slopes[6] = self.f(step.t_new, y_final)   # FSAL derivative at the projected state
+            slopes[self.fsal_row] = self.f(step.t_new, y_final)   # at the projected state
             self.counters.nfev += 1
         self.fsal = True
 

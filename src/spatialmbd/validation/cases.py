@@ -502,7 +502,7 @@ def case_hertz_impact(full: bool) -> CaseResult:
     if not res.success:
         raise RuntimeError(f"simulation failed: {res.message}")
     ev = {e["name"]: e for e in res.events}
-    t_turn, t_sep = ev["turn"]["t"], ev["separation"]["t"]
+    t_sep = ev["separation"]["t"]
     names = [e["name"] for e in res.events]
     z_turn = res.event_states[names.index("turn")][0][0, 2]     # located, not sampled
     tol = integration_bound(res, 1.0)               # relative: N (rtol + atol / scale)
