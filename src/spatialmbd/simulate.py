@@ -395,6 +395,10 @@ def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, str
     K0 = np.empty(x.size)
     counters = np.zeros(3, dtype=np.int64)
     rtol, atol, max_step = float(integ.rtol), float(integ.atol), float(integ.max_step)
+    # load the compiled driver (from the cache, on a process's first run) before the clock
+    # starts: a call that takes no step (h > 0, max_steps = 0) and writes nothing
+    rc.dopri_joint(t0, x.copy(), K0, 1.0, 1e-4, T, system.F, system.I, system.W, pair, t0,
+                   t_out, 0, rtol, atol, max_step, 0, X, counters.copy())
     start = time.perf_counter()
     t, h, err_prev, done, code = t0, 0.0, 1e-4, 0, rc.OK
     status, message, slice_steps = "success", "", FUSED_FIRST_SLICE
@@ -497,9 +501,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     nb, m = system.nb, system.model.n_eq
     lam_off = system._layout["lam"][0]
     pp = fz.projection_params(meth)
-
-    start = time.perf_counter()
-    y = project(t0, np.array(y0, dtype=float))          # as Integrator.integrate does first
+    y = np.array(y0, dtype=float)
     nt, n = t_out.size, y.size
     streaming = emit is not None and chunk > 0
     rows = min(nt, 2 * chunk) if streaming else nt
@@ -507,6 +509,20 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     Y, Yd, Lam = np.empty((rows, n)), np.empty((rows, 6 * nb)), np.empty((rows, m))
     k_base = 0
     counters = np.zeros(3, dtype=np.int64)              # nfev, steps, rejected
+    # load the compiled driver and projection (from the cache, on a process's first run)
+    # before the clock starts: calls that take no step and write nothing (h > 0 and
+    # max_steps = 0; rk4: no output times), a projection of a copy
+    project(t0, y.copy())
+    if pair is not None:
+        fz.dopri_steps(t0, y.copy(), np.empty(n), 1.0, 1e-4, F, I, W, mp, pp, pair, t0, t_out,
+                       0, 0, float(integ.rtol), float(integ.atol), float(integ.max_step), 0,
+                       nb, Y, Yd, Lam, lam_off, counters.copy())
+    else:
+        fz.rk4_outputs(t0, y.copy(), F, I, W, mp, pp, t_out, 0, 0, 0, float(integ.step), nb,
+                       Y, Yd, Lam, lam_off, counters.copy())
+
+    start = time.perf_counter()
+    y = project(t0, y)                                  # as Integrator.integrate does first
     done, code, status, message = 0, fz.OK, "success", ""
     slice_steps = FUSED_FIRST_SLICE
 
