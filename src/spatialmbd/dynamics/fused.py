@@ -1,5 +1,5 @@
-"""Whole runs in compiled code: the Dormand-Prince 5(4) and classic RK4 drivers over the fused
-right-hand side of the standard, Baumgarte and projection methods.
+"""Whole runs in compiled code: the Dormand-Prince 5(4) / 8(5,3) and classic RK4 drivers over the
+fused right-hand side of the standard, Baumgarte and projection methods.
 
 The Python drivers of :mod:`..integrators` take one step per Python call; for a model whose
 right-hand side is fully compiled (``System.fused``) these loops take many steps per call, with
@@ -9,7 +9,8 @@ the same arithmetic:
   Dormand-Prince 5(4) as
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` with its default controller
   (Hairer's starting step, the PI controller with beta = 0.04, safety 0.9, factors 0.2..10,
-  FSAL, Shampine's dense output), the state projected after every accepted step and at every
+  FSAL, Shampine's dense output), or DOP853 as :class:`..integrators.dop853.DormandPrince853`
+  -- the pair is an argument (:mod:`..integrators.pairs`) --, the state projected after every accepted step and at every
   output as simulate() does (Euler parameters renormalised; with the projection method q and v
   onto Phi = 0 and D v = nu, and the FSAL derivative re-evaluated);
 * :func:`rk4_outputs`: classic RK4 with step h, landing on every output time as

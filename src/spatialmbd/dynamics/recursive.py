@@ -37,7 +37,8 @@ Per right-hand side (compiled, no Python per body):
 
 The state is x = [z (nj), zdot (nj), W] (W: the work of the non-conservative forces, as in
 :mod:`..simulate`). The compiled driver :func:`dopri_joint` integrates it by Dormand-Prince
-5(4) with the controller of :class:`..integrators.runge_kutta_adaptive.DormandPrince45`.
+5(4) or 8(5,3) with the default controller of the integrator
+(:mod:`..integrators.pairs`).
 """
 from __future__ import annotations
 
