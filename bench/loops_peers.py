@@ -90,12 +90,13 @@ error <= 1e-6 m is kept (tolerances rtol = 1e-2 .. 1e-12 in half decades, atol =
 fixed steps 0.1 .. 2.5e-4 s, finer for the stiff flyball governor; ``peers.sweep``: a family
 stops once one run exceeds 3 s, or is estimated above 9 s). Families that never reach it are
 shown "not reached" with their best error and its time. spatialmbd's families:
-``simulate(model, t_end, output_step=t_end, method=M, integrator=I, rtol, atol)`` (or
-``step``) with (I, M) = (rk45, projection), (rk45, standard), (rk45, baumgarte),
-(dop853, projection), (dop853, standard), (scipy-dop853, projection), (rk4, projection), (abm4, projection), and
-for the flyball governor also scipy-radau and bdf4 (stiff) and its recursive method with rk45
-and dop853 (joint coordinates: an open tree). Pinocchio: RK45, DOP853 (and Radau for the flyball governor); MuJoCo: RK4,
-implicit, implicitfast; Exudyn: generalized-alpha (and the KinematicTree integrators).
+``simulate(model, t_end, output_step=t_end, method=M, integrator=I, rtol, atol)`` (or ``step``)
+with (I, M) = (rk45, projection), (rk45, standard), (rk45, baumgarte), (dop853, projection),
+(dop853, standard), (scipy-dop853, projection), (rk4, projection), (abm4, projection), and for
+the flyball governor also scipy-radau and bdf4 (stiff) and its recursive method with rk45 and
+dop853 (joint coordinates: an open tree). Pinocchio: RK45, DOP853 (and Radau for the flyball
+governor); MuJoCo: RK4, implicit, implicitfast; Exudyn: generalized-alpha (and the
+KinematicTree integrators).
 
 Timing: as bench/peers.py: the minimum over repetitions (at least 3, spread over >= 0.3 s) of
 the integration alone: spatialmbd's ``Results.wall_time``, MuJoCo's ``mj_step`` loop, the

@@ -162,8 +162,8 @@ def _add_analysis_options(parser: argparse.ArgumentParser) -> None:
                         "projection), standard, baumgarte, penalty, augmented_lagrangian, "
                         "projection, recursive (joint coordinates of open trees)")
     g.add_argument("--integrator", metavar="I",
-                   help="euler, heun, rk4, abm4, bdf4, rk45, dop853, or a SciPy solver: scipy-rk45, "
-                        "scipy-dop853, scipy-radau, scipy-bdf, scipy-lsoda")
+                   help="euler, heun, rk4, abm4, bdf4, rk45, dop853, or a SciPy solver: "
+                        "scipy-rk45, scipy-dop853, scipy-radau, scipy-bdf, scipy-lsoda")
     g.add_argument("--t-end", type=_positive, metavar="T", help="end time [s]")
     g.add_argument("--step", type=_positive, metavar="H",
                    help="step size [s] of euler, heun and rk4 (initial step of abm4 and "

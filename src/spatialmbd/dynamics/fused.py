@@ -10,9 +10,9 @@ the same arithmetic:
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` with its default controller
   (Hairer's starting step, the PI controller with beta = 0.04, safety 0.9, factors 0.2..10,
   FSAL, Shampine's dense output), or DOP853 as :class:`..integrators.dop853.DormandPrince853`
-  -- the pair is an argument (:mod:`..integrators.pairs`) --, the state projected after every accepted step and at every
-  output as simulate() does (Euler parameters renormalised; with the projection method q and v
-  onto Phi = 0 and D v = nu, and the FSAL derivative re-evaluated);
+  -- the pair is an argument (:mod:`..integrators.pairs`) --, the state projected after every
+  accepted step and at every output as simulate() does (Euler parameters renormalised; with the
+  projection method q and v onto Phi = 0 and D v = nu, and the FSAL derivative re-evaluated);
 * :func:`rk4_outputs`: classic RK4 with step h, landing on every output time as
   :class:`..integrators.fixed_step.RungeKutta4` does;
 * at every output the state and (optionally) vdot and lambda there (what

@@ -419,7 +419,8 @@ def simulate_batch(models: Sequence, analysis, setup: Optional[BatchSetup] = Non
     models: Models that differ only in values (masses, inertias, geometry, gravity, initial
     state). analysis: an Analysis (dynamic; method auto/standard/baumgarte/projection/recursive
     -- "auto" as simulate() chooses it; rk45 or dop853 with rtol/atol/max_step, or rk4 with
-    step). Returns one :class:`BatchMember` per model (arrays shaped as in :class:`..results.Results`, so the sweep outputs read them alike).
+    step). Returns one :class:`BatchMember` per model (arrays shaped as in
+    :class:`..results.Results`, so the sweep outputs read them alike).
     accelerations: also evaluate vdot and lambda at the output times (one more right-hand
     side per output; False leaves them NaN). threads: spread the members over one thread per
     core (the compiled loop releases the GIL).
