@@ -987,6 +987,11 @@ def cmd_warmup(args) -> int:
                                                           output_step=1e-3)))
     steps.append(("fixed-step and implicit integrators", lambda: [
         simulate(fly, 2e-3, integrator=i, step=1e-3) for i in ("rk4", "bdf4")]))
+    # dop853's own kernels (error norm, dense output) for the runs the Python driver takes
+    # (events, a first_step, ...); its compiled loops are rk45's, already warm
+    steps.append(("dop853 stepper", lambda: simulate(
+        fly, 2e-3, integrator="dop853", integrator_options=dict(first_step=1e-4),
+        output_step=1e-3)))
     steps.append(("batch engine of sweeps", _warm_batch))                  # issue 15
     with warmup_lock(), compile_notice(force=not warm and not args.quiet, every=10.0):
         for k, (what, run) in enumerate(steps):
