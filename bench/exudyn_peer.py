@@ -132,6 +132,11 @@ def _settings(exu, h: float, t_end: float, spectral_radius: float):
     ti.generalizedAlpha.useNewmark = False
     ti.generalizedAlpha.useIndex2Constraints = False
     s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    return quiet(s)
+
+
+def quiet(s):
+    """Simulation settings s on one thread, writing and printing nothing (timed runs)."""
     s.parallel.numberOfThreads = 1
     s.solution.file.write = False
     s.solution.sensors.active = False

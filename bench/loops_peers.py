@@ -134,7 +134,7 @@ from peers import TARGET, available, best_of, com_error, log, per_call, sweep  #
 
 from spatialmbd import models  # noqa: E402
 from spatialmbd.rotations import A_from_p  # noqa: E402
-from spatialmbd.simulate import RedundantConstraintsWarning, right_hand_side, simulate  # noqa: E402
+from spatialmbd.simulate import RedundantConstraintsWarning, simulate  # noqa: E402
 
 warnings.filterwarnings("ignore", category=RedundantConstraintsWarning)
 
@@ -720,15 +720,8 @@ def reference(prob):
 
 # -------------------------------------------------------------------------------- per RHS
 def rhs_costs(prob):
-    out = {}
     model = prob["model"]
-    for method in ("standard", "projection"):
-        try:
-            f, y0 = right_hand_side(model, method)
-        except Exception as exc:
-            log(f"  right_hand_side({method}) failed: {exc}")
-            continue
-        out[f"spatialmbd {method}"] = per_call(lambda: f(0.0, y0))
+    out = peers.body_rhs_costs(model)
     for method in ("standard", "projection"):        # what a run pays per evaluation
         best = math.inf
         for _ in range(3):

@@ -340,13 +340,7 @@ def kt_settings(exu, s, adaptive, t_end):
     else:
         ti.numberOfSteps = int(round(t_end / s))
         ti.automaticStepSize = False
-    st.parallel.numberOfThreads = 1
-    st.solution.file.write = False
-    st.solution.sensors.active = False
-    st.solution.restart.write = False
-    st.show.computationTime = False
-    st.show.statistics = False
-    return st
+    return ex.quiet(st)
 
 
 def exudyn_kt_runner(n, solver):
@@ -415,7 +409,9 @@ def per_call(fn, reps=7):
     return best_of(block, reps)[0]
 
 
-def rhs_costs(n, model):
+def body_rhs_costs(model, at_rest=False):
+    """s per call of ``right_hand_side(model, method)`` from Python for the standard and
+    projection methods, at the model's initial state (its velocities zeroed with at_rest)."""
     out = {}
     for method in ("standard", "projection"):
         try:
@@ -424,8 +420,14 @@ def rhs_costs(n, model):
             log(f"  right_hand_side({method}) failed: {exc}")
             continue
         y = y0.copy()
-        y[7 * model.nb:13 * model.nb] = 0.0
+        if at_rest:
+            y[7 * model.nb:13 * model.nb] = 0.0
         out[f"spatialmbd {method}"] = per_call(lambda: f(0.0, y))
+    return out
+
+
+def rhs_costs(n, model):
+    out = body_rhs_costs(model, at_rest=True)
     from spatialmbd.dynamics.recursive import joint_right_hand_side
     fj, x0 = joint_right_hand_side(model)
     out["spatialmbd recursive"] = per_call(lambda: fj(0.0, x0))
