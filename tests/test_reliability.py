@@ -560,3 +560,15 @@ def test_output_times_before_the_start_are_a_model_error():
     model = models.pendulum_ch15().compile()
     with pytest.raises(ModelError, match="before the start time t0"):
         simulate(model, 0.001, t0=0.02, t_eval=[0.0, 0.01])
+
+
+@pytest.mark.parametrize("t_end, step, n", [(0.03, 1e-4, 301), (1.0, 0.1, 11), (10.0, 0.02, 501),
+                                            (1.05, 0.1, 12), (1.0, 0.3, 5), (0.3, 0.1, 4)])
+def test_the_output_grid_ends_exactly_on_t_end(t_end, step, n):
+    """300 x 1e-4 is 0.030000000000000002 in floating point: the grid's last time is t_end
+    itself (the run ends where it was asked to, and res.t[-1] == t_end), and a remainder
+    shorter than the step gets its own output."""
+    from spatialmbd.simulate import output_times
+    t = output_times(t_end, step, None)
+    assert t.size == n and t[-1] == t_end and np.all(np.diff(t) > 0)
+    assert np.allclose(np.diff(t)[:-1], step, rtol=1e-12, atol=0)
