@@ -9,7 +9,7 @@ universal pendulums: positions, velocities, accelerations, Euler parameters, ang
 and acceleration, reaction force and torque at every one of the 501 output instants), the
 torque-free symmetric and asymmetric rigid bodies, a heavy symmetric top in steady precession,
 the slider-crank kinematics, IFToMM benchmarks A01 (simple pendulum), A02 (N-four-bar through
-its singular configurations), A04 (Bricard, redundant constraints), A05 (stiff flyball
+its singular configurations), A03 (Andrews' squeezer, three closed loops), A04 (Bricard, redundant constraints), A05 (stiff flyball
 governor, implicit integrator) and the spatial slider-crank energy, a spatial double pendulum
 and a 6-DoF robot arm with compliant joints (invariants).
 
@@ -36,7 +36,7 @@ def _cases():
 CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical_case01",
               "adams_spherical_case02", "adams_universal_case01", "adams_universal_case02",
               "free_symmetric", "free_asymmetric", "heavy_top", "slider_crank_kinematics",
-              "iftomm_a01", "iftomm_a02", "iftomm_a04", "iftomm_a05", "spatial_slider_crank",
+              "iftomm_a01", "iftomm_a02", "iftomm_a03", "iftomm_a04", "iftomm_a05", "spatial_slider_crank",
               "double_pendulum", "robot_arm", "hertz_impact", "cam_follower")
 
 
