@@ -374,6 +374,10 @@ def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float
              + (f", {ratio0:.2g} at the start" if ratio0 is not None else "") + ")")
     return (f"singular position near {when}: the constraint Jacobian D has {state} "
             f"(rank {rank0} at the start); dependent equations in joint(s) "
-            f"{', '.join(joints)}, whose multipliers are not unique there. Use "
-            "method='penalty' or method='augmented_lagrangian' (they handle singular "
-            "positions), or check the geometry of these joints")
+            f"{', '.join(joints)}, whose multipliers are not unique there. Ways on: a "
+            "looser rtol (the step control stalls when a step ends within round-off of the "
+            "singular position; the IFToMM N-four-bar passes its flat positions with "
+            "projection and rk45 at rtol 1e-8), or method='penalty' or "
+            "method='augmented_lagrangian', which run through singular positions but may "
+            "continue on another branch of the motion (check the result); or check the "
+            "geometry of these joints")
