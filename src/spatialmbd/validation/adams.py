@@ -3,8 +3,9 @@
 How a deck is read (the subset of the ADAMS/Solver data language these decks use):
 
 * Statements start with ``NAME/id`` and continue on lines beginning with ``,``; ``!`` starts a
-  comment. Keywords are ``KEY = v1, v2, ...``; an angle with the suffix ``D`` is in degrees,
-  otherwise radians.
+  comment. Keywords are ``KEY = v1, v2, ...`` (commas inside parentheses, as in a FUNCTION
+  expression, do not separate); an angle with the suffix ``D`` is in degrees, otherwise
+  radians.
 * ``PART/id, GROUND`` is the ground; ``PART/id, MASS = m, CM = marker, IP = Ixx, Iyy, Izz``
   a body whose centre of mass is the ``CM`` marker and whose inertia is given in that marker's
   axes. No part here has its own ``QG``/``REULER``, so every part frame coincides with the
@@ -12,17 +13,33 @@ How a deck is read (the subset of the ADAMS/Solver data language these decks use
 * ``MARKER/id, PART = p, QP = x, y, z, REULER = a, b, c``: origin QP and orientation by
   body-fixed 3-1-3 Euler angles, A = Rz(a) Rx(b) Rz(c) (columns: the marker axes in global
   components; the same matrix as the text's zxz Euler angles, Eq. 4.2).
-* ``JOINT/id, TYPE, I = marker, J = marker``: the I marker's part is our body i, the J marker's
-  part our body j. REVOLUTE: point = I origin, axis = I z axis. SPHERICAL: point = I origin.
-  HOOKE: point = I origin, cross axes = I x axis (on body i) and J y axis (on body j).
+* ``JOINT/id, TYPE, I = marker, J = marker`` (joint ``joint<id>``; I and J markers coincident):
+  the I marker's part is our body i, the J marker's part our body j. REVOLUTE: point = I
+  origin, axis = I z axis. SPHERICAL: point = I origin. HOOKE: point = I origin, cross axes =
+  I x axis (on body i) and J y axis (on body j). TRANSLATIONAL (our "translational"; the I and
+  J markers must be aligned): point = I origin, sliding axis = I z axis; ADAMS holds the
+  markers' x and y axes as assembled, our joint holds the relative rotation as assembled -
+  the same constraint. CYLINDRICAL (our "cylindrical"; the markers' z axes must coincide):
+  point = I origin, axis = I z axis.
+* ``GCON/id, I = marker, FUNCTION = DM(a, b) - L`` (constraint ``gcon<id>``): the distance of
+  markers a and b, one of them the I marker, held at L - our "spherical_spherical" joint with
+  point = the I marker's origin (body i: its part), point2 = the other marker's origin (body
+  j), length = L. Other FUNCTION expressions are rejected.
 * ``ACCGRAV/ IGRAV, JGRAV, KGRAV``: gravity vector (missing components 0).
+* Statements that would add forces, motions or other constraints (``UNSUPPORTED``: SFORCE,
+  SPRINGDAMPER, MOTION, ...) are rejected with an error naming them; GRAPHICS, REQUEST,
+  OUTPUT and UNITS (SI in these decks) are ignored.
 
 The body built for a part has its centre of mass at the CM marker and its body axes along the
 CM marker's axes, so that ADAMS' output (``ORIENT(27, ..., cm, ground)``: Euler parameters of
 the CM marker; displacements/velocities of the CM marker in ground axes) compares directly with
-ours. The reaction ``JOINT(id, 0, 2..8, 0)`` is the force and torque that the joint applies
-to the part of the I marker - here the ground - at the I marker, in ground axes: our
-``force_i`` / ``moment_i``.
+ours. The reaction ``JOINT(id, 0, 2..8, 0)`` (and, for the GCON, the request
+``F, I = <I marker>, J = <other marker>, RM = <ground marker>``) is the force and torque that
+the joint applies to the part of the I marker - here the ground - about the I marker (fixed:
+for the translational and cylindrical joints the torque grows as the body slides away), in
+ground axes: our ``force_i`` / ``moment_i`` (checked against every table: e.g. at release the
+translational joint of Prismatic_Case02 pulls the ground with m g_n and a torque
+(r_c - P) x m g_n).
 """
 from __future__ import annotations
 
@@ -44,6 +61,22 @@ def _number(text: str) -> float:
         raise ValueError(f"not a number: {text!r}")
     value = float(m.group(1))
     return np.deg2rad(value) if m.group(2) else value
+
+
+def _split_commas(text: str) -> list[str]:
+    """``text`` split at the commas outside parentheses (a FUNCTION expression such as
+    ``DM(0202, 0102)-2`` stays one item)."""
+    items, depth, start = [], 0, 0
+    for k, ch in enumerate(text):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            items.append(text[start:k])
+            start = k + 1
+    items.append(text[start:])
+    return items
 
 
 @dataclass
@@ -72,7 +105,7 @@ def parse_statements(text: str) -> list[Statement]:
         if not rest and "/" not in line:
             continue                                     # title line, END
         name = head.strip().upper()
-        items = [s.strip() for s in rest.split(",")]
+        items = [s.strip() for s in _split_commas(rest)]
         first = items[0] if items else ""
         try:
             sid = int(first)
@@ -141,8 +174,14 @@ class Deck:
                 markers[st.id] = Marker(st.id, int(st.keys["PART"][0]), qp,
                                         A_from_euler_zxz(ang))
             elif st.name == "JOINT":
-                joints.append(dict(id=st.id, type=st.words[0], I=int(st.keys["I"][0]),
-                                   J=int(st.keys["J"][0])))
+                joints.append(dict(id=st.id, name=f"joint{st.id}", type=st.words[0],
+                                   I=int(st.keys["I"][0]), J=int(st.keys["J"][0])))
+            elif st.name == "GCON":
+                joints.append(_distance_gcon(path.name, st))
+            elif st.name in UNSUPPORTED:
+                raise ValueError(f"{path.name}: {st.name}/{st.id} is not supported by this deck "
+                                 "reader (PART, MARKER, JOINT REVOLUTE/SPHERICAL/HOOKE/"
+                                 "TRANSLATIONAL/CYLINDRICAL, GCON DM(a, b) - L, ACCGRAV)")
             elif st.name == "ACCGRAV":
                 for k, key in enumerate(("IGRAV", "JGRAV", "KGRAV")):
                     if key in st.keys:
@@ -163,10 +202,24 @@ class Deck:
         for j in self.joints:
             mi, mj = self.markers[j["I"]], self.markers[j["J"]]
             bi, bj = self.part_name(mi.part), self.part_name(mj.part)
-            name = f"joint{j['id']}"
+            name = j["name"]
+            if mi.part == mj.part:
+                raise ValueError(f"{self.name} {name}: I and J markers are on the same part")
+            if j["type"] == "DISTANCE":
+                b.add_joint("spherical_spherical", name, bi, bj, point=mi.origin,
+                            point2=mj.origin, length=j["length"])
+                continue
             if np.linalg.norm(mi.origin - mj.origin) > 1e-9:
                 raise ValueError(f"{self.name} {name}: I and J markers are not coincident; "
                                  "this deck reader supports coincident markers only")
+            if j["type"] in ("TRANSLATIONAL", "CYLINDRICAL"):
+                aligned = (np.abs(mi.A - mj.A).max() if j["type"] == "TRANSLATIONAL"
+                           else np.linalg.norm(mi.A[:, 2] - mj.A[:, 2]))
+                if aligned > 1e-9:
+                    raise ValueError(f"{self.name} {name}: the I and J markers of the "
+                                     f"{j['type']} joint are not aligned "
+                                     f"({'axes' if j['type'] == 'TRANSLATIONAL' else 'z axes'})"
+                                     "; this deck reader supports aligned markers only")
             if j["type"] == "REVOLUTE":
                 b.add_joint("revolute", name, bi, bj, point=mi.origin, axis=mi.A[:, 2])
             elif j["type"] == "SPHERICAL":
@@ -174,10 +227,43 @@ class Deck:
             elif j["type"] == "HOOKE":
                 b.add_joint("universal", name, bi, bj, point=mi.origin, axis=mi.A[:, 0],
                             axis2=mj.A[:, 1])
+            elif j["type"] == "TRANSLATIONAL":
+                b.add_joint("translational", name, bi, bj, point=mi.origin, axis=mi.A[:, 2])
+            elif j["type"] == "CYLINDRICAL":
+                b.add_joint("cylindrical", name, bi, bj, point=mi.origin, axis=mi.A[:, 2])
             else:
                 raise ValueError(f"{self.name} {name}: joint type {j['type']} is not supported "
-                                 "by this deck reader (REVOLUTE, SPHERICAL, HOOKE)")
+                                 "by this deck reader (REVOLUTE, SPHERICAL, HOOKE, "
+                                 "TRANSLATIONAL, CYLINDRICAL)")
         return b
+
+
+#: Statements that would add forces, motions or constraints this reader does not model: a
+#: deck holding one is rejected rather than read without it.
+UNSUPPORTED = frozenset({"SPRINGDAMPER", "SFORCE", "VFORCE", "VTORQUE", "GFORCE", "BUSHING",
+                         "FIELD", "BEAM", "FRICTION", "JPRIM", "MOTION", "COUPLER", "GEAR",
+                         "PTCV", "CVCV", "UCON", "DIFF", "GSE", "LSE", "TFSISO", "NFORCE",
+                         "CONTACT", "FLEX_BODY", "POINT_MASS"})
+
+_DM = re.compile(r"^DM\((\d+),(\d+)\)-((?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)$", re.IGNORECASE)
+
+
+def _distance_gcon(filename: str, st: Statement) -> dict:
+    """A ``GCON/id, I = m, FUNCTION = DM(a, b) - L`` statement (the distance between markers a
+    and b held at L, one of them the I marker) as a joint dict of type DISTANCE: I the GCON's I
+    marker, J the other one, length L."""
+    func = "".join(st.keys.get("FUNCTION", [""])[0].split())
+    m = _DM.match(func)
+    if not m or "I" not in st.keys:
+        raise ValueError(f"{filename}: GCON/{st.id} FUNCTION = {func!r} is not supported by this "
+                         "deck reader (only DM(a, b) - L with the I marker a or b: a distance)")
+    a, b, length = int(m.group(1)), int(m.group(2)), float(m.group(3))
+    i = int(st.keys["I"][0])
+    if i not in (a, b) or a == b or not length > 0:
+        raise ValueError(f"{filename}: GCON/{st.id}: DM({a}, {b}) - {length} needs distinct "
+                         "markers, one of them the I marker, and a length L > 0")
+    return dict(id=st.id, name=f"gcon{st.id}", type="DISTANCE", I=i, J=b if a == i else a,
+                length=length)
 
 
 #: Columns of each ADAMS result table.

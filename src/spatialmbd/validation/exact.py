@@ -8,6 +8,10 @@ not the modulus k.
   released from rest (large amplitude, Jacobi elliptic functions), with the full body motion
   (centre of mass, orientation, angular velocity and acceleration) and the joint reaction
   force and moment recovered from Newton-Euler.
+* :class:`AxialMotion` - a rigid body guided along a fixed line (translational joint: sliding
+  only; cylindrical joint: sliding and the physical pendulum about the line), released at rest.
+* :class:`DistancePendulum` - a body held at its centre of mass by a massless link of fixed
+  length to a fixed point (point-mass pendulum, the body not turning).
 * :func:`symmetric_free_body` - torque-free axisymmetric body (body-axis angular velocity
   precessing at lambda = (I3 - I1)/I1 w3, orientation A(t) = R_h(|H|/I1 t) A0 R_3(-lambda t)).
 * :class:`EulerFreeBody` - torque-free asymmetric body (Jacobi's solution of Euler's
@@ -214,6 +218,119 @@ class PhysicalPendulum:
         return PendulumMotion(t=t, theta=th, theta_dot=thd, theta_ddot=thdd, r=r, rdot=rdot,
                               rddot=rddot, A=A, omega=omega, omegadot=omegadot,
                               force_on_body=force, moment_on_body=moment)
+
+
+# --------------------------------------------------------------------------- guided bodies
+def _newton_euler(m, Jc, g, pivot, r, rddot, A, omega, omegadot):
+    """Joint reaction on a body moving as given: force R = m a_c - m g and the moment about the
+    fixed point ``pivot`` M_P = J w' + w x J w + (r_c - P) x R (J = A Jc A^T: Euler's equation
+    about the centre of mass, where gravity has no moment, moved to P)."""
+    force = m * rddot - m * np.asarray(g, dtype=float)
+    J = A @ Jc @ np.swapaxes(A, 1, 2)
+    Jw = np.einsum("nij,nj->ni", J, omega)
+    moment = (np.einsum("nij,nj->ni", J, omegadot) + np.cross(omega, Jw)
+              + np.cross(r - np.asarray(pivot, dtype=float), force))
+    return force, moment
+
+
+class AxialMotion:
+    """A rigid body guided along a fixed line (through ``point``, unit direction n = ``axis``)
+    under uniform gravity g, released at rest at t = 0.
+
+    The joint forces are normal to the line and the joint moments normal to it (a translational
+    joint adds the moment about it), so along the line the body falls freely,
+        s(t) = (g . n) t^2 / 2,
+    and about it (``rotates``: a cylindrical joint) it turns as the physical pendulum about the
+    line (I_O theta'' = -m |g_n| d sin theta; :class:`PhysicalPendulum`, whose moment of
+    inertia about the line does not depend on the axial offset): the axial momentum and the
+    angular momentum about the line decouple, u . H_P = I_O theta' for P on the line. Without
+    rotation (a translational joint, or gravity with no moment about the line: the centre of
+    mass in the vertical plane through the line, or g along the line) the orientation stays
+    A0. The reaction follows from Newton-Euler (:func:`_newton_euler`) about the fixed point.
+    """
+
+    def __init__(self, mass, inertia, r0, A0, point, axis, g, rotates: bool):
+        self.m = float(mass)
+        J = np.asarray(inertia, dtype=float)
+        self.Jc = np.diag(J) if J.shape == (3,) else J
+        self.r0 = np.asarray(r0, dtype=float)
+        self.A0 = np.asarray(A0, dtype=float)
+        self.P = np.asarray(point, dtype=float)
+        n = np.asarray(axis, dtype=float)
+        self.n = n / np.linalg.norm(n)
+        self.g = np.asarray(g, dtype=float)
+        self.g_axial = float(self.g @ self.n)            # acceleration along the line
+        torque = self.n @ np.cross(self.r0 - self.P, self.g)
+        scale = np.linalg.norm(self.r0 - self.P) * np.linalg.norm(self.g)
+        self.pendulum = None
+        if rotates and abs(torque) > 1e-12 * scale:
+            self.pendulum = PhysicalPendulum(mass, self.Jc, self.r0, self.A0, self.P, self.n,
+                                             self.g)
+
+    def motion(self, t) -> PendulumMotion:
+        t = np.asarray(t, dtype=float)
+        nt = len(t)
+        if self.pendulum is not None:
+            p = self.pendulum.motion(t)
+            th, thd, thdd = p.theta, p.theta_dot, p.theta_ddot
+            r, rdot, rddot, A, omega, omegadot = p.r, p.rdot, p.rddot, p.A, p.omega, p.omegadot
+        else:
+            th = thd = thdd = np.zeros(nt)
+            r = np.repeat(self.r0[None], nt, 0)
+            rdot, rddot, omega, omegadot = (np.zeros((nt, 3)) for _ in range(4))
+            A = np.repeat(self.A0[None], nt, 0)
+        a = self.g_axial * self.n
+        r = r + 0.5 * t[:, None] ** 2 * a
+        rdot = rdot + t[:, None] * a
+        rddot = rddot + a
+        force, moment = _newton_euler(self.m, self.Jc, self.g, self.P, r, rddot, A, omega,
+                                      omegadot)
+        return PendulumMotion(t=t, theta=th, theta_dot=thd, theta_ddot=thdd, r=r, rdot=rdot,
+                              rddot=rddot, A=A, omega=omega, omegadot=omegadot,
+                              force_on_body=force, moment_on_body=moment)
+
+
+class DistancePendulum:
+    """A rigid body whose centre of mass is held at the fixed distance L = |r0 - P| from the
+    fixed point P (a massless link with ball joints at both ends, or a distance constraint),
+    under uniform gravity, released at rest.
+
+    The link force acts along the link through the centre of mass: the centre moves as a
+    point-mass pendulum of length L, released at rest and so staying in the vertical plane
+    through P and r0 (:class:`PhysicalPendulum` with zero centroidal inertia, axis
+    (r0 - P) x g), and the body, torque-free about its centre and at rest, keeps its
+    orientation A0 (omega = 0). Reaction on the body: R = m a_c - m g, along the link, so its
+    moment about P is zero.
+    """
+
+    def __init__(self, mass, inertia, r0, A0, point, g):
+        self.m = float(mass)
+        J = np.asarray(inertia, dtype=float)
+        self.Jc = np.diag(J) if J.shape == (3,) else J
+        self.r0 = np.asarray(r0, dtype=float)
+        self.A0 = np.asarray(A0, dtype=float)
+        self.P = np.asarray(point, dtype=float)
+        self.g = np.asarray(g, dtype=float)
+        self.L = float(np.linalg.norm(self.r0 - self.P))
+        self.pendulum = PhysicalPendulum(mass, np.zeros((3, 3)), self.r0, np.eye(3), self.P,
+                                         np.cross(self.r0 - self.P, self.g), self.g)
+
+    @property
+    def period(self) -> float:
+        return self.pendulum.period
+
+    def motion(self, t) -> PendulumMotion:
+        t = np.asarray(t, dtype=float)
+        p = self.pendulum.motion(t)
+        nt = len(t)
+        A = np.repeat(self.A0[None], nt, 0)
+        zero = np.zeros((nt, 3))
+        force, moment = _newton_euler(self.m, self.Jc, self.g, self.P, p.r, p.rddot, A, zero,
+                                      zero)
+        return PendulumMotion(t=t, theta=p.theta, theta_dot=p.theta_dot,
+                              theta_ddot=p.theta_ddot, r=p.r, rdot=p.rdot, rddot=p.rddot, A=A,
+                              omega=zero, omegadot=zero, force_on_body=force,
+                              moment_on_body=moment)
 
 
 # --------------------------------------------------------------------------- free rigid bodies
