@@ -14,8 +14,9 @@ from spatialmbd.validation.core import adams_dir
 from spatialmbd.validation.exact import (AxialMotion, DistancePendulum, EulerFreeBody,
                                          PhysicalPendulum, rotating_pendulum,
                                          symmetric_free_body)
-from spatialmbd.validation.references import (ADAMS_CASES, CHRONO_RMS_TOLERANCES, adams_exact,
-                                              derive)
+from spatialmbd.validation.references import (ADAMS_CASES, CHRONO_RMS_TOLERANCES,
+                                              SPRING_CASES, adams_deck, adams_exact, derive,
+                                              spring_table_fit)
 
 
 # ------------------------------------------------------------------------- the short suite
@@ -173,8 +174,18 @@ def test_deck_reader_rejects_what_it_does_not_model(tmp_path):
         "func": ("Distance_Case01", [("DM(0202, 0102)-2", "DX(0202, 0102)-2")], "GCON/1"),
         "marker": ("Distance_Case01", [("DM(0202, 0102)-2", "DM(0202, 0201)-2")],
                    "one of them the I marker"),
+        "vforce": ("Prismatic_Case01", [("ACCGRAV/", "VFORCE/3, I = 0201, J = 0101\nACCGRAV/")],
+                   "VFORCE/3 is not supported"),
         "sforce": ("Prismatic_Case01", [("ACCGRAV/", "SFORCE/3, I = 0201, J = 0101\nACCGRAV/")],
-                   "SFORCE/3 is not supported"),
+                   "SFORCE/3 .* only TRANSLATIONAL or ROTATIONAL"),
+        "preload": ("TransSpring_Case01", [(", + 0.0", ", + 5.0")], "preload"),
+        "pushing": ("TransSpring_Case01", [(", - 1.0*vr(204,205)", ", + 1.0*vr(204,205)")],
+                    "must be negative"),
+        "markers": ("TransSpring_Case01", [("dm(204,205)", "dm(204,101)")],
+                    "does not measure I = 204 against J = 205"),
+        "rest_angle": ("RotSpring_Case01", [("-0.0*DTOR", "-10.0*DTOR")], "rest angle 0"),
+        "no_joint": ("RotSpring_Case01", [("JOINT/1\n, REVOLUTE", "JOINT/1\n, SPHERICAL")],
+                     "revolute or cylindrical joint"),
         "twisted": ("Prismatic_Case02", [("MARKER/0202, PART = 02\n, QP = 1, 2, 3\n"
                                           ", REULER = 180D, 45D, 180D",
                                           "MARKER/0202, PART = 02\n, QP = 1, 2, 3\n"
@@ -209,10 +220,10 @@ def test_exact_solutions_of_the_new_adams_decks():
     """Which decks have a closed form, and the physics of the guided-body solutions: the
     cylindrical joint exerts no force along and no moment about its axis, the distance
     constraint pulls along the link, whose length stays L."""
-    none = {c for c in ADAMS_CASES
-            if adams_exact(Deck.read(adams_dir() / f"test_{c}.adm")) is None}
+    none = {c for c in ADAMS_CASES if adams_exact(adams_deck(adams_dir(), c)) is None}
     assert none == set(CHRONO_RMS_TOLERANCES) == {"Distance_Case02", "Distance_Case03",
-                                                   "Universal_Case03"}
+                                                   "Universal_Case03", "TranSpring_Case02",
+                                                   "RotSpring_Case01"}
     t = np.linspace(0, 5, 201)
     ax = adams_exact(Deck.read(adams_dir() / "test_Cylindrical_Case03.adm"))
     assert isinstance(ax, AxialMotion) and ax.pendulum is not None
@@ -231,6 +242,66 @@ def test_exact_solutions_of_the_new_adams_decks():
     np.testing.assert_allclose(np.linalg.norm(ex.r - dp.P, axis=1), 2.0, rtol=1e-12)
     np.testing.assert_allclose(np.cross(ex.force_on_body, ex.r - dp.P), 0, atol=1e-12)
     np.testing.assert_allclose(ex.omega, 0)
+
+
+def test_deck_reading_sforce():
+    """The two SFORCE decks as written (their own coefficients): a FUNCTION continued over
+    ``,`` lines is one expression; RTOD turns N m/deg into N m/rad."""
+    deck = Deck.read(adams_dir() / "test_TransSpring_Case01.adm")
+    assert deck.joints == []
+    (f,) = deck.forces
+    assert f == dict(id=1, name="sforce1", type="TRANSLATIONAL", I=204, J=205,
+                     stiffness=100.0, damping=1.0, length=2.0)
+    b = deck.builder()
+    (spec,) = b.forces.values()
+    assert spec.type == "spring_damper"
+    assert spec.params["body_i"] == "ground" and spec.params["body_j"] == "part02"
+    np.testing.assert_allclose(spec.params["point_i"], 0)
+    np.testing.assert_allclose(spec.params["point_j"], 0)       # the J marker is the CM
+    deck = Deck.read(adams_dir() / "test_RotSpring_Case01.adm")
+    (f,) = deck.forces
+    assert f["type"] == "ROTATIONAL" and f["angle"] == 0.0
+    assert f["stiffness"] == pytest.approx(180 / np.pi)
+    assert f["damping"] == pytest.approx(0.05 * 180 / np.pi)
+    assert deck.sforce_joint(f)["name"] == "joint1"
+    model = deck.builder().compile()
+    assert [g.name for g in model.force_groups] == ["rotational_spring_damper"]
+
+
+def test_spring_decks_differ_from_the_tables_which_fit_chronos_coefficients():
+    """The decks in adams_models/ do not carry the coefficients the tables were computed with;
+    a fit of the tables gives those of Chrono's unit tests, which the cases use."""
+    for case, spec in SPRING_CASES.items():
+        deck = Deck.read(adams_dir() / f"test_{spec['deck']}.adm")
+        used = spec["coefficients"]["sforce1"]
+        assert (deck.forces[0]["stiffness"], deck.forces[0]["damping"]) != (
+            used["stiffness"], used["damping"])
+        fit = spring_table_fit(adams_dir(), case)
+        assert fit["stiffness_fit"] == pytest.approx(used["stiffness"], rel=1e-5)
+        assert fit["damping_fit"] == pytest.approx(used["damping"], rel=1e-5)
+        assert adams_deck(adams_dir(), case).forces[0]["damping"] == used["damping"]
+
+
+def test_spring_table_signs_by_hand():
+    """TranSpring_Case02 at t = 0.96 s: the spring (k = 100, c = 5, L0 = 2) is stretched, so it
+    pulls the ground towards the body: Rforce = (k (l - L0) + c l') u, u from the origin to the
+    centre of mass. RotSpring_Case01 at t = 5 s: the ground receives the spring's torque
+    k theta + c theta' about +y (k = 200, c = 10), theta the pendulum's drop below the
+    horizontal x axis (the body sags: gravity turns it about +y)."""
+    t, pos, _ = read_table(adams_dir() / "TranSpring_Case02_ADAMS_Pos.txt")
+    _, vel, _ = read_table(adams_dir() / "TranSpring_Case02_ADAMS_Vel.txt")
+    _, force, _ = read_table(adams_dir() / "TranSpring_Case02_ADAMS_Rforce.txt")
+    k = int(np.argmin(abs(t - 0.96)))
+    ell = np.linalg.norm(pos[k])
+    u = pos[k] / ell
+    assert ell > 2.0
+    np.testing.assert_allclose(force[k], (100 * (ell - 2) + 5 * vel[k] @ u) * u, atol=2e-4)
+    _, pos, _ = read_table(adams_dir() / "RotSpring_Case01_ADAMS_Pos.txt")
+    _, avel, _ = read_table(adams_dir() / "RotSpring_Case01_ADAMS_Avel.txt")
+    _, torque, _ = read_table(adams_dir() / "RotSpring_Case01_ADAMS_Rtorque.txt")
+    theta = np.arctan2(-pos[-1, 2], pos[-1, 0])
+    assert theta > 0
+    assert torque[-1, 1] == pytest.approx(200 * theta + 10 * avel[-1, 1], rel=1e-5)
 
 
 def test_statement_parser_handles_continuations_comments_and_degrees():

@@ -25,10 +25,17 @@ How a deck is read (the subset of the ADAMS/Solver data language these decks use
   markers a and b, one of them the I marker, held at L - our "spherical_spherical" joint with
   point = the I marker's origin (body i: its part), point2 = the other marker's origin (body
   j), length = L. Other FUNCTION expressions are rejected.
+* ``SFORCE/id, TRANSLATIONAL | ROTATIONAL, I, J, FUNCTION = ...`` (force ``sforce<id>``) with
+  a linear spring-damper FUNCTION (:func:`_sforce`; a FUNCTION continued over ``,`` lines is
+  joined): TRANSLATIONAL ``-k (DM(I,J) - L0) - c VR(I,J)`` is our "spring_damper" between the
+  I marker's origin (body i) and the J marker's (body j); ROTATIONAL
+  ``-k RTOD (AZ(I,J) - 0) - c RTOD WZ(I,J,J)`` our "rotational_spring_damper" about the
+  revolute/cylindrical joint between the same parts whose axis is the J marker's z axis
+  (aligned I and J markers, rest angle 0).
 * ``ACCGRAV/ IGRAV, JGRAV, KGRAV``: gravity vector (missing components 0).
-* Statements that would add forces, motions or other constraints (``UNSUPPORTED``: SFORCE,
-  SPRINGDAMPER, MOTION, ...) are rejected with an error naming them; GRAPHICS, REQUEST,
-  OUTPUT and UNITS (SI in these decks) are ignored.
+* Statements that would add other forces, motions or constraints (``UNSUPPORTED``:
+  SPRINGDAMPER, VFORCE, MOTION, ...) are rejected with an error naming them; GRAPHICS, REQUEST,
+  VARIABLE, OUTPUT and UNITS (SI in these decks) are ignored.
 
 The body built for a part has its centre of mass at the CM marker and its body axes along the
 CM marker's axes, so that ADAMS' output (``ORIENT(27, ..., cm, ground)``: Euler parameters of
@@ -50,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model import ModelBuilder
-from ..rotations import A_from_euler_zxz
+from ..rotations import A_from_euler_zxz, A_from_p
 
 _NUM = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)([dD]?)$")
 
@@ -121,6 +128,10 @@ def parse_statements(text: str) -> list[Statement]:
                 key, _, value = item.partition("=")
                 key = key.strip().upper()
                 st.keys[key] = [value.strip()]
+            elif key == "FUNCTION":
+                # an expression continued on the next line (``, - 1.0*vr(204,205)``): the
+                # continuation comma is not part of it
+                st.keys[key][0] += " " + item
             elif key is not None and _NUM.match(item):
                 st.keys[key].append(item)
             else:
@@ -147,12 +158,13 @@ class Deck:
     markers: dict         # id -> Marker
     joints: list          # dict(id, type, I, J)
     gravity: np.ndarray
+    forces: list = field(default_factory=list)   # SFORCE: dict(id, name, type, I, J, ...)
 
     @classmethod
     def read(cls, path) -> "Deck":
         path = Path(path)
         stmts = parse_statements(path.read_text())
-        parts, markers, joints = {}, {}, []
+        parts, markers, joints, forces = {}, {}, [], []
         gravity = np.zeros(3)
         for st in stmts:
             if st.name == "PART":
@@ -178,15 +190,18 @@ class Deck:
                                    I=int(st.keys["I"][0]), J=int(st.keys["J"][0])))
             elif st.name == "GCON":
                 joints.append(_distance_gcon(path.name, st))
+            elif st.name == "SFORCE":
+                forces.append(_sforce(path.name, st))
             elif st.name in UNSUPPORTED:
                 raise ValueError(f"{path.name}: {st.name}/{st.id} is not supported by this deck "
                                  "reader (PART, MARKER, JOINT REVOLUTE/SPHERICAL/HOOKE/"
-                                 "TRANSLATIONAL/CYLINDRICAL, GCON DM(a, b) - L, ACCGRAV)")
+                                 "TRANSLATIONAL/CYLINDRICAL, GCON DM(a, b) - L, SFORCE "
+                                 "spring-dampers, ACCGRAV)")
             elif st.name == "ACCGRAV":
                 for k, key in enumerate(("IGRAV", "JGRAV", "KGRAV")):
                     if key in st.keys:
                         gravity[k] = _number(st.keys[key][0])
-        return cls(path.stem.replace("test_", ""), parts, markers, joints, gravity)
+        return cls(path.stem.replace("test_", ""), parts, markers, joints, gravity, forces)
 
     def part_name(self, pid: int) -> str:
         return "ground" if self.parts[pid]["ground"] else f"part{pid:02d}"
@@ -235,12 +250,56 @@ class Deck:
                 raise ValueError(f"{self.name} {name}: joint type {j['type']} is not supported "
                                  "by this deck reader (REVOLUTE, SPHERICAL, HOOKE, "
                                  "TRANSLATIONAL, CYLINDRICAL)")
+        for f in self.forces:
+            self._add_sforce(b, f)
         return b
+
+    def _local(self, b: ModelBuilder, marker: Marker) -> np.ndarray:
+        """A marker's origin in the body axes of its part (the ground: global)."""
+        name = self.part_name(marker.part)
+        if name == "ground":
+            return marker.origin.copy()
+        body = b.bodies[name]
+        return A_from_p(body.p).T @ (marker.origin - body.r)
+
+    def _add_sforce(self, b: ModelBuilder, f: dict) -> None:
+        mi, mj = self.markers[f["I"]], self.markers[f["J"]]
+        bi, bj = self.part_name(mi.part), self.part_name(mj.part)
+        if mi.part == mj.part:
+            raise ValueError(f"{self.name} {f['name']}: I and J markers are on the same part")
+        if f["type"] == "TRANSLATIONAL":
+            b.add_force("spring_damper", f["name"], body_i=bi, body_j=bj,
+                        point_i=self._local(b, mi), point_j=self._local(b, mj),
+                        stiffness=f["stiffness"], damping=f["damping"],
+                        natural_length=f["length"])
+            return
+        # ROTATIONAL: about the z axis of the J marker, which must be the axis of a revolute or
+        # cylindrical joint between the same two parts; AZ(I, J) = 0 as assembled (I and J
+        # markers aligned) and a rest angle 0, so that AZ and our joint angle are the same
+        # angle up to its sign, which a linear spring-damper about 0 does not see
+        if f["angle"] != 0.0 or np.abs(mi.A - mj.A).max() > 1e-9:
+            raise ValueError(f"{self.name} {f['name']}: a ROTATIONAL SFORCE is read only with "
+                             "aligned I and J markers and the rest angle 0")
+        b.add_force("rotational_spring_damper", f["name"], joint=self.sforce_joint(f)["name"],
+                    stiffness=f["stiffness"], damping=f["damping"], rest_angle=0.0)
+
+    def sforce_joint(self, f: dict) -> dict:
+        """The revolute or cylindrical joint between the parts of a ROTATIONAL SFORCE whose
+        axis (its I marker's z axis) is the SFORCE J marker's z axis, about which it acts."""
+        mi, mj = self.markers[f["I"]], self.markers[f["J"]]
+        for j in self.joints:
+            ji, jj = self.markers[j["I"]], self.markers[j["J"]]
+            if (j["type"] in ("REVOLUTE", "CYLINDRICAL") and {ji.part, jj.part} ==
+                    {mi.part, mj.part}
+                    and np.linalg.norm(np.cross(ji.A[:, 2], mj.A[:, 2])) < 1e-9):
+                return j
+        raise ValueError(f"{self.name} {f['name']}: a ROTATIONAL SFORCE is read only about the "
+                         "axis of a revolute or cylindrical joint between the same parts")
 
 
 #: Statements that would add forces, motions or constraints this reader does not model: a
 #: deck holding one is rejected rather than read without it.
-UNSUPPORTED = frozenset({"SPRINGDAMPER", "SFORCE", "VFORCE", "VTORQUE", "GFORCE", "BUSHING",
+UNSUPPORTED = frozenset({"SPRINGDAMPER", "VFORCE", "VTORQUE", "GFORCE", "BUSHING",
                          "FIELD", "BEAM", "FRICTION", "JPRIM", "MOTION", "COUPLER", "GEAR",
                          "PTCV", "CVCV", "UCON", "DIFF", "GSE", "LSE", "TFSISO", "NFORCE",
                          "CONTACT", "FLEX_BODY", "POINT_MASS"})
@@ -264,6 +323,92 @@ def _distance_gcon(filename: str, st: Statement) -> dict:
                          "markers, one of them the I marker, and a length L > 0")
     return dict(id=st.id, name=f"gcon{st.id}", type="DISTANCE", I=i, J=b if a == i else a,
                 length=length)
+
+
+_F_NUM = r"(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?"
+_TERM = re.compile(rf"^([+-]?)({_F_NUM})(\*rtod)?(?:\*(.+))?$")
+_OPERANDS = {
+    "spring": re.compile(rf"^\(dm\((\d+),(\d+)\)-({_F_NUM})\)$|^dm\((\d+),(\d+)\)()$"),
+    "damper": re.compile(r"^vr\((\d+),(\d+)\)$"),
+    "rot_spring": re.compile(rf"^\(az\((\d+),(\d+)\)-({_F_NUM})(\*dtor)?\)$"
+                             r"|^az\((\d+),(\d+)\)()()$"),
+    "rot_damper": re.compile(r"^wz\((\d+),(\d+),(\d+)\)$"),
+}
+
+
+def _terms(expr: str) -> list[str]:
+    """A sum split into its terms at the signs outside parentheses (not an exponent's)."""
+    out, depth, start = [], 0, 0
+    for k, ch in enumerate(expr):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        elif (ch in "+-" and depth == 0 and k > start
+              and not (expr[k - 1] == "e" and k > 1 and expr[k - 2] in "0123456789.")):
+            out.append(expr[start:k])
+            start = k
+    out.append(expr[start:])
+    return out
+
+
+def _sforce(filename: str, st: Statement) -> dict:
+    """An ``SFORCE/id, TRANSLATIONAL | ROTATIONAL, I = a, J = b, FUNCTION = ...`` statement with a
+    linear spring-damper FUNCTION as a dict(id, name "sforce<id>", type, I, J, stiffness,
+    damping, length | angle):
+
+    * TRANSLATIONAL: ``- k*(DM(a,b) - L0) - c*VR(a,b) [+ 0]``, the force along the line of the
+      markers, positive repulsive: our spring_damper (tension k (l - l0) + c ldot) with the same
+      k, c, l0.
+    * ROTATIONAL: ``- k[*RTOD]*(AZ(a,b) - a0[*DTOR]) - c[*RTOD]*WZ(a,b,b) [+ 0]``, the torque
+      about the J marker's z axis; RTOD (180/pi) turns k and c into N m/rad and N m s/rad.
+
+    Anything else (other functions, a preload, negative coefficients) is rejected."""
+    func = "".join(st.keys.get("FUNCTION", [""])[0].split()).lower()
+    kind = st.words[0] if st.words else ""
+
+    def fail(why):
+        raise ValueError(f"{filename}: SFORCE/{st.id} ({kind}) FUNCTION = {func!r} is not "
+                         f"supported by this deck reader: {why}")
+    if kind not in ("TRANSLATIONAL", "ROTATIONAL") or "I" not in st.keys or "J" not in st.keys:
+        fail("only TRANSLATIONAL or ROTATIONAL with I and J markers")
+    i, j = int(st.keys["I"][0]), int(st.keys["J"][0])
+    rot = kind == "ROTATIONAL"
+    out = dict(id=st.id, name=f"sforce{st.id}", type=kind, I=i, J=j, stiffness=0.0,
+               damping=0.0, **({"angle": 0.0} if rot else {"length": None}))
+    for term in _terms(func):
+        m = _TERM.match(term)
+        if not m:
+            fail(f"term {term!r}")
+        value = float(m.group(2)) * (180.0 / np.pi if m.group(3) else 1.0)
+        if m.group(4) is None:
+            if value != 0.0:
+                fail("a constant force or torque (preload)")
+            continue
+        if m.group(1) != "-":
+            fail(f"term {term!r}: a spring-damper term must be negative (restoring)")
+        for what, pattern in _OPERANDS.items():
+            o = pattern.match(m.group(4))
+            if o is not None and what.startswith("rot_") == rot:
+                break
+        else:
+            fail(f"term {term!r}")
+        g = [x for x in o.groups()]
+        a, bm = (int(g[0]), int(g[1])) if g[0] is not None else (int(g[3]), int(g[4]))
+        if (a, bm) != (i, j) or (what == "rot_damper" and int(g[2]) != j):
+            fail(f"term {term!r} does not measure I = {i} against J = {j}")
+        if what == "spring":
+            out["stiffness"] = value
+            out["length"] = float(g[2]) if g[0] is not None else 0.0
+        elif what == "rot_spring":
+            out["stiffness"] = value
+            if g[0] is not None:
+                out["angle"] = float(g[2]) * (np.pi / 180.0 if g[3] else 1.0)
+        else:
+            out["damping"] = value
+    if not rot and out["length"] is None:
+        out["length"] = 0.0
+    return out
 
 
 #: Columns of each ADAMS result table.

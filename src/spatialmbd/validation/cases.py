@@ -23,8 +23,8 @@ from .core import (CaseResult, Timer, adams_dir, bound_basis, compare_history, c
 from .exact import (EulerFreeBody, PhysicalPendulum, align_quaternion_sign, rotating_pendulum,
                     symmetric_free_body)
 from .exact import AxialMotion, DistancePendulum
-from .references import (ADAMS_CASES, FREE_ASYMMETRIC, FREE_SYMMETRIC, adams_exact,
-                         exact_adams_quantities)
+from .references import (ADAMS_CASES, FREE_ASYMMETRIC, FREE_SYMMETRIC, adams_deck,
+                         adams_exact, exact_adams_quantities)
 
 
 #: run_validation(method=...): the method every case runs with where the model and the case's
@@ -143,6 +143,56 @@ def _compare_rms(case, quantity, ours, ref, tolerance, basis, unit, cols, t):
                     f"difference {abs(diff[row, k]):.2g} at t = {t[row]:.3g} s", unit)
 
 
+def _ground_load(res, deck):
+    """(force, moment) (nt, 3) that the joints and force elements of the deck apply to the
+    ground, the moment about the I marker of the first joint (else of the first force), in
+    global axes: the ADAMS tables' Rforce/Rtorque. Joint reactions from Results.reactions
+    (force_i/moment_i about the joint point of body i, force_j/moment_j of body j), force
+    elements from their own force law (spatialmbd.outputs.force_outputs)."""
+    from ..outputs import force_outputs
+    nt = len(res.t)
+    force, moment = np.zeros((nt, 3)), np.zeros((nt, 3))
+    O = deck.markers[(deck.joints or deck.forces)[0]["I"]].origin
+    on_ground = lambda m: deck.parts[deck.markers[m].part]["ground"]      # noqa: E731
+    reactions = res.reactions() if deck.joints else {}
+    for j in deck.joints:
+        r = reactions[j["name"]]
+        if on_ground(j["I"]) == on_ground(j["J"]):
+            raise ValueError(f"{deck.name} {j['name']}: not a joint to the ground")
+        if on_ground(j["I"]):
+            f, m, P = r.force_i, r.moment_i, deck.markers[j["I"]].origin
+        else:
+            f, m, P = r.force_j, r.moment_j, deck.markers[j["J"]].origin
+        force += f
+        moment += m + np.cross(P - O, f)
+    for fe in deck.forces:
+        out = force_outputs(res, fe["name"])
+        mi, mj = deck.markers[fe["I"]], deck.markers[fe["J"]]
+        if fe["type"] == "TRANSLATIONAL":
+            if on_ground(fe["I"]) == on_ground(fe["J"]):
+                raise ValueError(f"{deck.name} {fe['name']}: not a force to the ground")
+            ground, other = (mi, mj) if on_ground(fe["I"]) else (mj, mi)
+            b = res.body(deck.part_name(other.part))
+            A0 = A_from_p(b["p"][0])
+            P = b["r"] + np.einsum("tij,j->ti", A_from_p(b["p"]),
+                                   A0.T @ (other.origin - b["r"][0]))
+            d = P - ground.origin                 # from the ground point to the body's
+            f = out["force"][:, None] * d / np.linalg.norm(d, axis=1)[:, None]   # tension
+            force += f
+            moment += np.cross(ground.origin - O, f)
+        else:
+            if not on_ground(fe["I"]):
+                raise ValueError(f"{deck.name} {fe['name']}: a ROTATIONAL SFORCE is read here "
+                                 "with its I marker on the ground")
+            joint = deck.sforce_joint(fe)
+            if not on_ground(joint["I"]):
+                raise ValueError(f"{deck.name} {fe['name']}: its joint's I marker must be on "
+                                 "the ground")
+            n = deck.markers[joint["I"]].A[:, 2]   # the joint axis u_i, fixed with the ground
+            moment += -out["torque"][:, None] * n  # tau u on body j, -tau u on body i
+    return force, moment
+
+
 UNITS = dict(Pos="m", Vel="m/s", Acc="m/s^2", Quat="", Avel="rad/s", Aacc="rad/s^2",
              Rforce="N", Rtorque="N m")
 
@@ -159,7 +209,7 @@ def adams_case(name: str, full: bool) -> CaseResult:
     case = CaseResult(f"ADAMS {name}", f"MSC ADAMS joint test {name} (Project Chrono data)",
                       f"{info['source']}. {info['how']} Precision: {info['precision']}.")
     d = adams_dir()
-    deck = Deck.read(d / f"test_{name}.adm")
+    deck = adams_deck(d, name)
     model = deck.builder().compile()
     body = model.body_names[0]
     exact_solution = adams_exact(deck)
@@ -167,10 +217,10 @@ def adams_case(name: str, full: bool) -> CaseResult:
     t = next(iter(tables.values()))[0]
     res = _sim(model, float(t[-1]), full, 1e-7, 1e-10, method="standard", t_eval=t)
     b = res.body(body)
-    joint = deck.joints[0]
-    reac = res.reactions()[joint["name"]]
+    joint = (deck.joints or deck.forces)[0]
+    force_ground, moment_ground = _ground_load(res, deck)
     ours = dict(Pos=b["r"], Vel=b["rdot"], Acc=b["rddot"], Quat=b["p"], Avel=b["omega"],
-                Aacc=b["omegadot"], Rforce=reac.force_i, Rtorque=reac.moment_i)
+                Aacc=b["omegadot"], Rforce=force_ground, Rtorque=moment_ground)
     if exact_solution is not None:
         exact = exact_adams_quantities(exact_solution, t)
         scales = _exact_scales(exact_solution, t)
@@ -200,10 +250,25 @@ def adams_case(name: str, full: bool) -> CaseResult:
     reaction = (f"reaction = force_i/moment_i (on the ground, body i of the "
                 f"{joint['type'].lower()} {'constraint' if joint['type'] == 'DISTANCE' else 'joint'}"
                 ", about the fixed I marker) as ADAMS reports it")
+    if deck.forces:
+        spec = entry["coefficients"]
+        fit = spec["table_fit"]
+        reaction = (("Rforce = the spring-damper's force on the ground (FX(I, J) of the SFORCE: "
+                     "tension f times the unit vector from the ground point to the body)"
+                     if not deck.joints else
+                     "Rforce/Rtorque = the load on the ground from the joint (force_i/moment_i "
+                     "about the I marker) plus the torsional spring-damper's torque on it "
+                     "(-tau n), as Chrono's test adds them")
+                    + f"; SFORCE coefficients {spec['used']} from {spec['source']}, not the "
+                    f"deck's {spec['deck']}: the tables fit k = {fit['stiffness_fit']:g}, "
+                    f"c = {fit['damping_fit']:g}")
     if exact_solution is None:
-        _energy_checks(case, res, "energy change")
+        _energy_checks(case, res, "energy balance (T + V - W_damper)(t) - (T + V)(0)"
+                       if deck.forces else "energy change")
         size = float(np.linalg.norm(b["r"], axis=1).max())
-        if joint["type"] == "DISTANCE":
+        if not deck.joints:
+            pass                                          # a free body: no constraint
+        elif joint["type"] == "DISTANCE":
             # Phi = d.d - L^2: a position error dr changes it by 2 L dr
             viol = res.constraint_violation()["position"]
             scale = 2 * joint["length"] * size

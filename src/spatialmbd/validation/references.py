@@ -41,7 +41,69 @@ ADAMS_CASES = {
     "Distance_Case01": ALL_QUANTITIES,
     "Distance_Case02": ALL_QUANTITIES,
     "Distance_Case03": ALL_QUANTITIES,
+    # force elements (the quantities Chrono's unit tests check: no Rtorque for the spring)
+    "TranSpring_Case02": ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce"),
+    "RotSpring_Case01": ALL_QUANTITIES,
 }
+
+#: The force-element tests: the deck the model is read from (its name differs from the tables'
+#: for TranSpring) and the SFORCE coefficients of Chrono's unit test, with which the tables
+#: were computed. The decks in adams_models/ carry other coefficients (TransSpring_Case01:
+#: c = 1 N s/m; RotSpring_Case01: k = 1 N m/deg = 57.3 N m/rad, c = 0.05 N m s/deg); a
+#: least-squares fit of the tables' own force and motion (:func:`spring_table_fit`, stored in
+#: references.json) gives Chrono's values to 6 digits, so these replace the deck's.
+SPRING_CASES = {
+    "TranSpring_Case02": dict(deck="TransSpring_Case01", test="utest_JOINT_transpring.cpp",
+                              coefficients={"sforce1": dict(stiffness=100.0, damping=5.0)}),
+    "RotSpring_Case01": dict(deck="RotSpring_Case01", test="utest_JOINT_rotspring.cpp",
+                             coefficients={"sforce1": dict(stiffness=200.0, damping=10.0)}),
+}
+
+
+def adams_deck(adams_dir: Path, case: str) -> Deck:
+    """The deck of an ADAMS case (for the force-element tests: the deck named in SPRING_CASES
+    with the SFORCE coefficients of Chrono's unit test)."""
+    spec = SPRING_CASES.get(case)
+    deck = Deck.read(Path(adams_dir) / f"test_{spec['deck'] if spec else case}.adm")
+    if spec:
+        for f in deck.forces:
+            f.update(spec["coefficients"][f["name"]])
+        deck.name = case
+    return deck
+
+
+def spring_table_fit(adams_dir: Path, case: str) -> dict:
+    """Stiffness and damping of the one SFORCE of a force-element case fitted (least squares
+    over the 501 rows) to the tables alone: TRANSLATIONAL, the force on the ground along the
+    unit vector u from the I marker (ground) to the centre of mass against (l - L0, ldot) from
+    Pos and Vel; ROTATIONAL, the torque on the ground about the joint axis n (the joint
+    reaction has none) against (theta, theta') with theta the angle of the centre of mass
+    about n from its start and theta' = Avel . n."""
+    deck = adams_deck(adams_dir, case)
+    (f,) = deck.forces
+    mi = deck.markers[f["I"]]
+    if not deck.parts[mi.part]["ground"]:
+        raise ValueError(f"{case}: the fit expects the SFORCE's I marker on the ground")
+    t, pos, _ = read_table(adams_dir / f"{case}_ADAMS_Pos.txt")
+    if f["type"] == "TRANSLATIONAL":
+        _, vel, _ = read_table(adams_dir / f"{case}_ADAMS_Vel.txt")
+        _, force, _ = read_table(adams_dir / f"{case}_ADAMS_Rforce.txt")
+        d = pos - mi.origin
+        ell = np.linalg.norm(d, axis=1)
+        u = d / ell[:, None]
+        A = np.c_[ell - f["length"], np.einsum("ti,ti->t", vel, u)]
+        y = np.einsum("ti,ti->t", force, u)
+    else:
+        _, avel, _ = read_table(adams_dir / f"{case}_ADAMS_Avel.txt")
+        _, torque, _ = read_table(adams_dir / f"{case}_ADAMS_Rtorque.txt")
+        n = mi.A[:, 2]
+        d = pos - mi.origin
+        theta = np.arctan2(np.cross(d[0], d) @ n, d @ d[0])
+        A = np.c_[theta, avel @ n]
+        y = torque @ n
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    return {"stiffness_fit": float(f"{coef[0]:.7g}"), "damping_fit": float(f"{coef[1]:.7g}"),
+            "residual_max": round_up(float(np.abs(A @ coef - y).max()))}
 
 #: The cases without a closed form: ours against ADAMS within the RMS tolerance (per column,
 #: over the 501 rows) that Project Chrono's own unit test accepts for its solution against the
@@ -56,6 +118,11 @@ CHRONO_RMS_TOLERANCES = {
         Rtorque=1e-10)),
     # Chrono's Case03 checks are commented out in that file ("////"); these are the values
     # written there
+    "TranSpring_Case02": ("utest_JOINT_transpring.cpp", dict(
+        Pos=1e-3, Vel=3e-4, Acc=2e-2, Quat=1e-10, Avel=1e-10, Aacc=1e-10, Rforce=5e-3)),
+    "RotSpring_Case01": ("utest_JOINT_rotspring.cpp", dict(
+        Pos=1e-3, Vel=5e-4, Acc=2e-2, Quat=1e-3, Avel=1e-3, Aacc=5e-3, Rforce=5e-3,
+        Rtorque=1e-2)),
     "Universal_Case03": ("utest_JOINT_universal.cpp (checks commented out)", dict(
         Pos=2e-3, Vel=2e-3, Acc=2e-2, Quat=1e-3, Avel=2e-2, Aacc=2e-2, Rforce=2e-2,
         Rtorque=5e-4)),
@@ -104,6 +171,8 @@ def adams_exact(deck: Deck):
     about its rod and the motion leaves the plane), translational and cylindrical joints
     (:class:`AxialMotion`), the distance constraint (GCON DM(a, b) - L) when its point on the
     body is the centre of mass (:class:`DistancePendulum`; else a double pendulum: none)."""
+    if deck.forces:
+        return None
     b = deck.builder()
     (name, body), = b.bodies.items()
     joint = deck.joints[0]
@@ -136,9 +205,18 @@ def exact_adams_quantities(pend, t) -> dict:
 def adams_accuracy(adams_dir: Path) -> dict:
     out = {}
     for case, quantities in ADAMS_CASES.items():
-        deck = Deck.read(adams_dir / f"test_{case}.adm")
+        deck = adams_deck(adams_dir, case)
         exact = adams_exact(deck)
         entry = _exact_entry(deck, exact)
+        if case in SPRING_CASES:
+            spec = SPRING_CASES[case]
+            entry["deck"] = f"test_{spec['deck']}.adm"
+            entry["coefficients"] = {
+                "used": spec["coefficients"], "source": f"{spec['test']} (Chrono)",
+                "deck": {f["name"]: {k: Deck.read(adams_dir / entry["deck"]).forces[n][k]
+                                     for k in ("stiffness", "damping")}
+                         for n, f in enumerate(deck.forces)},
+                "table_fit": spring_table_fit(adams_dir, case)}
         entry["quantities"] = {}
         if exact is None:
             test, tols = CHRONO_RMS_TOLERANCES[case]
@@ -181,6 +259,13 @@ def _exact_entry(deck: Deck, exact) -> dict:
         return {"exact": ("point-mass pendulum of the link length, orientation constant "
                           "(validation.exact.DistancePendulum)"),
                 "length": exact.L, "period_exact_s": exact.period}
+    if deck.forces:
+        why = ("a body on a spring-damper of natural length 2 m from a fixed point (an elastic "
+               "pendulum)" if not deck.joints else "a pendulum on a revolute joint with a "
+               "torsional spring-damper (gravity torque m g d cos theta)")
+        return {"exact": None,
+                "why": (f"no closed form: {why}; ours against ADAMS within the RMS tolerance "
+                        "Project Chrono's unit test states for it")}
     return {"exact": None,
             "why": ("no closed form: " + ("the distance constraint holds a point away from "
                                           "the centre of mass (a double pendulum)"
@@ -210,9 +295,13 @@ def derive(adams_dir: Path) -> dict:
                 "of mass 2 m from the joint, gravity 9.80665 m/s^2 along -z, released at rest "
                 "horizontally; Prismatic/Cylindrical: the same body on a translational/"
                 "cylindrical joint; Distance: held by a distance constraint GCON DM(a, b) - 2 "
-                "at its centre of mass (Case01) or at a point 2 m from it (Case02/03)); REQUEST "
+                "at its centre of mass (Case01) or at a point 2 m from it (Case02/03); "
+                "TranSpring_Case02: the body free on a translational spring-damper SFORCE from "
+                "the origin, natural length 2 m; RotSpring_Case01: the Revolute_Case01 pendulum "
+                "with a torsional spring-damper SFORCE about the joint axis); REQUEST "
                 "output every 0.01 s for 0..5 s. Reactions (Rforce, Rtorque) act on the ground "
-                "part (I marker) about the I marker, in global axes."),
+                "part (I marker) about the I marker, in global axes (with a spring-damper: "
+                "its load on the ground, added to the joint's)."),
         "precision": ("7 significant digits as printed; the ADAMS integration error against "
                       "the exact elliptic solution is listed per quantity "
                       "(adams_error_vs_exact_*, max/RMS over the 501 rows, rounded up to 2 "
