@@ -304,6 +304,72 @@ def test_spring_table_signs_by_hand():
     assert torque[-1, 1] == pytest.approx(200 * theta + 10 * avel[-1, 1], rel=1e-5)
 
 
+def test_revspherical_reaction_convention_by_hand():
+    """The RevSpherical tables (no deck): Rforce_Body2 is the force on the pendulum,
+    m (a - g) by Newton's law, applied at the spherical point Q (Rtorque_Body2 = 0: a ball
+    joint carries no moment); Rforce/Rtorque_Body1 the opposite force on the ground, its moment
+    taken about the revolute point P, (Q - P) x F1, normal to the axis (no moment about a
+    revolute axis). Q from Pos and Quat, its offset from the centre of mass fixed in the body
+    (identity at t = 0). Tolerances: 7 printed digits and ADAMS's constraint residual
+    (|u.(Q - P)| up to 8.3e-6 m) times the force, 1e-5 |F|max."""
+    from spatialmbd.rotations import A_from_p
+    from spatialmbd.validation.chrono_models import REVSPH_GEOMETRY, link_length
+    m, g = 1.0, np.array([0, 0, -9.80665])
+    for name, geo in REVSPH_GEOMETRY.items():
+        tab = {q: read_table(adams_dir() / f"{name}_ADAMS_{q}.txt")[1]
+               for q in ("Pos", "Acc", "Quat", "Rforce_Body1", "Rtorque_Body1",
+                         "Rforce_Body2", "Rtorque_Body2")}
+        P = np.array(geo["revolute_point"])
+        u = np.array(geo["axis"]) / np.linalg.norm(geo["axis"])
+        s = np.array(geo["spherical_point"]) - np.array(geo["cm"])
+        Q = tab["Pos"] + np.einsum("tij,j->ti", A_from_p(tab["Quat"]), s)
+        np.testing.assert_allclose(np.linalg.norm(Q - P, axis=1), link_length(name), atol=1e-5)
+        np.testing.assert_allclose((Q - P) @ u, 0, atol=1e-5)
+        F1, F2 = tab["Rforce_Body1"], tab["Rforce_Body2"]
+        assert np.abs(F1).max() > 500                    # large forces: a real check
+        tol = 1e-5 * np.abs(F1).max()
+        np.testing.assert_allclose(F2, m * (tab["Acc"] - g), atol=tol)
+        np.testing.assert_allclose(F1, -F2, atol=1e-12)
+        np.testing.assert_allclose(tab["Rtorque_Body2"], 0, atol=1e-12)
+        np.testing.assert_allclose(tab["Rtorque_Body1"], np.cross(Q - P, F1), atol=2 * tol)
+        np.testing.assert_allclose(tab["Rtorque_Body1"] @ u, 0, atol=1e-9)
+
+
+def test_linactuator_exact_solution_and_table_conventions():
+    """LinActuator (no deck): the prescribed slide r = v t n satisfies the prismatic joint
+    (r stays on the line through the origin along n) and the actuator (r.n = v t); the exact
+    loads keep the plate in equilibrium (it does not accelerate): actuator on the plate
+    + prismatic on the plate (minus the one on the ground) + weight = 0, the actuator along n
+    only, the prismatic normal to n, its moment on the ground about the origin r x F. The
+    ADAMS tables agree with it to their 7 printed digits: RforceA is the load on the plate,
+    RforceP/RtorqueP that on the ground about the origin (signs verified here, not assumed)."""
+    from spatialmbd.validation.chrono_models import LINACT_SETUP, linear_actuator_exact
+    from spatialmbd.rotations import A_from_p
+    m, g = 1.0, np.array([0, 0, -9.80665])
+    for name, setup in LINACT_SETUP.items():
+        n = A_from_p(np.array(setup["p"]))[:, 2]
+        t = read_table(adams_dir() / f"{name}_ADAMS_Pos.txt")[0]
+        ex = linear_actuator_exact(name, t)
+        v = setup["speed"]
+        np.testing.assert_allclose(ex["Pos"] @ n, v * t, atol=1e-14)
+        np.testing.assert_allclose(np.cross(ex["Pos"], n), 0, atol=1e-14)
+        np.testing.assert_allclose(np.gradient(ex["Pos"], t, axis=0), ex["Vel"], atol=1e-12)
+        np.testing.assert_allclose(ex["RforceA"] - ex["RforceP"] + m * g, m * ex["Acc"],
+                                   atol=1e-12)
+        np.testing.assert_allclose(np.cross(ex["RforceA"], n), 0, atol=1e-12)
+        np.testing.assert_allclose(ex["RforceP"] @ n, 0, atol=1e-12)
+        np.testing.assert_allclose(ex["RtorqueP"], np.cross(ex["Pos"], ex["RforceP"]))
+        for q, e in ex.items():
+            val = read_table(adams_dir() / f"{name}_ADAMS_{q}.txt")[1]
+            scale = max(1.0, float(np.abs(e).max()))
+            np.testing.assert_allclose(val, e, atol=5e-6 * scale, err_msg=f"{name} {q}")
+    # which is which: Case02's prismatic takes the normal part of the weight, which has a
+    # downward z component on the ground; the actuator pushes the plate up along n
+    _, fp, _ = read_table(adams_dir() / "LinActuator_Case02_ADAMS_RforceP.txt")
+    _, fa, _ = read_table(adams_dir() / "LinActuator_Case02_ADAMS_RforceA.txt")
+    assert fp[0, 2] < -4.9 and fa[0, 2] > 4.9
+
+
 def test_statement_parser_handles_continuations_comments_and_degrees():
     (st,) = parse_statements("MARKER/0102, PART = 01 ! comment\n, QP = 1, 2, 3\n"
                              ", REULER = 180D, 45D, 0\n")

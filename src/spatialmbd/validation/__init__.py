@@ -6,7 +6,9 @@
 
 Cases (:mod:`.cases`): the MSC ADAMS joint tests of Project Chrono (revolute, spherical and
 universal pendulums, translational and cylindrical joints, distance constraints, a
-translational and a torsional spring-damper: positions,
+translational and a torsional spring-damper; without a deck, the revolute-spherical
+composite joint and a prismatic joint driven by a linear actuator, their models rebuilt from
+Chrono's unit tests: positions,
 velocities, accelerations, Euler parameters, angular velocity and acceleration, reaction force
 and torque at every one of the 501 output instants), the
 torque-free symmetric and asymmetric rigid bodies, a heavy symmetric top in steady precession,
@@ -41,6 +43,8 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
               "adams_prismatic_case03", "adams_cylindrical_case01", "adams_cylindrical_case02",
               "adams_cylindrical_case03", "adams_distance_case01", "adams_distance_case02",
               "adams_distance_case03", "adams_transpring_case02", "adams_rotspring_case01",
+              "adams_revspherical_case01", "adams_revspherical_case02",
+              "adams_linactuator_case01", "adams_linactuator_case02",
               "free_symmetric", "free_asymmetric", "heavy_top", "slider_crank_kinematics",
               "iftomm_a01", "iftomm_a02", "iftomm_a03", "iftomm_a04", "iftomm_a05", "spatial_slider_crank",
               "double_pendulum", "robot_arm", "hertz_impact", "cam_follower")

@@ -128,6 +128,27 @@ CHRONO_RMS_TOLERANCES = {
         Rtorque=5e-4)),
 }
 
+#: Chrono joint tests without an ADAMS deck: the model is rebuilt in code from the unit test's
+#: C++ source (validation.chrono_models.MODELS), compared with the tables listed (all of them)
+#: within the RMS tolerance per column the unit test states (same commit, ChValidation::Test
+#: with NormType::RMS).
+REVSPH_TABLES = ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce_Body1", "Rtorque_Body1",
+                 "Rforce_Body2", "Rtorque_Body2")
+LINACT_TABLES = ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "RforceP", "RtorqueP", "RforceA",
+                 "RtorqueA")
+MODEL_CASES = {
+    "RevSpherical_Case01": ("utest_JOINT_revsph.cpp", REVSPH_TABLES, dict(
+        Pos=1e-4, Vel=1e-4, Acc=1e-1, Quat=1e-5, Avel=1e-4, Aacc=5e-1, Rforce_Body1=5e-1,
+        Rtorque_Body1=5e-1, Rforce_Body2=5e-1, Rtorque_Body2=5e-1)),
+    "RevSpherical_Case02": ("utest_JOINT_revsph.cpp", REVSPH_TABLES, dict(
+        Pos=1e-4, Vel=1e-4, Acc=1e-1, Quat=1e-5, Avel=1e-3, Aacc=5e-1, Rforce_Body1=5e-1,
+        Rtorque_Body1=5e-1, Rforce_Body2=5e-1, Rtorque_Body2=5e-1)),
+    # an exact solution (the motion is prescribed): ours against it and against ADAMS within
+    # ADAMS's own error against it (no Chrono tolerance used)
+    "LinActuator_Case01": ("utest_JOINT_linactuator.cpp", LINACT_TABLES, None),
+    "LinActuator_Case02": ("utest_JOINT_linactuator.cpp", LINACT_TABLES, None),
+}
+
 #: Torque-free bodies and other constructed cases (data used by validation.cases).
 FREE_SYMMETRIC = dict(mass=1.0, inertia=(3.0, 3.0, 5.0), omega_local=(1.0, 0.5, 4.0),
                       euler_zxz=(0.3, 0.4, 0.5))
@@ -242,6 +263,45 @@ def adams_accuracy(adams_dir: Path) -> dict:
     return out
 
 
+def model_case_entries(adams_dir: Path) -> dict:
+    """The entries of the MODEL_CASES (no deck, no closed form): the tables' shape and size
+    and Chrono's RMS tolerance for each."""
+    from .chrono_models import EXACT, MODELS
+    out = {}
+    for case, (test, tables, tols) in MODEL_CASES.items():
+        entry = {"model": (f"rebuilt in code from {test} (spatialmbd.validation.chrono_models."
+                           f"{MODELS[case].__name__}): no ADAMS deck is published"),
+                 "chrono_test": (f"src/tests/unit_tests/joints/{test} of Project Chrono, "
+                                 "commit 7689fbc02d12c5419fa6acad8791100fd89979dd")}
+        if case in EXACT:
+            entry["exact"] = ("prescribed slide r = v t n along the prismatic axis, constant "
+                              "orientation; the actuator carries -m (g.n) n, the prismatic "
+                              "joint the normal part of the weight (validation.chrono_models."
+                              f"{EXACT[case][0].__name__})")
+        else:
+            entry.update(exact=None, why=(
+                "no closed form: a body on a revolute-spherical link (two constraint "
+                "equations, four degrees of freedom) released off its equilibrium; ours "
+                "against ADAMS within the RMS tolerance Project Chrono's unit test states "
+                "for it"))
+        entry["quantities"] = {}
+        for q in tables:
+            t, val, cols = read_table(adams_dir / f"{case}_ADAMS_{q}.txt")
+            qe = entry["quantities"][q] = {"columns": cols, "rows": int(len(t)),
+                                           "max_abs": round_up(float(np.abs(val).max()), 7)}
+            if case not in EXACT:
+                qe["chrono_rms_tolerance"] = tols[q]
+                continue
+            e = EXACT[case][0](case, t)[q]
+            if q == "Quat":
+                e = align_quaternion_sign(e, val)
+            err = np.abs(e - val)
+            qe["adams_error_vs_exact_max"] = round_up(float(err.max()))
+            qe["adams_error_vs_exact_rms"] = round_up(float(np.sqrt(np.mean(err**2))))
+        out[case] = entry
+    return out
+
+
 def _exact_entry(deck: Deck, exact) -> dict:
     """What the exact solution of a deck is (the revolute/spherical/Hooke pendulums keep their
     original two keys)."""
@@ -298,10 +358,17 @@ def derive(adams_dir: Path) -> dict:
                 "at its centre of mass (Case01) or at a point 2 m from it (Case02/03); "
                 "TranSpring_Case02: the body free on a translational spring-damper SFORCE from "
                 "the origin, natural length 2 m; RotSpring_Case01: the Revolute_Case01 pendulum "
-                "with a torsional spring-damper SFORCE about the joint axis); REQUEST "
+                "with a torsional spring-damper SFORCE about the joint axis; RevSpherical: no "
+                "deck, the model of Chrono's unit test rebuilt in code, the 1 kg pendulum on a "
+                "revolute-spherical link 2 m long; LinActuator: no deck either, a 1 kg plate "
+                "driven at constant speed along a prismatic joint by a linear actuator); "
+                "REQUEST "
                 "output every 0.01 s for 0..5 s. Reactions (Rforce, Rtorque) act on the ground "
                 "part (I marker) about the I marker, in global axes (with a spring-damper: "
-                "its load on the ground, added to the joint's)."),
+                "its load on the ground, added to the joint's; RevSpherical: Rforce/Rtorque_Body1 "
+                "on the ground about the revolute point, _Body2 on the pendulum about the "
+                "spherical point; LinActuator: RforceP/RtorqueP the prismatic joint's on the ground "
+                "about the origin, RforceA/RtorqueA the actuator's on the plate)."),
         "precision": ("7 significant digits as printed; the ADAMS integration error against "
                       "the exact elliptic solution is listed per quantity "
                       "(adams_error_vs_exact_*, max/RMS over the 501 rows, rounded up to 2 "
@@ -310,7 +377,7 @@ def derive(adams_dir: Path) -> dict:
                       "(exact: null) the RMS tolerance per column that Project Chrono's unit "
                       "test accepts against the same tables (chrono_rms_tolerance, "
                       "chrono_test)"),
-        "cases": adams_accuracy(adams_dir),
+        "cases": {**adams_accuracy(adams_dir), **model_case_entries(adams_dir)},
     }
 
     a01 = models.simple_pendulum_a01()

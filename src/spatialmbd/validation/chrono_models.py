@@ -1,0 +1,158 @@
+"""Models of Project Chrono joint tests that come without an ADAMS deck, rebuilt in code.
+
+Chrono publishes MSC ADAMS tables for these tests (data/testing/joints/, copied unchanged into
+data/adams/, see PROVENANCE.md there) but defines the model only in the C++ source of its unit
+test. Each function here rebuilds one test's model from that source (Project Chrono,
+github.com/projectchrono/chrono, commit 7689fbc02d12c5419fa6acad8791100fd89979dd) and returns
+the builder together with a function giving, for a simulation result, our counterpart of every
+table (the same body, point and axes as the table; the conventions are checked against the
+tables in tests/validation/test_validation.py).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from ..model import ModelBuilder
+
+G = 9.80665
+
+#: utest_JOINT_revsph.cpp, TestRevSpherical(jointLocGnd, jointRevAxis, jointLocPend, PendCSYS):
+#: the revolute end on the ground at jointLocGnd with axis jointRevAxis, the spherical end on
+#: the pendulum at jointLocPend, the pendulum's centre of mass at PendCSYS.pos, orientation
+#: QUNIT, released at rest; the link length is the initial distance of the two ends (2 m).
+REVSPH_GEOMETRY = {
+    "RevSpherical_Case01": dict(revolute_point=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
+                                spherical_point=(2.0, 0.0, 0.0), cm=(2.0, 2.0, 0.0)),
+    "RevSpherical_Case02": dict(revolute_point=(1.0, 2.0, 3.0), axis=(0.0, 1.0, 1.0),
+                                spherical_point=(3.0, 2.0, 3.0), cm=(3.0, 4.0, 3.0)),
+}
+
+
+def link_length(name: str) -> float:
+    """The revolute-spherical link length of a case: the initial distance of its two ends."""
+    geo = REVSPH_GEOMETRY[name]
+    return float(np.linalg.norm(np.subtract(geo["spherical_point"], geo["revolute_point"])))
+
+
+def revolute_spherical(name: str) -> tuple[ModelBuilder, Callable]:
+    """RevSpherical_Case01/02 of Project Chrono's ``src/tests/unit_tests/joints/
+    utest_JOINT_revsph.cpp`` (commit 7689fbc02d12c5419fa6acad8791100fd89979dd): a pendulum of
+    1 kg, centroidal inertia diag(0.1, 0.04, 0.1) kg m^2, held by a ChLinkRevoluteSpherical
+    (Initialize(ground, pendulum, false, jointLocGnd, jointRevAxis, jointLocPend, true): the
+    revolute end on the ground, the spherical end on the pendulum, the distance as assembled),
+    gravity 9.80665 m/s^2 along -z. Ours: the spherical_revolute composite joint with body i
+    the ground (revolute end, point and axis) and body j the pendulum (point2).
+
+    Tables: Pos/Vel/Acc of the centre of mass, Quat, Avel/Aacc in global axes; Rforce_Body1/
+    Rtorque_Body1 the reaction on the ground (Chrono's body 1) about the revolute point, and
+    Rforce_Body2/Rtorque_Body2 that on the pendulum about the spherical point, global axes:
+    our force_i/moment_i and force_j/moment_j."""
+    geo = REVSPH_GEOMETRY[name]
+    axis = np.asarray(geo["axis"], float)
+    b = ModelBuilder(name, gravity=(0.0, 0.0, -G))
+    b.add_body("pendulum", 1.0, (0.1, 0.04, 0.1), r=geo["cm"])
+    b.add_joint("spherical_revolute", "revsph", "ground", "pendulum",
+                point=geo["revolute_point"], axis=axis / np.linalg.norm(axis),
+                point2=geo["spherical_point"])
+
+    def outputs(res) -> dict:
+        body = res.body("pendulum")
+        r = res.reactions()["revsph"]
+        return dict(Pos=body["r"], Vel=body["rdot"], Acc=body["rddot"], Quat=body["p"],
+                    Avel=body["omega"], Aacc=body["omegadot"],
+                    Rforce_Body1=r.force_i, Rtorque_Body1=r.moment_i,
+                    Rforce_Body2=r.force_j, Rtorque_Body2=r.moment_j)
+    return b, outputs
+
+
+#: utest_JOINT_linactuator.cpp, TestLinActuator(rot, desiredSpeed): the plate's orientation
+#: (Euler parameters e0..e3; Case02 QuatFromAngleY(pi/4)) and imposed speed along its z axis.
+LINACT_SETUP = {
+    "LinActuator_Case01": dict(p=(1.0, 0.0, 0.0, 0.0), speed=1.0),
+    "LinActuator_Case02": dict(p=(float(np.cos(np.pi / 8)), 0.0, float(np.sin(np.pi / 8)),
+                                  0.0), speed=0.5),
+}
+LINACT_MASS = 1.0
+
+
+def _linact_axis(name: str) -> np.ndarray:
+    from ..rotations import A_from_p
+    return A_from_p(np.asarray(LINACT_SETUP[name]["p"], float))[:, 2]
+
+
+def linear_actuator(name: str) -> tuple[ModelBuilder, Callable]:
+    """LinActuator_Case01/02 of Project Chrono's ``src/tests/unit_tests/joints/
+    utest_JOINT_linactuator.cpp`` (commit 7689fbc02d12c5419fa6acad8791100fd89979dd): a plate
+    of 1 kg, inertia diag(1, 1, 1) kg m^2, at the origin with orientation ``rot``, on a
+    ChLinkLockPrismatic to the ground along rot's z axis n (at the origin), and a
+    ChLinkLockLinActuator from the origin (ground) to the plate point n imposing the distance
+    1 + v t (ChFunctionRamp(0, v)), i.e. the slide v t along n; initial velocity v n; gravity
+    9.80665 m/s^2 along -z. Ours: a translational joint (ground, plate, point 0, axis n) with
+    a translation driver v t on it.
+
+    Tables: Pos/Vel/Acc of the centre of mass, Quat, Avel/Aacc; RforceP/RtorqueP the prismatic
+    joint's reaction on the ground (Chrono's body 2 of the prismatic) about the origin, its
+    fixed frame: our force_i/moment_i of the translational joint; RforceA/RtorqueA the
+    actuator's force on the plate (body 2 of the actuator) and its moment about the plate's
+    point: force_j/moment_j of the driver (which acts along n at the centre of mass)."""
+    from ..motion import ConstantVelocity
+    setup = LINACT_SETUP[name]
+    n = _linact_axis(name)
+    v = setup["speed"]
+    b = ModelBuilder(name, gravity=(0.0, 0.0, -G))
+    b.add_body("plate", LINACT_MASS, (1.0, 1.0, 1.0), r=(0.0, 0.0, 0.0), p=setup["p"],
+               rdot=v * n)
+    b.add_joint("translational", "prismatic", "ground", "plate", point=(0.0, 0.0, 0.0),
+                axis=n)
+    b.add_driver("translation", "actuator", ConstantVelocity(rate=v), joint="prismatic")
+
+    def outputs(res) -> dict:
+        body = res.body("plate")
+        reactions = res.reactions()
+        p, a = reactions["prismatic"], reactions["actuator"]
+        return dict(Pos=body["r"], Vel=body["rdot"], Acc=body["rddot"], Quat=body["p"],
+                    Avel=body["omega"], Aacc=body["omegadot"], RforceP=p.force_i,
+                    RtorqueP=p.moment_i, RforceA=a.force_j, RtorqueA=a.moment_j)
+    return b, outputs
+
+
+def linear_actuator_exact(name: str, t) -> dict:
+    """The exact solution of a LinActuator case: the motion is prescribed (no degree of
+    freedom left), r = v t n, constant orientation, no acceleration; the plate is in
+    equilibrium, so the actuator (its only direction n) carries the axial part of the weight,
+    -m (g.n) n on the plate, and the prismatic joint the normal part: on the ground
+    m g_n = m (g - (g.n) n), acting along the line through the centre of mass (the plate does
+    not turn, gravity and the actuator act at its centre of mass), so its moment about the
+    origin is r x m g_n. Arrays (nt, k) per table."""
+    t = np.asarray(t, float)
+    n = _linact_axis(name)
+    v = LINACT_SETUP[name]["speed"]
+    m, g = LINACT_MASS, np.array([0.0, 0.0, -G])
+    gn = g - (g @ n) * n
+    r = v * t[:, None] * n
+    zero = np.zeros((len(t), 3))
+    return dict(Pos=r, Vel=np.tile(v * n, (len(t), 1)), Acc=zero,
+                Quat=np.tile(LINACT_SETUP[name]["p"], (len(t), 1)), Avel=zero, Aacc=zero,
+                RforceP=np.tile(m * gn, (len(t), 1)), RtorqueP=np.cross(r, m * gn),
+                RforceA=np.tile(-m * (g @ n) * n, (len(t), 1)), RtorqueA=zero)
+
+
+def linear_actuator_scales(name: str, t) -> dict:
+    """Natural sizes of the LinActuator quantities for the integration bound: the travel
+    |r|max, the speed v, |g| for accelerations, the weight m |g| for forces and m |g| |r|max
+    for moments; the rates (none in the exact motion) with the floor sqrt(|g| / 1 m)."""
+    v = LINACT_SETUP[name]["speed"]
+    ell = max(1.0, v * float(np.max(t)))
+    w = float(np.sqrt(G / 1.0))
+    return dict(Pos=ell, Vel=v, Acc=G, Quat=1.0, Avel=w, Aacc=w * w, RforceP=LINACT_MASS * G,
+                RtorqueP=LINACT_MASS * G * ell, RforceA=LINACT_MASS * G,
+                RtorqueA=LINACT_MASS * G * ell)
+
+
+MODELS = {"RevSpherical_Case01": revolute_spherical, "RevSpherical_Case02": revolute_spherical,
+          "LinActuator_Case01": linear_actuator, "LinActuator_Case02": linear_actuator}
+#: the cases with an exact solution: (exact quantities(name, t), natural sizes(name, t))
+EXACT = {"LinActuator_Case01": (linear_actuator_exact, linear_actuator_scales),
+         "LinActuator_Case02": (linear_actuator_exact, linear_actuator_scales)}
