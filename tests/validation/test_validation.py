@@ -102,7 +102,7 @@ def test_published_values_entered_as_published():
     refs = json.loads((reference_dir() / "references.json").read_text())
     assert refs["spatial_slider_crank"]["energy_J"] == 0.76643568
     assert (refs["iftomm_a04"]["grubler"], refs["iftomm_a04"]["dof"]) == (0, 1)
-    # the ADAMS accuracy matches the benchdata README (about 5e-6 m and 8.4e-4 m)
+    # the ADAMS runs' accuracy against the exact solution (about 5e-6 m and 8.4e-4 m)
     cases = refs["adams"]["cases"]
     for name in ("Revolute_Case01", "Revolute_Case02", "Spherical_Case02"):
         assert 4e-6 < cases[name]["quantities"]["Pos"]["adams_error_vs_exact_max"] < 6e-6
