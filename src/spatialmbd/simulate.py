@@ -309,6 +309,9 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
     if res.status == "failed":
         if last_state.y is not None and np.all(np.isfinite(last_state.y[:7 * nb])):
             last, t_last = normalize_q(last_state.y[:7 * nb].reshape(nb, 7)), last_state.t
+        elif res.last is not None and np.all(np.isfinite(res.last[1][:7 * nb])):
+            # the compiled driver's last accepted state (where its steps stalled)
+            last, t_last = normalize_q(res.last[1][:7 * nb].reshape(nb, 7)), res.last[0]
         else:
             last = res.y[-1, :7 * nb].reshape(nb, 7) if len(res.t) else q
             t_last = float(res.t[-1]) if len(res.t) else t0
@@ -496,6 +499,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     holds the outputs after the last full chunk, as the Python driver's does."""
     from .dynamics import fused as fz
     from .integrators.base import Counters, IntegrationResult
+    from .integrators.controller import underflow_error
     from .integrators.pairs import pair_of
     system = eom.system
     pair = pair_of(integ)
@@ -595,21 +599,28 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
         # from emit (the stream's files): kept, with the cause, as the Python driver does
         status, message, code = getattr(exc, "status", "failed"), str(exc), fz.OK
     if code != fz.OK:
-        if k_base == 0:
-            return None                # nothing handed out yet: the Python driver reruns it
+        if k_base == 0 and code != fz.UNDERFLOW:
+            # nothing handed out yet: the Python driver reruns it (its least-squares fallbacks
+            # for a singular S or projection may get through) and says why. A stalled step
+            # control is not rerun: the rerun would stall too, or (at a singular position,
+            # where round-off decides where steps end) elsewhere, with fewer outputs
+            return None
         # streamed chunks cannot be taken back: the run stops here, as failed
         status, message = "failed", fz.STATUS_TEXT[code]
     times, states, acc = window(k_base, done)
     wall = time.perf_counter() - start
     t_fail = None
+    last = (float(t_out[done - 1]), states[-1].copy()) if len(states) else None
     if status != "success":
         t_fail = float(t_out[done]) if done < nt else float(t_out[-1])
         message = f"t = {t_fail:.6g} s: {message}"
+    if code == fz.UNDERFLOW:                             # where the steps stalled, as the
+        t_fail, last = float(t), (float(t), y.copy())    # Python driver reports it
+        message = str(underflow_error(integ.name, t_fail, h, "error test failed repeatedly"))
     res = IntegrationResult(
         t=np.array(times), y=states, status=status, message=message, t_fail=t_fail,
         counters=Counters(steps=int(counters[1]), rejected=int(counters[2]),
-                          nfev=int(counters[0]), wall_time=wall),
-        last=(float(t_out[done - 1]), states[-1].copy()) if len(states) else None)
+                          nfev=int(counters[0]), wall_time=wall), last=last)
     return res, acc
 
 

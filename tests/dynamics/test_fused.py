@@ -153,3 +153,28 @@ def test_compiled_rk4_is_fourth_order():
         errs.append(np.abs(res.q[-1] - ref.q[-1]).max())
     orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
     assert np.all(np.abs(orders - 4.0) < 0.3), orders
+
+
+def test_stalled_compiled_run_keeps_its_outputs_and_is_diagnosed(monkeypatch):
+    """A compiled run whose step control stalls (the N-four-bar at rk45 rtol 1e-9, at the flat
+    position of t = 0.7144 s) is not rerun by the Python driver: the result holds the outputs
+    reached, and the message says where the steps stalled and that it is a singular position."""
+    import warnings
+
+    from spatialmbd import models
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the Python driver was used")
+    monkeypatch.setattr(sim, "ODEProblem", refuse)
+    model = models.n_four_bar(2).compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = sim.simulate(model, 10.0, output_step=0.01, method="projection", rtol=1e-9,
+                           atol=1e-11)
+    assert res.status == "failed"
+    assert "rk45: step size h =" in res.message and "underflow" in res.message
+    t_stall = float(res.message.split("t = ")[1].split(" s")[0])
+    assert f"singular position near t = {t_stall:.6g} s" in res.message
+    # every output before the stall is kept
+    assert res.t[-1] <= t_stall < res.t[-1] + 0.01 and len(res.t) == int(t_stall / 0.01) + 1
+    assert np.all(np.isfinite(res.q)) and np.all(np.isfinite(res.vdot))

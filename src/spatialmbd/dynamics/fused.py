@@ -27,7 +27,10 @@ rk45 / rk4 runs without events, drivers, couplers or budgets; :mod:`..sweep.batc
 members.
 
 Status codes: :data:`OK`, :data:`NEED_ROOM` or a failure (:data:`STATUS_TEXT`); a failed run
-is rerun by the Python driver in simulate(), which produces its diagnosis.
+is rerun by the Python driver in simulate() (whose least-squares fallbacks may get through a
+singular S or projection), which produces its diagnosis -- except a stalled step control
+(:data:`UNDERFLOW`): simulate() then returns the outputs reached, diagnosed at the state where
+the steps stalled.
 """
 from __future__ import annotations
 
