@@ -70,20 +70,31 @@ def _number(text: str) -> float:
     return np.deg2rad(value) if m.group(2) else value
 
 
-def _split_commas(text: str) -> list[str]:
-    """``text`` split at the commas outside parentheses (a FUNCTION expression such as
-    ``DM(0202, 0102)-2`` stays one item)."""
+def _split_outside_parentheses(text: str, at) -> list[str]:
+    """``text`` split before (``at(text, k)`` = "keep") or at (= "drop") the characters k
+    outside parentheses for which ``at`` says so (None: no split there)."""
     items, depth, start = [], 0, 0
     for k, ch in enumerate(text):
         if ch == "(":
             depth += 1
         elif ch == ")":
             depth -= 1
-        elif ch == "," and depth == 0:
-            items.append(text[start:k])
-            start = k + 1
+        elif depth == 0:
+            how = at(text, k)
+            if how == "drop":
+                items.append(text[start:k])
+                start = k + 1
+            elif how == "keep" and k > start:
+                items.append(text[start:k])
+                start = k
     items.append(text[start:])
     return items
+
+
+def _split_commas(text: str) -> list[str]:
+    """``text`` split at the commas outside parentheses (a FUNCTION expression such as
+    ``DM(0202, 0102)-2`` stays one item)."""
+    return _split_outside_parentheses(text, lambda s, k: "drop" if s[k] == "," else None)
 
 
 @dataclass
@@ -338,18 +349,10 @@ _OPERANDS = {
 
 def _terms(expr: str) -> list[str]:
     """A sum split into its terms at the signs outside parentheses (not an exponent's)."""
-    out, depth, start = [], 0, 0
-    for k, ch in enumerate(expr):
-        if ch == "(":
-            depth += 1
-        elif ch == ")":
-            depth -= 1
-        elif (ch in "+-" and depth == 0 and k > start
-              and not (expr[k - 1] == "e" and k > 1 and expr[k - 2] in "0123456789.")):
-            out.append(expr[start:k])
-            start = k
-    out.append(expr[start:])
-    return out
+    def sign(e, k):
+        exponent = e[k - 1] == "e" and k > 1 and e[k - 2] in "0123456789."
+        return "keep" if e[k] in "+-" and not exponent else None
+    return _split_outside_parentheses(expr, sign)
 
 
 def _sforce(filename: str, st: Statement) -> dict:

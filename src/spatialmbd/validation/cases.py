@@ -17,7 +17,7 @@ from ..kinematics import kinematic_analysis, mobility
 from ..model import ModelBuilder
 from ..rotations import A_from_p
 from ..simulate import RedundantConstraintsWarning, simulate
-from .adams import Deck, read_table
+from .adams import read_table
 from .core import (CaseResult, Timer, adams_dir, bound_basis, compare_history, compare_value,
                    hermite_crossings, integration_bound, references)
 from .exact import (EulerFreeBody, PhysicalPendulum, align_quaternion_sign, rotating_pendulum,

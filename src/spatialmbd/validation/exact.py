@@ -92,6 +92,20 @@ class PendulumMotion:
     moment_on_body: np.ndarray  # joint reaction moment on the pendulum about the pivot
 
 
+def _body_on_line(obj, mass, inertia, r0, A0, point, axis, g) -> None:
+    """The data of a body guided by a fixed line (point P, unit axis n) under gravity g, set on
+    ``obj``: m, Jc (centroidal tensor), r0, A0, P, n, g."""
+    obj.m = float(mass)
+    J = np.asarray(inertia, dtype=float)
+    obj.Jc = np.diag(J) if J.shape == (3,) else J
+    obj.r0 = np.asarray(r0, dtype=float)
+    obj.A0 = np.asarray(A0, dtype=float)
+    obj.P = np.asarray(point, dtype=float)
+    n = np.asarray(axis, dtype=float)
+    obj.n = n / np.linalg.norm(n)
+    obj.g = np.asarray(g, dtype=float)
+
+
 class PhysicalPendulum:
     """A rigid body turning about a fixed axis through ``pivot`` under uniform gravity ``g``,
     released from rest at t = 0 (exact large-amplitude solution).
@@ -111,15 +125,7 @@ class PhysicalPendulum:
     """
 
     def __init__(self, mass, inertia, r0, A0, pivot, axis, g):
-        self.m = float(mass)
-        J = np.asarray(inertia, dtype=float)
-        self.Jc = np.diag(J) if J.shape == (3,) else J
-        self.r0 = np.asarray(r0, dtype=float)
-        self.A0 = np.asarray(A0, dtype=float)
-        self.P = np.asarray(pivot, dtype=float)
-        n = np.asarray(axis, dtype=float)
-        self.n = n / np.linalg.norm(n)
-        self.g = np.asarray(g, dtype=float)
+        _body_on_line(self, mass, inertia, r0, A0, pivot, axis, g)
         gn = self.g - (self.g @ self.n) * self.n
         self.gn = float(np.linalg.norm(gn))
         self.g_hat = gn / self.gn
@@ -250,15 +256,7 @@ class AxialMotion:
     """
 
     def __init__(self, mass, inertia, r0, A0, point, axis, g, rotates: bool):
-        self.m = float(mass)
-        J = np.asarray(inertia, dtype=float)
-        self.Jc = np.diag(J) if J.shape == (3,) else J
-        self.r0 = np.asarray(r0, dtype=float)
-        self.A0 = np.asarray(A0, dtype=float)
-        self.P = np.asarray(point, dtype=float)
-        n = np.asarray(axis, dtype=float)
-        self.n = n / np.linalg.norm(n)
-        self.g = np.asarray(g, dtype=float)
+        _body_on_line(self, mass, inertia, r0, A0, point, axis, g)
         self.g_axial = float(self.g @ self.n)            # acceleration along the line
         torque = self.n @ np.cross(self.r0 - self.P, self.g)
         scale = np.linalg.norm(self.r0 - self.P) * np.linalg.norm(self.g)
