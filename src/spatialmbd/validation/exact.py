@@ -92,18 +92,20 @@ class PendulumMotion:
     moment_on_body: np.ndarray  # joint reaction moment on the pendulum about the pivot
 
 
-def _body_on_line(obj, mass, inertia, r0, A0, point, axis, g) -> None:
-    """The data of a body guided by a fixed line (point P, unit axis n) under gravity g, set on
-    ``obj``: m, Jc (centroidal tensor), r0, A0, P, n, g."""
+def _body_data(obj, mass, inertia, r0, A0, point, g, axis=None) -> None:
+    """The data of a body held at a fixed point P (or guided by the line through it along
+    ``axis``) under gravity g, set on ``obj``: m, Jc (centroidal tensor), r0, A0, P, g, and
+    with an axis its unit vector n."""
     obj.m = float(mass)
     J = np.asarray(inertia, dtype=float)
     obj.Jc = np.diag(J) if J.shape == (3,) else J
     obj.r0 = np.asarray(r0, dtype=float)
     obj.A0 = np.asarray(A0, dtype=float)
     obj.P = np.asarray(point, dtype=float)
-    n = np.asarray(axis, dtype=float)
-    obj.n = n / np.linalg.norm(n)
     obj.g = np.asarray(g, dtype=float)
+    if axis is not None:
+        n = np.asarray(axis, dtype=float)
+        obj.n = n / np.linalg.norm(n)
 
 
 class PhysicalPendulum:
@@ -125,7 +127,7 @@ class PhysicalPendulum:
     """
 
     def __init__(self, mass, inertia, r0, A0, pivot, axis, g):
-        _body_on_line(self, mass, inertia, r0, A0, pivot, axis, g)
+        _body_data(self, mass, inertia, r0, A0, pivot, g, axis)
         gn = self.g - (self.g @ self.n) * self.n
         self.gn = float(np.linalg.norm(gn))
         self.g_hat = gn / self.gn
@@ -256,7 +258,7 @@ class AxialMotion:
     """
 
     def __init__(self, mass, inertia, r0, A0, point, axis, g, rotates: bool):
-        _body_on_line(self, mass, inertia, r0, A0, point, axis, g)
+        _body_data(self, mass, inertia, r0, A0, point, g, axis)
         self.g_axial = float(self.g @ self.n)            # acceleration along the line
         torque = self.n @ np.cross(self.r0 - self.P, self.g)
         scale = np.linalg.norm(self.r0 - self.P) * np.linalg.norm(self.g)
@@ -302,13 +304,7 @@ class DistancePendulum:
     """
 
     def __init__(self, mass, inertia, r0, A0, point, g):
-        self.m = float(mass)
-        J = np.asarray(inertia, dtype=float)
-        self.Jc = np.diag(J) if J.shape == (3,) else J
-        self.r0 = np.asarray(r0, dtype=float)
-        self.A0 = np.asarray(A0, dtype=float)
-        self.P = np.asarray(point, dtype=float)
-        self.g = np.asarray(g, dtype=float)
+        _body_data(self, mass, inertia, r0, A0, point, g)
         self.L = float(np.linalg.norm(self.r0 - self.P))
         self.pendulum = PhysicalPendulum(mass, np.zeros((3, 3)), self.r0, np.eye(3), self.P,
                                          np.cross(self.r0 - self.P, self.g), self.g)
