@@ -74,7 +74,7 @@ def output_times(t_end: float, output_step: Optional[float], t_eval, t0: float =
     check_outputs(n_float + 1, t_end - t0, output_step, max_outputs, n_state, n_eq)
     n = int(np.floor(n_float + 1e-9))
     t = t0 + output_step * np.arange(n + 1)
-    if abs(t[-1] - t_end) <= 1e-9 * output_step:
+    if abs(t[-1] - t_end) <= max(1e-9 * output_step, 1e-12 * max(1.0, abs(t_end))):
         t[-1] = t_end                  # the last step of the grid ends on t_end, not an ulp off
     elif t[-1] < t_end:
         t = np.append(t, t_end)
