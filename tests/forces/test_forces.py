@@ -5,6 +5,7 @@ import pytest
 
 from spatialmbd import ModelBuilder
 from spatialmbd.motion import Harmonic
+from spatialmbd.simulate import simulate
 from spatialmbd.state import BodyState
 
 from fd_check import q_along, random_state
@@ -157,3 +158,40 @@ def test_every_compiled_force_type_balances_energy_in_the_fused_right_hand_side(
     assert res.success, res.message
     energy = res.energy()
     assert np.abs(energy["error"]).max() < 1e-8 * np.abs(energy["kinetic"]).max()
+
+
+def test_zero_length_spring_damper_starts_at_coincident_points():
+    """A spring-damper of zero free length whose points coincide at the start (Project
+    Chrono's TranSpring_Case01 set-up): the direction there is the limit along the motion,
+    so the body launched along x from the anchor is the damped oscillator
+    m x'' = -k x - c x', x(0) = 0, x'(0) = v0, through the anchor at every half period."""
+    m, k, c, v0 = 2.0, 50.0, 1.5, 0.8
+    b = ModelBuilder("zero_length", gravity=(0.0, 0.0, 0.0))
+    b.add_body("a", m, (0.1, 0.1, 0.1), r=(0.3, -0.2, 0.5), rdot=(v0, 0.0, 0.0))
+    b.add_force("spring_damper", "s", body_i="ground", body_j="a", point_i=(0.3, -0.2, 0.5),
+                stiffness=k, damping=c)                     # natural length: assembled, 0
+    model = b.compile()
+    assert model.force_groups[0].l0[0] == 0.0
+    res = simulate(model, 3.0, output_step=0.01, rtol=1e-10, atol=1e-12)
+    assert res.success, res.message
+    w = np.sqrt(k / m)
+    zeta = c / (2.0 * np.sqrt(k * m))
+    wd = w * np.sqrt(1.0 - zeta ** 2)
+    x = v0 / wd * np.exp(-zeta * w * res.t) * np.sin(wd * res.t)
+    r = res.q[:, 0, :3] - np.array([0.3, -0.2, 0.5])
+    assert np.abs(r[:, 0] - x).max() < 1e-8
+    assert np.abs(r[:, 1:]).max() < 1e-12
+    # the element's power balances the energy: T + V_spring + damper work constant
+    en = res.energy()
+    assert np.abs(en["error"]).max() < 1e-8
+
+
+def test_zero_length_with_a_free_length_is_still_refused():
+    """Coincident points of a spring with l0 > 0: the direction of its force k l0 is undefined
+    and the run stops, naming the element."""
+    b = ModelBuilder("zero_length_l0", gravity=(0.0, 0.0, 0.0))
+    b.add_body("a", 1.0, (0.1, 0.1, 0.1), r=(0.0, 0.0, 0.0))
+    b.add_force("spring_damper", "spring1", body_i="ground", body_j="a", stiffness=5.0,
+                natural_length=0.2)
+    res = simulate(b.compile(), 0.1)
+    assert res.status == "failed" and "spring_damper: spring1" in res.message

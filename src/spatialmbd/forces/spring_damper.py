@@ -2,7 +2,9 @@
 
 l = r_j^P - r_i^P (11.5), l = |l| (11.6), u = l / l (11.7), ldot = u^T ldot_vec (11.8),
 f = k (l - l0) + c ldot + f_a(t) (11.10), f_i = f u, f_j = -f u (11.11): a positive f (tension)
-pulls the two points towards each other. l0 defaults to the assembled length.
+pulls the two points towards each other. l0 defaults to the assembled length. With l0 = 0 the
+points may coincide (a zero-length spring, f_i = k l_vec + c ldot u): there u is the limit
+along the motion, the direction of the relative velocity.
 """
 from __future__ import annotations
 
@@ -24,11 +26,19 @@ def kernel(S, G, k, g, energy, power, D):
     lv = kin_sub(Pj, Pi)                                                   # Eq. (11.5)
     x = lv[0]
     length = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) ** 0.5              # Eq. (11.6)
-    # a zero length leaves the direction undefined: the force becomes NaN and the run stops
-    # with the element named (the right-hand side's finiteness check)
-    u = (x[0] / length, x[1] / length, x[2] / length)                      # Eq. (11.7)
-    ldot = v_dot(u, lv[1])                                                 # Eq. (11.8)
     stiffness, damping, l0 = G.param[k, 0], G.param[k, 1], G.param[k, 2]
+    if length == 0.0 and l0 == 0.0:
+        # coincident points of a spring of zero free length: the spring force k l u vanishes
+        # and u is the limit l / |l| along the motion, ldot_vec / |ldot_vec| (the points part
+        # along their relative velocity), so the damping force is c ldot_vec; at rest, none
+        d = lv[1]
+        speed = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) ** 0.5
+        u = (d[0] / speed, d[1] / speed, d[2] / speed) if speed > 0.0 else (0.0, 0.0, 0.0)
+    else:
+        # with l0 > 0 a zero length leaves the direction undefined: the force becomes NaN and
+        # the run stops with the element named (the right-hand side's finiteness check)
+        u = (x[0] / length, x[1] / length, x[2] / length)                  # Eq. (11.7)
+    ldot = v_dot(u, lv[1])                                                 # Eq. (11.8)
     fa = G.law[k, 0]
     f = stiffness * (length - l0) + damping * ldot + fa                    # Eq. (11.10)
     fi = (f * u[0], f * u[1], f * u[2])                                    # Eq. (11.11)
