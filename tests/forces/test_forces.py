@@ -195,3 +195,23 @@ def test_zero_length_with_a_free_length_is_still_refused():
                 natural_length=0.2)
     res = simulate(b.compile(), 0.1)
     assert res.status == "failed" and "spring_damper: spring1" in res.message
+
+
+def test_zero_length_spring_damper_holds_a_body_dropped_from_its_anchor():
+    """Project Chrono's TranSpring_Case01: the body at rest on the anchor of a zero-length
+    spring-damper (k = 10 N/m, c = 0.5 N s/m, m = 1 kg), released under gravity: at t = 0 the
+    points coincide at rest (no spring force), then z(t) follows
+    m z'' = -k z - c z' - m g from z = 0, z' = 0."""
+    m, k, c, g = 1.0, 10.0, 0.5, 9.80665
+    b = ModelBuilder("tran_spring_case01", gravity=(0.0, 0.0, -g))
+    b.add_body("pendulum", m, (0.04, 0.1, 0.1), r=(0.0, 0.0, 0.0))
+    b.add_force("spring_damper", "spring", body_i="pendulum", body_j="ground",
+                stiffness=k, damping=c)
+    res = simulate(b.compile(), 5.0, output_step=0.01, rtol=1e-10, atol=1e-12)
+    assert res.success, res.message
+    w, zeta = np.sqrt(k / m), c / (2.0 * np.sqrt(k * m))
+    wd = w * np.sqrt(1.0 - zeta ** 2)
+    z = -m * g / k * (1.0 - np.exp(-zeta * w * res.t) * (np.cos(wd * res.t)
+                                                         + zeta * w / wd * np.sin(wd * res.t)))
+    assert np.abs(res.q[:, 0, 2] - z).max() < 1e-8
+    assert np.abs(res.q[:, 0, :2]).max() == 0.0 and np.abs(res.v[:, 0, 3:]).max() == 0.0
