@@ -197,6 +197,40 @@ UNITS = dict(Pos="m", Vel="m/s", Acc="m/s^2", Quat="", Avel="rad/s", Aacc="rad/s
              Rforce="N", Rtorque="N m")
 
 
+def _compare_tables(case, res, t, tables, ours, exact, scales, entry, rms_basis):
+    """Every ADAMS table against ours. With an exact solution (``exact``, ``scales``: its
+    quantities and natural sizes): within ADAMS's own error against it + our integration
+    bound, and ours against it within that bound. Without one (exact None): by Project
+    Chrono's RMS metric and tolerance (``rms_basis`` names its source)."""
+    for q, (tq, val, cols) in tables.items():
+        if not np.allclose(tq, t):
+            raise ValueError(f"{case.name}: {q} has different output times")
+        o = align_quaternion_sign(ours[q], val) if q == "Quat" else ours[q]
+        unit = _unit(q)
+        if exact is None:
+            _compare_rms(case, f"{q} vs ADAMS (RMS)", o, val,
+                         entry["quantities"][q]["chrono_rms_tolerance"],
+                         f"Project Chrono's RMS tolerance for its own solution ({rms_basis})",
+                         unit, cols, t)
+            continue
+        e = align_quaternion_sign(exact[q], val) if q == "Quat" else exact[q]
+        ours_bound = integration_bound(res, scales[q])
+        adams_err = entry["quantities"][q]["adams_error_vs_exact_max"]
+        compare_history(case, f"{q} vs ADAMS", o, val, adams_err + ours_bound,
+                        f"ADAMS error vs exact {adams_err:.2g} + ours "
+                        f"{ours_bound:.2g} [{bound_basis(res, scales[q])}]", unit, t=t)
+        compare_history(case, f"{q} vs exact", o, e, ours_bound,
+                        bound_basis(res, scales[q]), unit, t=t)
+
+
+def _unit(table: str) -> str:
+    """The unit of a table: Rforce_Body1, RforceP, RforceA... are forces (Rforce)."""
+    for q, unit in UNITS.items():
+        if table == q or table.startswith(q + "_") or table[:-1] == q:
+            return unit
+    raise KeyError(table)
+
+
 def adams_case(name: str, full: bool) -> CaseResult:
     """One ADAMS joint test: the deck read into a model, simulated over the 501 output times
     of the tables. With an exact solution (references.adams_exact): every table compared with
@@ -221,32 +255,12 @@ def adams_case(name: str, full: bool) -> CaseResult:
     force_ground, moment_ground = _ground_load(res, deck)
     ours = dict(Pos=b["r"], Vel=b["rdot"], Acc=b["rddot"], Quat=b["p"], Avel=b["omega"],
                 Aacc=b["omegadot"], Rforce=force_ground, Rtorque=moment_ground)
+    exact = scales = None
     if exact_solution is not None:
         exact = exact_adams_quantities(exact_solution, t)
         scales = _exact_scales(exact_solution, t)
-    for q, (tq, val, cols) in tables.items():
-        if not np.allclose(tq, t):
-            raise ValueError(f"{name}: {q} has different output times")
-        o = ours[q]
-        if q == "Quat":
-            o = align_quaternion_sign(o, val)
-        if exact_solution is None:
-            tol = entry["quantities"][q]["chrono_rms_tolerance"]
-            _compare_rms(case, f"{q} vs ADAMS (RMS)", o, val, tol,
-                         f"Project Chrono's RMS tolerance for its own solution "
-                         f"({entry['chrono_test'].split(' of ')[0].split('/')[-1]})",
-                         UNITS[q], cols, t)
-            continue
-        e = exact[q]
-        if q == "Quat":
-            e = align_quaternion_sign(e, val)
-        ours_bound = integration_bound(res, scales[q])
-        adams_err = entry["quantities"][q]["adams_error_vs_exact_max"]
-        compare_history(case, f"{q} vs ADAMS", o, val, adams_err + ours_bound,
-                        f"ADAMS error vs exact {adams_err:.2g} + ours "
-                        f"{ours_bound:.2g} [{bound_basis(res, scales[q])}]", UNITS[q], t=t)
-        compare_history(case, f"{q} vs exact", o, e, ours_bound,
-                        bound_basis(res, scales[q]), UNITS[q], t=t)
+    _compare_tables(case, res, t, tables, ours, exact, scales, entry,
+                    entry.get("chrono_test", "").split(" of ")[0].split("/")[-1])
     reaction = (f"reaction = force_i/moment_i (on the ground, body i of the "
                 f"{joint['type'].lower()} {'constraint' if joint['type'] == 'DISTANCE' else 'joint'}"
                 ", about the fixed I marker) as ADAMS reports it")
@@ -287,14 +301,6 @@ def adams_case(name: str, full: bool) -> CaseResult:
     return case
 
 
-def _unit(table: str) -> str:
-    """The unit of a table: Rforce_Body1, RforceP, RforceA... are forces (Rforce)."""
-    for q, unit in UNITS.items():
-        if table == q or table.startswith(q + "_") or table[:-1] == q:
-            return unit
-    raise KeyError(table)
-
-
 def chrono_model_case(name: str, full: bool) -> CaseResult:
     """A Chrono joint test without an ADAMS deck (references.MODEL_CASES): the model rebuilt
     in code from the unit test's source (validation.chrono_models), simulated over the 501
@@ -305,7 +311,7 @@ def chrono_model_case(name: str, full: bool) -> CaseResult:
     by Project Chrono's metric and tolerance (RMS per column). The short run uses rtol 1e-9,
     not the 1e-7 of the deck cases: at 1e-7 our own integration error in RevSpherical_Case02's
     Vel (RMS 1.0e-4 m/s) reaches Chrono's tolerance 1e-4."""
-    from .chrono_models import EXACT, MODELS, link_length
+    from .chrono_models import CONVENTIONS, EXACT, MODELS, link_length
     info = references()["adams"]
     entry = info["cases"][name]
     test, tables_used, _ = MODEL_CASES[name]
@@ -318,38 +324,17 @@ def chrono_model_case(name: str, full: bool) -> CaseResult:
     tables = {q: read_table(d / f"{name}_ADAMS_{q}.txt") for q in tables_used}
     t = next(iter(tables.values()))[0]
     res = _sim(model, float(t[-1]), full, 1e-9, 1e-11, method="standard", t_eval=t)
-    ours = outputs(res)
+    exact = scales = None
     if name in EXACT:
         exact_of, scales_of = EXACT[name]
         exact, scales = exact_of(name, t), scales_of(name, t)
-    for q, (tq, val, cols) in tables.items():
-        if not np.allclose(tq, t):
-            raise ValueError(f"{name}: {q} has different output times")
-        o = align_quaternion_sign(ours[q], val) if q == "Quat" else ours[q]
-        unit = _unit(q)
-        if name not in EXACT:
-            _compare_rms(case, f"{q} vs ADAMS (RMS)", o, val,
-                         entry["quantities"][q]["chrono_rms_tolerance"],
-                         f"Project Chrono's RMS tolerance for its own solution ({test})",
-                         unit, cols, t)
-            continue
-        e = align_quaternion_sign(exact[q], val) if q == "Quat" else exact[q]
-        ours_bound = integration_bound(res, scales[q])
-        adams_err = entry["quantities"][q]["adams_error_vs_exact_max"]
-        compare_history(case, f"{q} vs ADAMS", o, val, adams_err + ours_bound,
-                        f"ADAMS error vs exact {adams_err:.2g} + ours "
-                        f"{ours_bound:.2g} [{bound_basis(res, scales[q])}]", unit, t=t)
-        compare_history(case, f"{q} vs exact", o, e, ours_bound,
-                        bound_basis(res, scales[q]), unit, t=t)
+    _compare_tables(case, res, t, tables, outputs(res), exact, scales, entry, test)
     size = max(1.0, float(np.linalg.norm(res.q[:, :, :3], axis=2).max()))
     if name in EXACT:
         _energy_checks(case, res, "energy balance (T + V - W_driver)(t) - (T + V)(0)")
         _violation_check(case, res, scale=size)
-        case.notes.append(f"exact: {entry['exact']}; {entry['model']}; RforceP/RtorqueP = the "
-                          "translational joint's force_i/moment_i (on the ground, about the "
-                          "origin), RforceA/RtorqueA = the translation driver's force_j/"
-                          f"moment_j (on the plate, about its centre of mass); driver work "
-                          f"{res.work[-1]:.6g} J")
+        case.notes.append(f"exact: {entry['exact']}; {entry['model']}; {CONVENTIONS[name]}; "
+                          f"driver work {res.work[-1]:.6g} J")
         return case
     _energy_checks(case, res, "energy change")
     # Phi = (u.d, d.d - L^2): a position error dr changes them by at most 2 L dr
@@ -360,9 +345,7 @@ def chrono_model_case(name: str, full: bool) -> CaseResult:
                     bound_basis(res, scale, "(2 L |r|max: dPhi <= 2 L dr)"), "m^2", t=res.t)
     case.notes.append(f"no closed form ({entry['why'].split(';')[0][len('no closed form: '):]}"
                       f"); {entry['model']}; Chrono's tolerances from {entry['chrono_test']}; "
-                      "Rforce/Rtorque_Body1 = our force_i/moment_i (on the ground, about the "
-                      "revolute point), _Body2 = force_j/moment_j (on the pendulum, about the "
-                      "spherical point), global axes")
+                      f"{CONVENTIONS[name]}")
     return case
 
 

@@ -153,6 +153,15 @@ def linear_actuator_scales(name: str, t) -> dict:
 
 MODELS = {"RevSpherical_Case01": revolute_spherical, "RevSpherical_Case02": revolute_spherical,
           "LinActuator_Case01": linear_actuator, "LinActuator_Case02": linear_actuator}
+#: which of our outputs each case's reaction tables are (the ``outputs`` functions above)
+_REVSPH = ("Rforce/Rtorque_Body1 = our force_i/moment_i (on the ground, about the revolute "
+           "point), _Body2 = force_j/moment_j (on the pendulum, about the spherical point), "
+           "global axes")
+_LINACT = ("RforceP/RtorqueP = the translational joint's force_i/moment_i (on the ground, "
+           "about the origin), RforceA/RtorqueA = the translation driver's force_j/moment_j "
+           "(on the plate, about its centre of mass)")
+CONVENTIONS = {"RevSpherical_Case01": _REVSPH, "RevSpherical_Case02": _REVSPH,
+               "LinActuator_Case01": _LINACT, "LinActuator_Case02": _LINACT}
 #: the cases with an exact solution: (exact quantities(name, t), natural sizes(name, t))
 EXACT = {"LinActuator_Case01": (linear_actuator_exact, linear_actuator_scales),
          "LinActuator_Case02": (linear_actuator_exact, linear_actuator_scales)}
