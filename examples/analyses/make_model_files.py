@@ -6,6 +6,7 @@ slider_crank_torque.yaml   inverse dynamics: motor torque of the driven slider-c
 hanging_chain.yaml         static equilibrium of five rods hanging between two pins
 double_pendulum_modes.yaml modes of a double pendulum of two uniform rods
 spinning_top_modes.yaml    modes of a sleeping top (steady spin above the stability threshold)
+bicycle_modes.yaml         modes of the benchmark bicycle running straight at 5 m/s (rolling wheels)
 """
 from pathlib import Path
 
@@ -68,6 +69,10 @@ FILES = {
                            Analysis(type="modal", steady=True),
                            "Sleeping top spinning at 50 rad/s about the vertical (threshold "
                            "29.3 rad/s): modes of the steady motion"),
+    "bicycle_modes": (models.whipple_bicycle(speed=5.0), Analysis(type="modal", steady=True),
+                      "The Meijaard et al. (2007) benchmark bicycle running straight at 5 m/s "
+                      "(self-stable from 4.29 to 6.02 m/s): weave -0.775 +- 4.465i, capsize "
+                      "-0.323 and castering -14.08 1/s"),
 }
 
 

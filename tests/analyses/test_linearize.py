@@ -360,3 +360,120 @@ def test_robot_arm_joint_torque_input_and_joint_angle_output():
     from spatialmbd.errors import ModelError
     with pytest.raises(ModelError, match="joint1.angel"):
         linearize(model, sol.q, np.zeros(6 * model.nb), outputs=["joint1.angel"])
+
+
+# ------------------------------------------------------------------------------ nonholonomic
+def rolling_coin(speed, R=0.1, m=0.5):
+    """A thin uniform coin (axial moment C = m R^2 / 2, diametral A = m R^2 / 4) rolling
+    upright along x at ``speed``, axis along y, on the ground z = 0."""
+    b = ModelBuilder("coin", gravity=(0, 0, -G))
+    b.add_body("coin", m, (m * R * R / 2, m * R * R / 4, m * R * R / 4), r=(0, 0, R),
+               A=np.column_stack([[0, 1.0, 0], [-1.0, 0, 0], [0, 0, 1.0]]),
+               rdot=(speed, 0, 0), omega=(0, speed / R, 0))
+    b.add_joint("rolling_disc", "roll", "coin", "ground", point=(0, 0, R), axis=(0, 1, 0),
+                point2=(0, 0, 0), axis2=(0, 0, 1), radius=R)
+    return b.compile()
+
+
+@pytest.mark.parametrize("speed", [0.0, 0.5, 1.0, 2.0])
+def test_rolling_coin_lean_eigenvalues_match_the_closed_form(speed):
+    """Upright rolling disc at spin Omega = v / R, small lean theta and heading psi (Routh;
+    e.g. Neimark & Fufaev, Dynamics of Nonholonomic Systems):
+    (A + m R^2) theta'' + (C + m R^2) Omega psi' - m g R theta = 0,  A psi'' = C Omega theta',
+    so s^2 = (m g R - C (C + m R^2) Omega^2 / A) / (A + m R^2): falling at rest, stable above
+    v^2 = g R / 3 (thin disc). Five position and three velocity coordinates (two slip rows);
+    every other eigenvalue is zero."""
+    R, m = 0.1, 0.5
+    A, C = m * R * R / 4, m * R * R / 2
+    lin = linearize(rolling_coin(speed), steady=speed > 0)
+    assert lin.nonholonomic and (lin.n, lin.n_velocity) == (5, 3)
+    assert lin.C is None and lin.K is None and lin.A.shape == (8, 8)
+    Om = speed / R
+    s2 = (m * G * R - C * (C + m * R * R) * Om**2 / A) / (A + m * R * R)
+    ev = np.linalg.eigvals(lin.A)
+    ev = ev[np.argsort(np.abs(ev))]
+    expected = np.sort_complex(np.sqrt(complex(s2)) * np.array([1, -1]))
+    assert np.allclose(np.sort_complex(ev[-2:]), expected, rtol=1e-8, atol=1e-8)
+    assert np.abs(ev[:-2]).max() < 1e-5 * np.abs(ev[-1])
+    md = modes(lin)
+    assert md.stable == (s2 < 0)
+
+
+def test_partitioned_coordinates_are_refused_with_nonholonomic_constraints():
+    from spatialmbd.errors import ModelError
+    with pytest.raises(ModelError, match="'partition' is not available with nonholonomic"):
+        linearize(rolling_coin(1.0), steady=True, coordinates="partition")
+
+
+def test_bicycle_linearization_analytic_and_differenced_agree_and_frames_label_it():
+    from spatialmbd.models import whipple_bicycle
+    model = whipple_bicycle(5.0).compile()
+    a = linearize(model, steady=True, outputs=["steer.angle"], inputs=["front_frame.mz"])
+    f = linearize(model, steady=True, derivatives="fd", outputs=["steer.angle"],
+                  inputs=["front_frame.mz"])
+    assert np.allclose(a.A, f.A, atol=1e-6 * np.abs(a.A).max())
+    assert np.allclose(a.B, f.B, atol=1e-9) and np.abs(a.B).max() > 0
+    fr = a.frames()
+    assert set(fr) == {"M", "B_u", "A", "B", "C_out", "D_out"}
+    assert list(fr["A"].index) == [f"z{k}" for k in range(7)] + [f"w{k}" for k in range(3)]
+    assert "7 independent position and 3 velocity coordinates" in a.summary()
+
+
+@pytest.mark.parametrize("speed, stable", [(3.0, False), (5.0, True), (7.0, False)])
+def test_bicycle_self_stability_by_speed(speed, stable):
+    """Meijaard et al. (2007): the benchmark bicycle runs hands-free only between its weave
+    speed 4.29 m/s (below, the lean-steer oscillation grows) and its capsize speed 6.02 m/s
+    (above, it slowly falls over: an unstable real mode)."""
+    from spatialmbd.models import whipple_bicycle
+    md = modes(whipple_bicycle(speed).compile(), steady=True)
+    assert md.stable == stable
+    unstable = md.table[md.table["kind"] == "unstable"]
+    if speed < 4:
+        assert (unstable["imag"].abs() > 1).all() and len(unstable) == 1      # weave
+    if speed > 6.5:
+        assert (unstable["imag"] == 0).all() and len(unstable) == 1          # capsize
+
+
+def test_coin_in_steady_circular_motion_in_the_turning_frame_matches_nonlinear_simulation():
+    """The coin of models.rolling_disc rolls on a circle, its whole motion turning at the
+    precession rate Omega about z: a relative equilibrium. In the frame turning at Omega
+    (frame_rate) the tangent spaces stand still (no warning, where the fixed frame warns), and
+    a small kick dv (in the null space of D) evolves as expm(A t) [0, N_v^T dv]: the simulated
+    coin's tangent coordinates about the reference q*(t) (the start turned by Omega t about z,
+    spun by the spin rate about its axis), turned back into the frame, follow it."""
+    import warnings
+    from scipy.linalg import expm
+    from spatialmbd.analyses.common import perturb  # noqa: F401  (tangent space convention)
+    from spatialmbd.analyses.linearize import TurningNullSpaceWarning
+    from spatialmbd.models import rolling_disc, rolling_disc_steady
+    from spatialmbd.rotations import quat_multiply
+    from spatialmbd.simulate import simulate
+    Om, spin = rolling_disc_steady()
+    model = rolling_disc().compile()
+    with pytest.warns(TurningNullSpaceWarning):
+        linearize(model, steady=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TurningNullSpaceWarning)
+        lin = linearize(model, steady=True, frame_rate=(0, 0, Om))
+    assert lin.nonholonomic and modes(lin).stable
+    eps = 1e-5
+    dv = lin.velocity_basis @ (lin.velocity_basis.T @ (eps * np.array([0, 0, 0, 0, 1.0, 0])))
+    x0 = np.concatenate([np.zeros(lin.n), lin.velocity_basis.T @ dv])
+    t = np.linspace(0, 1.0, 11)
+    res = simulate(model, 1.0, t_eval=t, v0=(model.v0.reshape(-1) + dv).reshape(1, 6),
+                   method="projection", rtol=1e-11, atol=1e-14, correct_initial=False)
+    assert res.success
+    u = np.array([1.0, 0, 0])                                    # the coin's axis, body x
+    err = 0.0
+    for k, tk in enumerate(t):
+        turn = np.array([np.cos(Om * tk / 2), 0, 0, np.sin(Om * tk / 2)])
+        own = np.concatenate([[np.cos(spin * tk / 2)], np.sin(spin * tk / 2) * u])
+        ref = model.q0.copy()
+        c, s = np.cos(Om * tk), np.sin(Om * tk)
+        Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+        ref[0, :3] = Rz @ model.q0[0, :3]
+        ref[0, 3:] = quat_multiply(quat_multiply(turn, model.q0[0, 3:]), own)
+        dx = _tangent(res.q[k], ref).reshape(2, 3) @ Rz                   # into the frame
+        a = lin.basis.T @ dx.reshape(-1)
+        err = max(err, np.abs(a - (expm(lin.A * tk) @ x0)[:lin.n]).max())
+    assert err < 1e-3 * eps

@@ -125,12 +125,15 @@ def describe_direction(model, x: np.ndarray, count: int = 2) -> str:
     if size.max() == 0:
         return "no motion"
     parts = []
+    # a rotation whose axis lies 1e4 model sizes away is a translation (round-off of a
+    # computed shape, e.g. a rigid-body mode from a defective eigenvalue)
+    far = 1e4 * max(1.0, float(np.ptp(np.asarray(model.q0)[:, :3], axis=0).max()))
     for b in np.argsort(-size)[:count]:
         if size[b] < 0.2 * size.max():
             break
         dr, dth = x[b, :3], x[b, 3:]
         name = model.body_names[b]
-        if np.linalg.norm(dth) > 1e-9:
+        if np.linalg.norm(dth) > max(1e-9, np.linalg.norm(dr) / far):
             axis = _clean(dth / np.linalg.norm(dth))
             # the point of the body that does not move: r + (dth x dr)/|dth|^2 (screw axis)
             along = float(axis @ dr)

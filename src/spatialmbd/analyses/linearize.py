@@ -31,6 +31,19 @@ constant for a relative equilibrium. A fixed frame (default) is exact when the n
 does not turn along the motion (a rotor about a fixed axis, a top spinning about the vertical);
 otherwise a warning says how fast it turns relative to the chosen frame.
 
+Nonholonomic constraints (rows that constrain velocities only: rolling without slip) leave
+fewer velocity than position freedoms, and no second-order form. The positions stay in the null
+space of the holonomic rows D_h, dx = N_h a; the velocities satisfy the linearized velocity
+constraints D dv + d(D v*)/dx dx = 0, so dv = P a + N_v b with N_v the null space of all of D
+and P = -D^+ d(D v*)/dx N_h. With dx' = dv + W dx and N_v^T removing dlam:
+
+    a' = N_h^T (P a + N_v b + W N_h a)
+    N_v^T M N_v b' = -N_v^T [M P a' + R_v dv + R_x dx] + N_v^T B_q u
+
+the first-order model x = [a, b] (C and K None). The bases are frozen at the reference
+instant; a TurningNullSpaceWarning says how fast they turn along the motion (not at all for a
+vehicle running straight, whose wheels spin about their axles).
+
 Derivatives: M, the gyroscopic term and their q-dependence analytic; force elements and the
 constraint term D^T lam by central differences (step eps^(1/3), checked against half the step).
 ``derivatives="fd"`` differences everything (the tests compare the two).
@@ -231,6 +244,11 @@ class LinearModel:
     input_reference: the reference value of each input (the effort an input driver delivers
     at the reference, N m or N; 0 for force inputs, whose reference is part of the model); u
     is the deviation from it.
+
+    With nonholonomic constraints (rolling) the velocities are fewer than the positions and
+    there is no second-order form: C and K are None and x = [z, w], where dx = basis @ z
+    (n positions) and dv = velocity_map @ z + velocity_basis @ w (n_velocity velocities,
+    named velocity_coordinates); M = velocity_basis^T M velocity_basis and B_u are in w.
     """
 
     model: object
@@ -253,34 +271,134 @@ class LinearModel:
     fd_error: float = 0.0
     messages: list = field(default_factory=list)
     input_reference: np.ndarray = None
+    velocity_basis: Optional[np.ndarray] = None
+    velocity_map: Optional[np.ndarray] = None
+    velocity_coordinates: Optional[list] = None
 
     @property
     def n(self) -> int:
-        return self.M.shape[0]
+        """Number of independent position coordinates z."""
+        return self.basis.shape[1]
+
+    @property
+    def nonholonomic(self) -> bool:
+        return self.velocity_basis is not None
+
+    @property
+    def n_velocity(self) -> int:
+        """Number of independent velocities (n without nonholonomic constraints)."""
+        return self.velocity_basis.shape[1] if self.nonholonomic else self.n
 
     def frames(self) -> dict:
-        """The matrices as labelled DataFrames: M, C, K, B_u, A, B, C_out, D_out."""
+        """The matrices as labelled DataFrames: M, C, K (not with nonholonomic constraints),
+        B_u, A, B, C_out, D_out."""
         import pandas as pd
         z = list(self.coordinates)
-        x = z + [f"d({c})/dt" for c in z]
-        return dict(M=pd.DataFrame(self.M, index=z, columns=z),
-                    C=pd.DataFrame(self.C, index=z, columns=z),
-                    K=pd.DataFrame(self.K, index=z, columns=z),
-                    B_u=pd.DataFrame(self.B_u, index=z, columns=self.inputs),
-                    A=pd.DataFrame(self.A, index=x, columns=x),
-                    B=pd.DataFrame(self.B, index=x, columns=self.inputs),
-                    C_out=pd.DataFrame(self.C_out, index=self.outputs, columns=x),
-                    D_out=pd.DataFrame(self.D_out, index=self.outputs, columns=self.inputs))
+        w = list(self.velocity_coordinates) if self.nonholonomic else z
+        x = z + (w if self.nonholonomic else [f"d({c})/dt" for c in z])
+        out = dict(M=pd.DataFrame(self.M, index=w, columns=w))
+        if not self.nonholonomic:
+            out.update(C=pd.DataFrame(self.C, index=z, columns=z),
+                       K=pd.DataFrame(self.K, index=z, columns=z))
+        out.update(B_u=pd.DataFrame(self.B_u, index=w, columns=self.inputs),
+                   A=pd.DataFrame(self.A, index=x, columns=x),
+                   B=pd.DataFrame(self.B, index=x, columns=self.inputs),
+                   C_out=pd.DataFrame(self.C_out, index=self.outputs, columns=x),
+                   D_out=pd.DataFrame(self.D_out, index=self.outputs, columns=self.inputs))
+        return out
 
     def summary(self) -> str:
         ev = np.linalg.eigvals(self.A) if self.A.size else np.zeros(0)
+        coords = (f"{self.n} independent position and {self.n_velocity} velocity coordinates "
+                  "(nonholonomic)" if self.nonholonomic else
+                  f"{self.n} independent coordinates")
         lines = [f"linearization about {'a steady motion' if self.steady else 'an equilibrium'}"
-                 f" at t = {self.t:.6g} s: {self.n} independent coordinates, "
+                 f" at t = {self.t:.6g} s: {coords}, "
                  f"{len(self.inputs)} inputs, {len(self.outputs)} outputs",
                  f"largest real part of the eigenvalues of A: "
                  f"{ev.real.max() if ev.size else 0.0:.6g} 1/s"]
         lines.extend(self.messages)
         return "\n".join(lines)
+
+
+def _velocity_only_rows(model) -> np.ndarray:
+    """(n_eq,) bool: the equations that constrain velocities only (nonholonomic rows)."""
+    mask = np.zeros(model.n_eq, dtype=bool)
+    for g, start in zip(model.constraint_groups, model.group_offsets[:-1]):
+        for r in g.velocity_rows:
+            mask[start + r:start + g.size:g.n_eq] = True
+    return mask
+
+
+def _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q, inputs,
+                 outputs, D_full, step, steady, fd_error, messages, input_reference, framed):
+    """The linear model of a nonholonomic system, in first-order form (module docstring,
+    "Nonholonomic constraints"): positions dx = N_h a in the null space of the holonomic rows
+    D_h, velocities dv = P a + N_v b with N_v the null space of all of D and P the least-norm
+    solution of the linearized velocity constraints D dv + d(D v*)/dx dx = 0. With a frame
+    turning at Om the bases turn with it (N_h' = Om N_h, N_v' = Om N_v, P' = Om P)."""
+    nb = model.nb
+    qv = q.reshape(nb, 7)
+    N_h, _ = null_space(D[~velocity_only])
+    N_v, _ = null_space(D)
+    npos, nvel = N_h.shape[1], N_v.shape[1]
+    if np.abs(v).max() > 0:
+        Dv_x, err = central_jacobian(
+            lambda dx: dense(model.assembler.evaluate(perturb(qv, dx), None, t).D)[keep] @ v,
+            6 * nb, step, what="d(D v*)/dx")
+        fd_error = max(fd_error, err)
+    else:
+        Dv_x = np.zeros_like(D)
+    P = -np.linalg.lstsq(D, Dv_x @ N_h, rcond=None)[0]          # dv = P a + N_v b
+    if steady and np.abs(v).max() > 0:
+        rate = _basis_turn_rate(model, qv, v, t, keep, D, velocity_only, N_h, N_v, Om)
+        spin = max(float(np.abs(v.reshape(nb, 6)[:, 3:]).max()), 1.0)
+        if rate > 1e-6 * spin:
+            text = (f"the constraint tangent spaces turn along the steady motion at {rate:.3g} "
+                    "rad/s" + (" relative to the frame_rate given" if framed else "")
+                    + ": the linearization freezes them at this instant (approximate). For a "
+                    "mechanism turning steadily as a whole (a relative equilibrium) pass its "
+                    "rate as frame_rate")
+            messages.append(text)
+            warnings.warn(text, TurningNullSpaceWarning, stacklevel=3)
+    Xa = P + W @ N_h                                   # dx' = dv + W dx = Xa a + N_v b
+    # a' = N_h^T (dx' - N_h' a)
+    A_aa, A_ab = N_h.T @ (Xa - Om @ N_h), N_h.T @ N_v
+    # N_v^T [M dv' + R_v dv + R_x dx] = N_v^T B_q u (N_v^T D^T dlam = 0), with
+    # dv' = P a' + Om P a + N_v b' + Om N_v b
+    Mv = N_v.T @ M @ N_v
+    Minv = np.linalg.inv(Mv) if nvel else np.zeros((0, 0))
+    G_a = -Minv @ N_v.T @ (M @ (P @ A_aa + Om @ P) + Rv @ P + Rx @ N_h)
+    G_b = -Minv @ N_v.T @ (M @ (P @ A_ab + Om @ N_v) + Rv @ N_v)
+    A = np.block([[A_aa, A_ab], [G_a, G_b]])
+    B = np.vstack([np.zeros((npos, B_q.shape[1])), Minv @ N_v.T @ B_q])
+    Cx, Cv = _output_rows(model, list(outputs), D_full, q, W, v, t, step)
+    C_out = np.hstack([Cx @ N_h + Cv @ Xa, Cv @ N_v])
+    D_out = np.zeros((C_out.shape[0], B.shape[1]))
+    return LinearModel(model=model, q=q, v=v.reshape(nb, 6), t=float(t), M=Mv, C=None, K=None,
+                       B_u=N_v.T @ B_q, A=A, B=B, C_out=C_out, D_out=D_out, basis=N_h,
+                       coordinates=[f"z{k}" for k in range(npos)], inputs=list(inputs),
+                       outputs=list(outputs), steady=steady, fd_error=fd_error,
+                       messages=messages, input_reference=np.array(input_reference),
+                       velocity_basis=N_v, velocity_map=P,
+                       velocity_coordinates=[f"w{k}" for k in range(nvel)])
+
+
+def _basis_turn_rate(model, qv, v, t, keep, D, velocity_only, N_h, N_v, Om) -> float:
+    """How fast (rad/s) the null spaces of D_h and D turn as the state moves along v, relative
+    to a frame turning at Om: -D^+ D' N (the rate at which N leaves the null space) against
+    the frame's Om N - N N^T Om N."""
+    h = 1e-6
+    rates = []
+    D_p = dense(model.assembler.evaluate(perturb(qv, h * v), None, t + h).D)[keep]
+    D_m = dense(model.assembler.evaluate(perturb(qv, -h * v), None, t - h).D)[keep]
+    for rows, N in ((~velocity_only, N_h), (slice(None), N_v)):
+        Dd = (D_p[rows] - D_m[rows]) / (2 * h)
+        if N.shape[1] and D[rows].shape[0]:
+            out_of = -np.linalg.lstsq(D[rows], Dd @ N, rcond=None)[0]
+            modelled = Om @ N - N @ (N.T @ Om @ N)
+            rates.append(float(np.linalg.norm(out_of - modelled, 2)))
+    return max(rates, default=0.0)
 
 
 def _partition_basis(D: np.ndarray, labels):
@@ -433,12 +551,7 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     C2 = Rv - M @ W
     K2 = Rx - Rv @ W - M @ Wd
     labels = [f"{name}.{c}" for name in model.body_names for c in COMPONENTS]
-    if coordinates == "partition":
-        N, zlabels = _partition_basis(D, labels)
-    else:
-        N, rank = null_space(D)
-        zlabels = [f"z{k}" for k in range(N.shape[1])]
-    # basis moving with the frame: N(t) = R_f(t) N, N' = Om N, N'' = Om^2 N
+    # bases moving with the frame: N(t) = R_f(t) N, N' = Om N, N'' = Om^2 N
     Om = np.zeros((6 * nb, 6 * nb))
     if frame_rate is not None:
         if not steady:
@@ -449,6 +562,20 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
                              f"{frame_rate!r}")
         for k in range(2 * nb):
             Om[3 * k:3 * k + 3, 3 * k:3 * k + 3] = skew(wf)
+    velocity_only = _velocity_only_rows(model)[keep]
+    if velocity_only.any():
+        if coordinates == "partition":
+            raise ModelError("linearize: coordinates='partition' is not available with "
+                             "nonholonomic constraints (rolling); use 'nullspace'")
+        return _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q,
+                            inputs, outputs, D_full, step, steady, max(err_x, err_v),
+                            messages, [lam[rows_all[n]] if n in rows_all else 0.0
+                                       for n in inputs], frame_rate is not None)
+    if coordinates == "partition":
+        N, zlabels = _partition_basis(D, labels)
+    else:
+        N, rank = null_space(D)
+        zlabels = [f"z{k}" for k in range(N.shape[1])]
     Ndot, Nddot = Om @ N, Om @ Om @ N
     if steady and N.shape[1] and m:
         h = 1e-6
@@ -578,12 +705,16 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResu
     lin = model_or_linear if isinstance(model_or_linear, LinearModel) else \
         linearize(model_or_linear, *args, **kwargs)
     n = lin.n
-    Ms, Ks = 0.5 * (lin.M + lin.M.T), 0.5 * (lin.K + lin.K.T)
-    scale_c = np.abs(lin.C).max() if lin.C.size else 0.0
-    ref = max(np.abs(lin.K).max() if n else 0.0, 1e-300)
+    if lin.nonholonomic:
+        symmetric = False
+    else:
+        Ms, Ks = 0.5 * (lin.M + lin.M.T), 0.5 * (lin.K + lin.K.T)
+        scale_c = np.abs(lin.C).max() if lin.C.size else 0.0
+        ref = max(np.abs(lin.K).max() if n else 0.0, 1e-300)
+        symmetric = scale_c <= 1e-10 * np.sqrt(ref * max(np.abs(Ms).max(), 1e-300))
     if n == 0:
         s_vals, Z = np.zeros(0, complex), np.zeros((0, 0), complex)
-    elif scale_c <= 1e-10 * np.sqrt(ref * max(np.abs(Ms).max(), 1e-300)):
+    elif symmetric:
         import scipy.linalg as sla
         lam2, Z = sla.eigh(Ks, Ms)
         s_vals = np.where(lam2 >= 0, 1j * np.sqrt(np.abs(lam2)), np.sqrt(np.abs(lam2)) + 0j)
@@ -600,9 +731,17 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResu
     zero = mag <= max(np.sqrt(zero_tol) * big, 1e-6)
     if zero.sum() > 1:
         # a rigid-body coordinate gives a double zero eigenvalue of A (a Jordan block with one
-        # eigenvector): keep one mode per independent zero-frequency shape
-        U, sv, _ = np.linalg.svd(Z[:, zero])
-        r = int(np.sum(sv > 1e-6 * sv[0]))
+        # eigenvector): keep one mode per independent zero-frequency shape. Without the
+        # symmetric problem those shapes are the positions of the null space of A (the states
+        # that stay put), which the eigenvectors of the defective zero eigenvalue resolve
+        # only to about the square root of the rounding
+        if symmetric:
+            U, sv, _ = np.linalg.svd(Z[:, zero])
+        else:
+            _, sa, Vt = np.linalg.svd(lin.A)
+            k = min(int(zero.sum()), int(np.sum(sa <= np.sqrt(zero_tol) * sa[0])))
+            U, sv, _ = np.linalg.svd(Vt[Vt.shape[0] - k:, :n].T) if k else (None, [0.0], None)
+        r = int(np.sum(np.asarray(sv) > 1e-6 * max(sv[0], 1e-300))) if sv[0] > 0 else 0
         s_vals = np.concatenate([np.zeros(r, complex), s_vals[~zero]])
         Z = np.hstack([U[:, :r].astype(complex), Z[:, ~zero]])
         mag = np.abs(s_vals)
