@@ -73,6 +73,9 @@ def test_worked_examples_of_the_pages_run(tmp_path, monkeypatch):
     assert spaces["outputs.md"]["out"].attrs["units"]["spiral.torque"] == "N m"
     assert spaces["contact.md"]["ratio"] == pytest.approx(0.7885, abs=2e-3)   # with gravity
     assert spaces["contact.md"]["error"] < 1e-6
+    lean = spaces["rolling.md"]["lean"]                # the bicycle pushed at 4.6 m/s recovers
+    assert np.degrees(lean.max()) == pytest.approx(6.6, abs=0.05)
+    assert np.abs(lean[-100:]).max() < 0.25 * lean.max()
 
 
 USER_VISIBLE = ["src", "docs", "examples", "README.md", "mkdocs.yml", "pyproject.toml"]

@@ -53,6 +53,11 @@ def test_format_table_lists_every_check_with_its_tolerance(tmp_path):
     assert "2/2 cases passed" in md
 
 
+def test_the_case_list_names_every_case_once():
+    from spatialmbd.validation.cases import CASES
+    assert sorted(CASE_NAMES) == sorted(CASES) and len(set(CASE_NAMES)) == len(CASE_NAMES)
+
+
 def test_unknown_case_is_rejected():
     with pytest.raises(ValueError, match="unknown validation case"):
         run_validation(cases=["nope"])
@@ -102,6 +107,10 @@ def test_published_values_entered_as_published():
     refs = json.loads((reference_dir() / "references.json").read_text())
     assert refs["spatial_slider_crank"]["energy_J"] == 0.76643568
     assert (refs["iftomm_a04"]["grubler"], refs["iftomm_a04"]["dof"]) == (0, 1)
+    bike = refs["meijaard_bicycle"]
+    assert bike["M"][0] == [80.81722, 2.31941332208709] and bike["K2"][1][1] == 2.65431523794604
+    assert (bike["weave_speed_m_s"], bike["capsize_speed_m_s"]) == (4.29238253634111,
+                                                                    6.02426201538837)
     # the ADAMS runs' accuracy against the exact solution (about 5e-6 m and 8.4e-4 m)
     cases = refs["adams"]["cases"]
     for name in ("Revolute_Case01", "Revolute_Case02", "Spherical_Case02"):
@@ -519,3 +528,13 @@ def test_validate_passes_from_an_installed_wheel(tmp_path):
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
     assert f"all {len(CASE_NAMES)} validation cases passed" in out.stdout
+
+
+def test_bicycle_reference_eigenvalues_at_rest():
+    """The benchmark matrices at v = 0: the two pairs of an inverted pendulum, +-3.13164324790656
+    and +-5.53094371765393 1/s, the values the benchmark paper lists for standing still."""
+    from spatialmbd.validation.exact import bicycle_eigenvalues
+    ref = json.loads((reference_dir() / "references.json").read_text())["meijaard_bicycle"]
+    ev = bicycle_eigenvalues(0.0, ref["M"], ref["C1"], ref["K0"], ref["K2"], ref["g"])
+    assert np.allclose(ev.real, [-5.53094371765393, -3.13164324790656, 3.13164324790656,
+                                 5.53094371765393], atol=1e-12)

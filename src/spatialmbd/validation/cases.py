@@ -22,7 +22,7 @@ from .core import (CaseResult, Timer, adams_dir, bound_basis, compare_history, c
                    hermite_crossings, integration_bound, references)
 from .exact import (EulerFreeBody, PhysicalPendulum, align_quaternion_sign, rotating_pendulum,
                     symmetric_free_body)
-from .exact import AxialMotion, DistancePendulum
+from .exact import AxialMotion, DistancePendulum, bicycle_eigenvalues
 from .references import (ADAMS_CASES, FREE_ASYMMETRIC, FREE_SYMMETRIC, MODEL_CASES,
                          adams_deck, adams_exact, exact_adams_quantities)
 
@@ -682,6 +682,108 @@ def case_spatial_slider_crank(full: bool) -> CaseResult:
     return case
 
 
+def _lean_steer_eigenvalues(speed: float) -> np.ndarray:
+    """The four lean and steer eigenvalues of models.whipple_bicycle linearized about its
+    straight run at ``speed``: the eigenvalues of the linear model's A without the zero ones
+    of the rigid-body motions (position, heading, wheel angles, forward speed), which are the
+    smallest in magnitude."""
+    from ..analyses.linearize import linearize
+    lin = linearize(models.whipple_bicycle(speed).compile(), steady=speed > 0)
+    ev = np.linalg.eigvals(lin.A)
+    return ev[np.argsort(np.abs(ev))[ev.size - 4:]]
+
+
+def _paired_error(ours, ref) -> float:
+    """Largest distance between each reference eigenvalue and the nearest of ours (each of
+    ours used once)."""
+    left, worst = list(ours), 0.0
+    for r in ref:
+        k = int(np.argmin([abs(o - r) for o in left]))
+        worst = max(worst, abs(left.pop(k) - r))
+    return worst
+
+
+def case_meijaard_bicycle(full: bool) -> CaseResult:
+    from scipy.optimize import brentq
+    from numpy.polynomial import chebyshev
+    from ..analyses.linearize import linearize
+    ref = references()["meijaard_bicycle"]
+    mats = [ref[k] for k in ("M", "C1", "K0", "K2")]
+    case = CaseResult("Whipple bicycle benchmark (Meijaard et al. 2007)", "the nonlinear "
+                      "multibody bicycle with knife-edge wheels rolling without slip, "
+                      "linearized about its straight run: lean and steer eigenvalues, weave "
+                      "and capsize speeds; a nonlinear run against the linear model; energy",
+                      f"{ref['source']}; {ref['how']}; {ref['precision']}")
+    speeds = np.arange(0.0, 10.01, 0.5 if full else 1.0)
+    worst, at = 0.0, 0.0
+    for v in speeds:
+        err = _paired_error(_lean_steer_eigenvalues(v), bicycle_eigenvalues(v, *mats, ref["g"]))
+        if err >= worst:
+            worst, at = err, v
+    case.add(f"lean/steer eigenvalues, v = 0 .. 10 m/s (worst of {4 * speeds.size})", 0.0,
+             worst, worst, 1e-8, "the differenced linearization (entries to ~5e-9 of their "
+             "size), amplified near the capsize speed by the six zero eigenvalues",
+             f"worst at v = {at:g} m/s", "1/s")
+
+    def weave_margin(v):                      # the oscillatory pair's real part
+        ev = _lean_steer_eigenvalues(v)
+        return float(ev[np.abs(ev.imag) > 1e-6].real.max())
+    weave = brentq(weave_margin, 3.5, 5.0, xtol=1e-13)
+    compare_value(case, "weave speed (oscillatory pair stable above)", weave,
+                  ref["weave_speed_m_s"], 1e-9, "published digits (14) and the eigenvalues' "
+                  "accuracy (1e-12 1/s here) over the slope of the real part", "m/s")
+
+    def capsize_eigenvalue(v):                # the real eigenvalue nearest zero
+        ev = _lean_steer_eigenvalues(v)
+        re = ev[np.abs(ev.imag) <= 1e-9 * np.abs(ev)].real
+        return float(re[np.argmin(np.abs(re))])
+    # it meets the six zero eigenvalues at the capsize speed, where its own error grows:
+    # interpolate it (degree 7 Chebyshev) from speeds where it is at least 0.012 1/s
+    vs = np.array([5.8, 5.85, 5.9, 5.95, 6.1, 6.15, 6.2, 6.25])
+    coef = chebyshev.chebfit(vs, [capsize_eigenvalue(v) for v in vs], vs.size - 1)
+    capsize = brentq(lambda v: chebyshev.chebval(v, coef), 5.95, 6.1, xtol=1e-13)
+    compare_value(case, "capsize speed (real eigenvalue stable below)", capsize,
+                  ref["capsize_speed_m_s"], 1e-8, "the interpolation (1e-10 on the published "
+                  "matrices) and the eigenvalue's error near zero, 1e-10 1/s, over its slope "
+                  "0.04 1/s per m/s", "m/s")
+
+    # nonlinear: pushed sideways at 1e-4 rad/s at 5 m/s, lean and steer follow the linear model
+    v, eps = 5.0, 1e-4
+    lin = linearize(models.whipple_bicycle(v).compile(), steady=True,
+                    outputs=["rear_frame.rx", "steer.angle"])
+    model = models.whipple_bicycle(v, eps).compile()
+    b = lin.velocity_basis.T @ (model.v0 - lin.model.v0).reshape(-1)
+    x0 = np.concatenate([np.zeros(lin.n), b])
+    t_end = 3.0 if full else 1.5
+    res = _sim(model, t_end, full, 1e-11, 1e-11, method="projection", output_step=0.05,
+               correct_initial=False)
+    from scipy.linalg import expm
+    step = expm(lin.A * 0.05)
+    x, lin_out = x0, []
+    for _ in res.t:
+        lin_out.append(lin.C_out @ x)
+        x = step @ x
+    lin_out = np.array(lin_out)
+    lean, steer = models.bicycle_lean_steer(res)
+    amp = float(np.abs(lin_out).max())
+    tol = integration_bound(res, amp) + (amp / eps) * eps ** 2
+    basis = bound_basis(res, amp, "rad") + " + eps^2 (second-order terms, eps = 1e-4 rad/s)"
+    compare_history(case, "lean angle vs linear model, pushed at 1e-4 rad/s", lean,
+                    lin_out[:, 0], tol, basis, "rad", t=res.t)
+    compare_history(case, "steer angle vs linear model", steer, lin_out[:, 1], tol, basis,
+                    "rad", t=res.t)
+    # the IFToMM "uncontrolled bicycle" manoeuvre: 4.6 m/s, pushed at 0.5 rad/s
+    res = _sim(models.whipple_bicycle(4.6, 0.5).compile(), 10.0 if full else 3.0, full, 1e-8,
+               1e-10, method="projection", output_step=0.01)
+    _energy_checks(case, res, "energy change, 4.6 m/s pushed at 0.5 rad/s")
+    _violation_check(case, res)
+    lean, steer = models.bicycle_lean_steer(res)
+    case.notes.append(f"self-stable between {weave:.6f} and {capsize:.6f} m/s; at 4.6 m/s "
+                      f"pushed at 0.5 rad/s the lean peaks at {np.degrees(lean.max()):.2f} deg "
+                      f"and is {np.degrees(lean[-1]):.3f} deg at {res.t[-1]:g} s")
+    return case
+
+
 # ------------------------------------------------------------------------------ invariants
 def case_double_pendulum(full: bool) -> CaseResult:
     case = CaseResult("Spatial double pendulum", "models.double_pendulum: energy conservation "
@@ -809,6 +911,7 @@ CASES = {
     "iftomm_a04": case_a04,
     "iftomm_a05": case_a05,
     "spatial_slider_crank": case_spatial_slider_crank,
+    "meijaard_bicycle": case_meijaard_bicycle,
     "double_pendulum": case_double_pendulum,
     "robot_arm": case_robot_arm,
     "hertz_impact": case_hertz_impact,

@@ -18,6 +18,8 @@ not the modulus k.
   equations; intermediate-axis flips).
 * :func:`heavy_top_steady_precession` - precession rate of a heavy symmetric top.
 * :func:`rotating_pendulum` - I phi'' = K sin phi over the top (IFToMM A02 parallelogram).
+* :func:`bicycle_eigenvalues` - eigenvalues of the lean and steer equations of the Whipple
+  bicycle benchmark, M q'' + v C1 q' + (g K0 + v^2 K2) q = 0.
 """
 from __future__ import annotations
 
@@ -445,3 +447,15 @@ def rotating_pendulum(t, I: float, K: float, phi_dot0: float):
     phi = s * (2 * ph - np.pi)
     phi_dot = s * 2 * w0 / k * dn
     return phi, phi_dot
+
+
+def bicycle_eigenvalues(v: float, M, C1, K0, K2, g: float = 9.81) -> np.ndarray:
+    """The four eigenvalues s (1/s) of M q'' + v C1 q' + (g K0 + v^2 K2) q = 0 (2 x 2
+    matrices; Meijaard et al. 2007, the linearized Whipple bicycle at forward speed v, q =
+    (lean, steer)), from the first-order form [[0, I], [-M^-1 K, -M^-1 v C1]], sorted by
+    real part then imaginary part."""
+    M, C1, K0, K2 = (np.asarray(a, dtype=float) for a in (M, C1, K0, K2))
+    K = g * K0 + v * v * K2
+    A = np.block([[np.zeros((2, 2)), np.eye(2)],
+                  [-np.linalg.solve(M, K), -np.linalg.solve(M, v * C1)]])
+    return np.sort_complex(np.linalg.eigvals(A))

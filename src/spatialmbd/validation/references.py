@@ -524,6 +524,25 @@ def derive(adams_dir: Path) -> dict:
                 "force N, n the outward profile normal turned by the cam angle"),
         "precision": "closed form, evaluated in double precision",
     }
+    refs["meijaard_bicycle"] = {
+        "source": ("J. P. Meijaard, J. M. Papadopoulos, A. Ruina, A. L. Schwab, Linearized "
+                   "dynamics equations for the balance and steer of a bicycle: a benchmark and "
+                   "review, Proc. R. Soc. A 463 (2007) 1955-1982: the benchmark bicycle's "
+                   "parameters (models.MEIJAARD), the coefficient matrices of its lean and "
+                   "steer equations M q'' + v C1 q' + (g K0 + v^2 K2) q = 0, q = (lean, "
+                   "steer), printed to 14 digits, and its weave and capsize speeds"),
+        "how": ("published (the authors derived the equations by hand and checked them with "
+                "independent multibody codes); the eigenvalues at each speed are those of "
+                "these matrices (exact.bicycle_eigenvalues)"),
+        "precision": "14 significant digits",
+        "g": 9.81,
+        "M": [[80.81722, 2.31941332208709], [2.31941332208709, 0.29784188199686]],
+        "C1": [[0.0, 33.86641391492494], [-0.85035641456978, 1.68540397397560]],
+        "K0": [[-80.95, -2.59951685249872], [-2.59951685249872, -0.80329488458618]],
+        "K2": [[0.0, 76.59734589573222], [0.0, 2.65431523794604]],
+        "weave_speed_m_s": 4.29238253634111,
+        "capsize_speed_m_s": 6.02426201538837,
+    }
     return refs
 
 
