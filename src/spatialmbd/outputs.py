@@ -78,6 +78,7 @@ from typing import Iterable, Optional
 import numpy as np
 
 from .errors import ModelError
+from .forces.base import spring_law
 
 __all__ = ["Output", "QUANTITIES", "KINDS", "parse_outputs", "compute_outputs",
            "joint_coordinates", "force_outputs", "driver_outputs", "momentum", "body_energy",
@@ -479,22 +480,24 @@ def _force(results, model, element: str, states=None) -> dict:
                      - state.rdot[g.bi[i]] - np.cross(state.omega[g.bi[i]], si))
             length = float(np.linalg.norm(lvec))
             ldot = float(lvec @ ldvec) / length
-            f = g.k[i] * (length - g.l0[i]) + g.c[i] * ldot + g.law_values(t)[i, 0]
+            spring, energy = spring_law(g.k[i], g.nonlinear[i], length - g.l0[i])
+            f = spring + g.c[i] * ldot + g.law_values(t)[i, 0]
             cols["length"][k], cols["length_rate"][k] = length, ldot
             cols["deflection"][k] = length - g.l0[i]
             cols["force"][k] = f
             cols["power"][k] = -f * ldot            # f u on i, -f u on j: -f ldot
-            cols["energy"][k] = 0.5 * g.k[i] * (length - g.l0[i]) ** 2
+            cols["energy"][k] = energy
         elif kind == "rotational_spring_damper":
             from .constraints.primitives import relative_angle
             theta, _, thetad, _ = relative_angle(state, g.bi[i:i + 1], g.bj[i:i + 1],
                                                  g.R_i[i:i + 1], g.R_j[i:i + 1])
             dtheta = float(np.remainder(theta[0] - g.theta0[i] + np.pi, 2 * np.pi) - np.pi)
-            tau = -(g.k[i] * dtheta + g.c[i] * thetad[0] + g.law_values(t)[i, 0])
+            spring, energy = spring_law(g.k[i], g.nonlinear[i], dtheta)
+            tau = -(spring + g.c[i] * thetad[0] + g.law_values(t)[i, 0])
             cols["angle_rate"][k], cols["deflection"][k] = thetad[0], dtheta
             cols["torque"][k] = tau
             cols["power"][k] = tau * thetad[0]      # generalized force tau D_theta: tau thetadot
-            cols["energy"][k] = 0.5 * g.k[i] * dtheta ** 2
+            cols["energy"][k] = energy
         elif kind in ("point_force", "torque"):
             b = g.body[i]
             direction = state.A[b] @ g.direction[i] if g.in_body[i] else g.direction[i]

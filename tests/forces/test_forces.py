@@ -36,15 +36,19 @@ def potential(model, q, t):
     return sum(g.potential_energy(state, t) for g in model.force_groups)
 
 
+@pytest.mark.parametrize("nonlinear", [None, [30.0, -20.0, 15.0]])
 @pytest.mark.parametrize("kind", ["spring_damper", "rotational_spring_damper"])
-def test_conservative_part_is_minus_gradient_of_potential(kind):
+def test_conservative_part_is_minus_gradient_of_potential(kind, nonlinear):
+    """Also for a nonlinear stiffness k + k1 |d| + k2 d^2 + k3 |d|^3 (potential
+    k d^2/2 + k1 |d|^3/3 + k2 d^4/4 + k3 |d|^5/5)."""
     b = two_bodies()
+    extra = {} if nonlinear is None else {"nonlinear_stiffness": nonlinear}
     if kind == "spring_damper":
         b.add_force("spring_damper", "s", body_i="a", body_j="b", point_i=(0.2, 0.1, 0),
-                    point_j=(-0.1, 0.3, 0.2), stiffness=50.0, natural_length=0.4)
+                    point_j=(-0.1, 0.3, 0.2), stiffness=50.0, natural_length=0.4, **extra)
     else:
         b.add_force("rotational_spring_damper", "s", joint="hinge", stiffness=7.0,
-                    rest_angle=0.1)
+                    rest_angle=0.1, **extra)
     model = b.compile()
     rng = np.random.default_rng(1)
     for _ in range(10):
@@ -215,3 +219,41 @@ def test_zero_length_spring_damper_holds_a_body_dropped_from_its_anchor():
                                                          + zeta * w / wd * np.sin(wd * res.t)))
     assert np.abs(res.q[:, 0, 2] - z).max() < 1e-8
     assert np.abs(res.q[:, 0, :2]).max() == 0.0 and np.abs(res.v[:, 0, 3:]).max() == 0.0
+
+
+def test_nonlinear_spring_force_law_and_its_outputs():
+    """A body on a vertical spring of stiffness k + k1 |d| + k3 |d|^3: the force the kernel
+    applies at a given deflection is k(d) d, the outputs report the same force and energy, and
+    a run conserves T + V_g + V_e."""
+    from spatialmbd.outputs import force_outputs
+    k, k1, k3 = 200.0, 50.0, 4e3
+    b = ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_body("m", 2.0, (0.1, 0.1, 0.1), r=(0, 0, -0.5))
+    b.add_joint("translational", "guide", "ground", "m", point=(0, 0, -0.5), axis=(0, 0, 1))
+    b.add_force("spring_damper", "s", body_i="ground", body_j="m", point_i=(0, 0, 0),
+                point_j=(0, 0, 0), stiffness=k, nonlinear_stiffness=[k1, 0.0, k3],
+                natural_length=0.4)
+    model = b.compile()
+    d = 0.1
+    g = generalized(model, BodyState.from_qv(model.q0, np.zeros((1, 6)), 0.0), 0.0)
+    assert g[0, 2] == pytest.approx((k + k1 * d + k3 * d**3) * d, rel=1e-14)   # pulls up
+    res = simulate(model, 1.0, output_step=0.01, rtol=1e-10, atol=1e-12)
+    out = force_outputs(res, "s")
+    dd = out["deflection"]
+    assert np.allclose(out["force"], (k + k1 * np.abs(dd) + k3 * np.abs(dd)**3) * dd,
+                       rtol=1e-12, atol=1e-9)
+    assert np.allclose(out["energy"], k * dd**2 / 2 + k1 * np.abs(dd)**3 / 3
+                       + k3 * np.abs(dd)**5 / 5, rtol=1e-12, atol=1e-12)
+    en = res.energy()
+    assert np.abs(en["total"] - en["total"][0]).max() < 1e-7
+    assert np.abs(en["elastic"] - out["energy"]).max() < 1e-12
+
+
+@pytest.mark.parametrize("value", [[1.0, 2.0, 3.0, 4.0], ["a"], [np.nan], [[1.0, 2.0]], []])
+def test_bad_nonlinear_stiffness_is_refused_naming_the_element(value):
+    from spatialmbd.errors import ModelError
+    b = two_bodies()
+    with pytest.raises(ModelError, match=r"forces\['s'\].nonlinear_stiffness: give 1 to 3"):
+        b.add_force("rotational_spring_damper", "s", joint="hinge", stiffness=7.0,
+                    nonlinear_stiffness=value)
+        b.compile()

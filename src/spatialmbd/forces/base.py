@@ -165,6 +165,39 @@ def check_unknown(spec, allowed) -> None:
                          f"{spec.type}; allowed: {sorted(allowed)}")
 
 
+def nonlinear_stiffness(spec, units: str) -> np.ndarray:
+    """The ``nonlinear_stiffness`` [k1, k2, k3] of a spring element (1 to 3 finite numbers,
+    missing ones 0; default none): the stiffness k + k1 |d| + k2 d^2 + k3 |d|^3 of the
+    deflection d. The total stiffness must not be negative where the element starts: a
+    softening spring (negative coefficients) is the user's to keep within its range."""
+    value = spec.params.get("nonlinear_stiffness")
+    out = np.zeros(3)
+    if value is None:
+        return out
+    coefs = np.atleast_1d(np.asarray(value, dtype=object))
+    try:
+        numbers = np.array([float(c) for c in coefs.reshape(-1)], dtype=float)
+    except (TypeError, ValueError):
+        numbers = np.array([np.nan])
+    if coefs.ndim != 1 or not 1 <= numbers.size <= 3 or not np.all(np.isfinite(numbers)):
+        raise ModelError(f"forces[{spec.name!r}].nonlinear_stiffness: give 1 to 3 finite "
+                         f"numbers [k1, k2, k3]{' (' + units + ')' if units else ''}, the "
+                         "coefficients of |d|, d^2, |d|^3 in the stiffness k + k1 |d| + "
+                         f"k2 d^2 + k3 |d|^3; got {value!r}")
+    out[:numbers.size] = numbers
+    return out
+
+
+def spring_law(k: float, nonlinear, d: float):
+    """(k(d) d, potential) of a spring of stiffness k + k1 |d| + k2 d^2 + k3 |d|^3 at
+    deflection d (nonlinear = [k1, k2, k3]) -- the compiled kernels' arithmetic, for outputs
+    evaluated in Python."""
+    k1, k2, k3 = (float(c) for c in nonlinear)
+    a = abs(d)
+    return ((k + a * (k1 + a * (k2 + a * k3))) * d,
+            d * d * (0.5 * k + a * (k1 / 3.0 + a * (0.25 * k2 + a * 0.2 * k3))))
+
+
 #: the live registry of force-element types: name -> class
 FORCE_TYPES: dict = {}
 

@@ -5,8 +5,13 @@ angle driver: atan2(b_i.a_j, a_i.a_j)), the element applies the generalized forc
     g_ij = tau D_theta^T,   tau = -(k (theta - theta0) + c thetadot + tau_a(t)),
 with D_theta the Jacobian of theta with respect to v_ij. When the joint holds this is the moment
 tau u on body j and -tau u on body i; when it is violated it is still the exact gradient of the
-potential k (theta - theta0)^2 / 2, so energy is balanced in every state. theta - theta0 is wrapped to (-pi, pi], so the spring
-acts on the shortest angle (use it for oscillations, not for windings of several turns).
+potential k (theta - theta0)^2 / 2, so energy is balanced in every state. theta - theta0 is
+wrapped to (-pi, pi], so the spring acts on the shortest angle (use it for oscillations, not
+for windings of several turns).
+
+A nonlinear spring (``nonlinear_stiffness = [k1, k2, k3]``) has the stiffness
+k(d) = k + k1 |d| + k2 d^2 + k3 |d|^3 of d = theta - theta0 in place of k (torque k(d) d,
+potential k d^2/2 + k1 |d|^3/3 + k2 d^4/4 + k3 |d|^5/5), as in Chrono's spring modulation.
 """
 from __future__ import annotations
 
@@ -17,24 +22,29 @@ from ..constraints.primitives import angle_row
 from ..errors import ModelError
 from ..jit import njit
 from ..motion import MotionLawSet, make_law
-from .base import ForceType, check_unknown, register
+from .base import ForceType, check_unknown, nonlinear_stiffness, register
 from .kernel_tools import add_wrench
 
 
 @njit
 def kernel(S, G, k, g, energy, power, D):
-    """param = (k, c, theta0), law = actuator tau_a(t); D: the (1, 12) scratch row."""
+    """param = (k, c, theta0, k1, k2, k3), law = actuator tau_a(t); D: the (1, 12) scratch
+    row."""
     i, j = G.bi[k], G.bj[k]
     theta, thetad, _ = angle_row(S, i, j, G.R_i, G.R_j, k, D, 0)   # D[0] = D_theta over v_ij
     stiffness, damping = G.param[k, 0], G.param[k, 1]
     dtheta = wrap_angle(theta - G.param[k, 2])
     ta = G.law[k, 0]
-    tau = -(stiffness * dtheta + damping * thetad + ta)
+    a = abs(dtheta)
+    k1, k2, k3 = G.param[k, 3], G.param[k, 4], G.param[k, 5]
+    stiff = stiffness + a * (k1 + a * (k2 + a * k3))                   # k(d)
+    tau = -(stiff * dtheta + damping * thetad + ta)
     add_wrench(g, i, tau * D[0, 0], tau * D[0, 1], tau * D[0, 2], tau * D[0, 3],
                tau * D[0, 4], tau * D[0, 5])                        # g_ij = tau D_theta^T
     add_wrench(g, j, tau * D[0, 6], tau * D[0, 7], tau * D[0, 8], tau * D[0, 9],
                tau * D[0, 10], tau * D[0, 11])
-    energy[k] = 0.5 * stiffness * dtheta * dtheta
+    energy[k] = dtheta * dtheta * (0.5 * stiffness
+                                   + a * (k1 / 3.0 + a * (0.25 * k2 + a * 0.2 * k3)))
     power[k] = -(damping * thetad + ta) * thetad
 
 
@@ -42,12 +52,12 @@ def kernel(S, G, k, g, energy, power, D):
 class RotationalSpringDamper(ForceType):
     name = "rotational_spring_damper"
     kernel = staticmethod(kernel)
-    n_param = 3
+    n_param = 6
     required = ("joint",)
-    parameters = {"joint": "joint", "stiffness": "number", "damping": "number",
-                  "rest_angle": "number", "actuator": "law"}
+    parameters = {"joint": "joint", "stiffness": "number", "nonlinear_stiffness": "any",
+                  "damping": "number", "rest_angle": "number", "actuator": "law"}
 
-    def __init__(self, names, bi, bj, R_i, R_j, k, c, theta0, laws):
+    def __init__(self, names, bi, bj, R_i, R_j, k, c, theta0, laws, nonlinear=None):
         super().__init__(names)
         self.bi = np.asarray(bi, dtype=np.intp)
         self.bj = np.asarray(bj, dtype=np.intp)
@@ -56,6 +66,8 @@ class RotationalSpringDamper(ForceType):
         self.k = np.asarray(k, dtype=float)
         self.c = np.asarray(c, dtype=float)
         self.theta0 = np.asarray(theta0, dtype=float)
+        self.nonlinear = (np.zeros((len(self.names), 3)) if nonlinear is None
+                          else np.asarray(nonlinear, dtype=float).reshape(-1, 3))
         self.laws = MotionLawSet(laws)
 
     @classmethod
@@ -71,6 +83,7 @@ class RotationalSpringDamper(ForceType):
             value = float(spec.params.get(key, 0.0))
             if not (np.isfinite(value) and value >= 0):
                 raise ModelError(f"forces[{spec.name!r}].{key}: must be >= 0, got {value}")
+        nonlinear_stiffness(spec, "N m/rad^2, N m/rad^3, N m/rad^4")
         make_law(spec.params.get("actuator", 0.0))
 
     @classmethod
@@ -83,8 +96,9 @@ class RotationalSpringDamper(ForceType):
                    [float(s.params.get("stiffness", 0.0)) for s in specs],
                    [float(s.params.get("damping", 0.0)) for s in specs],
                    [float(s.params.get("rest_angle", 0.0)) for s in specs],
-                   [make_law(s.params.get("actuator", 0.0)) for s in specs])
+                   [make_law(s.params.get("actuator", 0.0)) for s in specs],
+                   [nonlinear_stiffness(s, "") for s in specs])
 
     def columns(self):
         return dict(bi=self.bi, bj=self.bj, R_i=self.R_i, R_j=self.R_j,
-                    param=np.stack([self.k, self.c, self.theta0], axis=1))
+                    param=np.column_stack([self.k, self.c, self.theta0, self.nonlinear]))
