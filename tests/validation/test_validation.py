@@ -232,7 +232,7 @@ def test_exact_solutions_of_the_new_adams_decks():
     none = {c for c in ADAMS_CASES if adams_exact(adams_deck(adams_dir(), c)) is None}
     assert none == set(CHRONO_RMS_TOLERANCES) == {"Distance_Case02", "Distance_Case03",
                                                    "Universal_Case03", "TranSpring_Case02",
-                                                   "RotSpring_Case01"}
+                                                   "RotSpring_Case01", "RotSpring_Case02"}
     t = np.linspace(0, 5, 201)
     ax = adams_exact(Deck.read(adams_dir() / "test_Cylindrical_Case03.adm"))
     assert isinstance(ax, AxialMotion) and ax.pendulum is not None
@@ -288,6 +288,9 @@ def test_spring_decks_differ_from_the_tables_which_fit_chronos_coefficients():
         fit = spring_table_fit(adams_dir(), case)
         assert fit["stiffness_fit"] == pytest.approx(used["stiffness"], rel=1e-5)
         assert fit["damping_fit"] == pytest.approx(used["damping"], rel=1e-5)
+        if "nonlinear_stiffness" in used:                  # RotSpring_Case02: 50 + 10 |theta|
+            assert fit["stiffness_k1_fit"] == pytest.approx(used["nonlinear_stiffness"][0],
+                                                            rel=1e-5)
         assert adams_deck(adams_dir(), case).forces[0]["damping"] == used["damping"]
 
 

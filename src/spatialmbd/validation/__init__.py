@@ -43,6 +43,7 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
               "adams_prismatic_case03", "adams_cylindrical_case01", "adams_cylindrical_case02",
               "adams_cylindrical_case03", "adams_distance_case01", "adams_distance_case02",
               "adams_distance_case03", "adams_transpring_case02", "adams_rotspring_case01",
+              "adams_rotspring_case02",
               "adams_revspherical_case01", "adams_revspherical_case02",
               "adams_linactuator_case01", "adams_linactuator_case02",
               "free_symmetric", "free_asymmetric", "heavy_top", "slider_crank_kinematics",

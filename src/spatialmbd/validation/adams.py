@@ -282,7 +282,8 @@ class Deck:
             b.add_force("spring_damper", f["name"], body_i=bi, body_j=bj,
                         point_i=self._local(b, mi), point_j=self._local(b, mj),
                         stiffness=f["stiffness"], damping=f["damping"],
-                        natural_length=f["length"])
+                        natural_length=f["length"],
+                        nonlinear_stiffness=f.get("nonlinear_stiffness"))
             return
         # ROTATIONAL: about the z axis of the J marker, which must be the axis of a revolute or
         # cylindrical joint between the same two parts; AZ(I, J) = 0 as assembled (I and J
@@ -292,7 +293,8 @@ class Deck:
             raise ValueError(f"{self.name} {f['name']}: a ROTATIONAL SFORCE is read only with "
                              "aligned I and J markers and the rest angle 0")
         b.add_force("rotational_spring_damper", f["name"], joint=self.sforce_joint(f)["name"],
-                    stiffness=f["stiffness"], damping=f["damping"], rest_angle=0.0)
+                    stiffness=f["stiffness"], damping=f["damping"], rest_angle=0.0,
+                    nonlinear_stiffness=f.get("nonlinear_stiffness"))
 
     def sforce_joint(self, f: dict) -> dict:
         """The revolute or cylindrical joint between the parts of a ROTATIONAL SFORCE whose

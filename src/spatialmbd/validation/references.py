@@ -44,6 +44,7 @@ ADAMS_CASES = {
     # force elements (the quantities Chrono's unit tests check: no Rtorque for the spring)
     "TranSpring_Case02": ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce"),
     "RotSpring_Case01": ALL_QUANTITIES,
+    "RotSpring_Case02": ALL_QUANTITIES,
 }
 
 #: The force-element tests: the deck the model is read from (its name differs from the tables'
@@ -52,11 +53,17 @@ ADAMS_CASES = {
 #: c = 1 N s/m; RotSpring_Case01: k = 1 N m/deg = 57.3 N m/rad, c = 0.05 N m s/deg); a
 #: least-squares fit of the tables' own force and motion (:func:`spring_table_fit`, stored in
 #: references.json) gives Chrono's values to 6 digits, so these replace the deck's.
+#: RotSpring_Case02 has no deck of its own: Chrono's test is Case01's pendulum with the
+#: stiffness modulated as 50 + 10 |theta| N m/rad (ChFunction "CustomSpring", damping 10),
+#: which the fit of its tables confirms.
 SPRING_CASES = {
     "TranSpring_Case02": dict(deck="TransSpring_Case01", test="utest_JOINT_transpring.cpp",
                               coefficients={"sforce1": dict(stiffness=100.0, damping=5.0)}),
     "RotSpring_Case01": dict(deck="RotSpring_Case01", test="utest_JOINT_rotspring.cpp",
                              coefficients={"sforce1": dict(stiffness=200.0, damping=10.0)}),
+    "RotSpring_Case02": dict(deck="RotSpring_Case01", test="utest_JOINT_rotspring.cpp",
+                             coefficients={"sforce1": dict(stiffness=50.0, damping=10.0,
+                                                           nonlinear_stiffness=[10.0])}),
 }
 
 
@@ -78,8 +85,10 @@ def spring_table_fit(adams_dir: Path, case: str) -> dict:
     unit vector u from the I marker (ground) to the centre of mass against (l - L0, ldot) from
     Pos and Vel; ROTATIONAL, the torque on the ground about the joint axis n (the joint
     reaction has none) against (theta, theta') with theta the angle of the centre of mass
-    about n from its start and theta' = Avel . n."""
+    about n from its start and theta' = Avel . n. A case with a nonlinear stiffness
+    k + k1 |x| fits the column |x| x as well (stiffness_k1_fit)."""
     deck = adams_deck(adams_dir, case)
+    nonlinear = "nonlinear_stiffness" in SPRING_CASES[case]["coefficients"][deck.forces[0]["name"]]
     (f,) = deck.forces
     mi = deck.markers[f["I"]]
     if not deck.parts[mi.part]["ground"]:
@@ -101,9 +110,14 @@ def spring_table_fit(adams_dir: Path, case: str) -> dict:
         theta = np.arctan2(np.cross(d[0], d) @ n, d @ d[0])
         A = np.c_[theta, avel @ n]
         y = torque @ n
+    if nonlinear:
+        A = np.c_[A[:, 0], np.abs(A[:, 0]) * A[:, 0], A[:, 1]]
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
-    return {"stiffness_fit": float(f"{coef[0]:.7g}"), "damping_fit": float(f"{coef[1]:.7g}"),
-            "residual_max": round_up(float(np.abs(A @ coef - y).max()))}
+    out = {"stiffness_fit": float(f"{coef[0]:.7g}"), "damping_fit": float(f"{coef[-1]:.7g}"),
+           "residual_max": round_up(float(np.abs(A @ coef - y).max()))}
+    if nonlinear:
+        out["stiffness_k1_fit"] = float(f"{coef[1]:.7g}")
+    return out
 
 #: The cases without a closed form: ours against ADAMS within the RMS tolerance (per column,
 #: over the 501 rows) that Project Chrono's own unit test accepts for its solution against the
@@ -121,6 +135,9 @@ CHRONO_RMS_TOLERANCES = {
     "TranSpring_Case02": ("utest_JOINT_transpring.cpp", dict(
         Pos=1e-3, Vel=3e-4, Acc=2e-2, Quat=1e-10, Avel=1e-10, Aacc=1e-10, Rforce=5e-3)),
     "RotSpring_Case01": ("utest_JOINT_rotspring.cpp", dict(
+        Pos=1e-3, Vel=5e-4, Acc=2e-2, Quat=1e-3, Avel=1e-3, Aacc=5e-3, Rforce=5e-3,
+        Rtorque=1e-2)),
+    "RotSpring_Case02": ("utest_JOINT_rotspring.cpp", dict(
         Pos=1e-3, Vel=5e-4, Acc=2e-2, Quat=1e-3, Avel=1e-3, Aacc=5e-3, Rforce=5e-3,
         Rtorque=1e-2)),
     "Universal_Case03": ("utest_JOINT_universal.cpp (checks commented out)", dict(
@@ -358,7 +375,8 @@ def derive(adams_dir: Path) -> dict:
                 "at its centre of mass (Case01) or at a point 2 m from it (Case02/03); "
                 "TranSpring_Case02: the body free on a translational spring-damper SFORCE from "
                 "the origin, natural length 2 m; RotSpring_Case01: the Revolute_Case01 pendulum "
-                "with a torsional spring-damper SFORCE about the joint axis; RevSpherical: no "
+                "with a torsional spring-damper SFORCE about the joint axis (Case02: its "
+                "stiffness 50 + 10 |theta| N m/rad, no deck of its own); RevSpherical: no "
                 "deck, the model of Chrono's unit test rebuilt in code, the 1 kg pendulum on a "
                 "revolute-spherical link 2 m long; LinActuator: no deck either, a 1 kg plate "
                 "driven at constant speed along a prismatic joint by a linear actuator); "
