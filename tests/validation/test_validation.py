@@ -541,3 +541,26 @@ def test_bicycle_reference_eigenvalues_at_rest():
     ev = bicycle_eigenvalues(0.0, ref["M"], ref["C1"], ref["K0"], ref["K2"], ref["g"])
     assert np.allclose(ev.real, [-5.53094371765393, -3.13164324790656, 3.13164324790656,
                                  5.53094371765393], atol=1e-12)
+
+
+def test_moore_frames_of_the_straight_run_are_the_models_start():
+    """Upright and straight (yaw, roll 0, pitch lam, steer 0), the wheels turning at -v/r
+    about Moore's y axis (to the right): validation.bicycle.body_state gives
+    models.whipple_bicycle(v)'s own initial state."""
+    from spatialmbd import models
+    from spatialmbd.validation import bicycle as bk
+    v = 4.0
+    P = models.MEIJAARD
+    model = models.whipple_bicycle(v).compile()
+    q, vv, _ = bk.body_state(model, [0, 0, P["lam"], 0, 0, 0],
+                             [0, 0, 0, -v / P["rR"], 0, -v / P["rF"]])
+    assert np.allclose(q[:, :3], model.q0[:, :3], atol=1e-14)
+    assert np.allclose(np.abs(q[:, 3:] @ model.q0[:, 3:].T).diagonal(), 1, atol=1e-14)
+    assert np.allclose(vv, model.v0, atol=1e-13)
+
+
+def test_basu_mandal_values_entered_as_published():
+    ref = json.loads((reference_dir() / "references.json").read_text())["basu_mandal_bicycle"]
+    assert ref["state"]["psi"] == 0.9501292851472 and ref["state"]["betard"] == 8.912989661489
+    assert ref["accelerations"]["psifdd"] == -4.6198904039403
+    assert ref["sig_figs"]["phid"] == 12 and ref["sig_figs"]["psidd"] == 14

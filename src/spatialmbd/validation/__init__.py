@@ -48,7 +48,8 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
               "adams_linactuator_case01", "adams_linactuator_case02",
               "free_symmetric", "free_asymmetric", "heavy_top", "slider_crank_kinematics",
               "iftomm_a01", "iftomm_a02", "iftomm_a03", "iftomm_a04", "iftomm_a05",
-              "spatial_slider_crank", "meijaard_bicycle", "double_pendulum", "robot_arm", "hertz_impact", "cam_follower")
+              "spatial_slider_crank", "meijaard_bicycle", "basu_mandal_bicycle",
+              "double_pendulum", "robot_arm", "hertz_impact", "cam_follower")
 
 
 def run_validation(full: bool = False, out=None, cases: Optional[Iterable[str]] = None,

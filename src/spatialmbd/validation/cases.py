@@ -784,6 +784,77 @@ def case_meijaard_bicycle(full: bool) -> CaseResult:
     return case
 
 
+def _half_digit(value: float, sig: int) -> float:
+    """Half a unit in the last of ``sig`` significant digits of ``value`` (0: exact)."""
+    if sig == 0 or value == 0:
+        return 0.0
+    return 0.5 * 10.0 ** (math.floor(math.log10(abs(value))) - sig + 1)
+
+
+def case_basu_mandal_bicycle(full: bool) -> CaseResult:
+    from ..analyses.common import dense
+    from ..dynamics.eom import EquationsOfMotion
+    from . import bicycle as bk
+    ref = references()["basu_mandal_bicycle"]
+    case = CaseResult("Whipple bicycle, nonlinear (Basu-Mandal et al. 2007)", "the "
+                      "accelerations of the nonlinear benchmark bicycle (four bodies, two "
+                      "wheels rolling without slip) at a general leaning, steering, pitching "
+                      "state", f"{ref['source']}; {ref['how']}; {ref['precision']}")
+    model = models.whipple_bicycle(0.0).compile()
+    eom = EquationsOfMotion(model)
+
+    def evaluate(state):
+        q, v, fr = bk.body_state(model, *bk.moore_from_basu(state))
+        ev = eom.evaluate(0.0, q, v)
+        D, M = dense(ev.cv.D), ev.M.dense()
+        m = D.shape[0]
+        kkt = np.block([[M, -D.T], [D, np.zeros((m, m))]])        # M vdot = g + D^T lam
+        vdot = np.linalg.solve(kkt, np.concatenate([ev.g, ev.cv.gamma]))[:v.size]
+        acc = bk.basu_accelerations(model, vdot.reshape(v.shape), fr)
+        return (np.array([acc[k] for k in ref["accelerations"]]),
+                bk.basu_rear_hub_velocity(model, v), ev, D @ v.reshape(-1))
+
+    state, sig = ref["state"], ref["sig_figs"]
+    acc, hub, ev, Dv = evaluate(state)
+    # the published state is rounded: its effect on each output, sum_j |d out / d in_j| h_j
+    # (h_j half a unit in the last digit of input j; central differences), bounds what two
+    # exact computations from the rounded state may differ by
+    inputs = ("theta", "psi", "phi", "psif", "betar", "betaf", "thetad", "psid", "phid",
+              "psifd", "betard", "betafd")
+    spread_acc, spread_hub = np.zeros(acc.size), np.zeros(3)
+    for key in inputs:
+        h = _half_digit(state[key], sig[key])
+        if h == 0.0:
+            continue
+        up, down = dict(state), dict(state)
+        up[key] += 1e-6
+        down[key] -= 1e-6
+        a_up, v_up, *_ = evaluate(up)
+        a_dn, v_dn, *_ = evaluate(down)
+        spread_acc += np.abs(a_up - a_dn) / 2e-6 * h
+        spread_hub += np.abs(v_up - v_dn) / 2e-6 * h
+    basis = ("the published state's rounding through the equations (sum of |d/d input| x half "
+             "its last digit) + half the published last digit")
+    for k, (key, value) in enumerate(ref["accelerations"].items()):
+        unit = "m/s^2" if key in ("xdd", "ydd", "zdd") else "rad/s^2"
+        compare_value(case, f"{key} (nonlinear equations of motion)", acc[k], value,
+                      spread_acc[k] + _half_digit(value, sig[key]), basis, unit)
+    for k, key in enumerate(("xd", "yd", "zd")):
+        compare_value(case, f"{key} of the rear wheel centre (from the rolling constraints)",
+                      hub[k], state[key], spread_hub[k] + _half_digit(state[key], sig[key]),
+                      basis, "m/s")
+    scale = 5e-14 * 10
+    compare_value(case, "the published state on the constraints: max |Phi|",
+                  float(np.abs(ev.cv.phi).max()), 0.0, scale, "its rounding (5e-14) x 10",
+                  "m")
+    compare_value(case, "the published rates on the constraints: max |D v|",
+                  float(np.abs(Dv).max()), 0.0, scale, "its rounding (5e-14) x 10", "m/s")
+    case.notes.append("the state is mapped through Moore's frames (validation.bicycle): yaw, "
+                      "roll, pitch of the rear frame, steer, wheel angles; the accelerations "
+                      "are read back the same way")
+    return case
+
+
 # ------------------------------------------------------------------------------ invariants
 def case_double_pendulum(full: bool) -> CaseResult:
     case = CaseResult("Spatial double pendulum", "models.double_pendulum: energy conservation "
@@ -912,6 +983,7 @@ CASES = {
     "iftomm_a05": case_a05,
     "spatial_slider_crank": case_spatial_slider_crank,
     "meijaard_bicycle": case_meijaard_bicycle,
+    "basu_mandal_bicycle": case_basu_mandal_bicycle,
     "double_pendulum": case_double_pendulum,
     "robot_arm": case_robot_arm,
     "hertz_impact": case_hertz_impact,

@@ -561,6 +561,38 @@ def derive(adams_dir: Path) -> dict:
         "weave_speed_m_s": 4.29238253634111,
         "capsize_speed_m_s": 6.02426201538837,
     }
+    refs["basu_mandal_bicycle"] = {
+        "source": ("P. Basu-Mandal, A. Chatterjee, J. M. Papadopoulos, Hands-free circular "
+                   "motions of a benchmark bicycle, Proc. R. Soc. A 463 (2007) 1983-2003, "
+                   "Table 1: a general state of the Meijaard et al. (2007) benchmark bicycle "
+                   "(leaning 35.6 deg, steered, pitched, turning) and the accelerations of the "
+                   "nonlinear equations of motion there, as transcribed with their significant "
+                   "digits in the DynamicistToolKit (dtk.bicycle.basu_table_one_input, "
+                   "basu_table_one_output, basu_sig_figs)"),
+        "how": ("published: two independent derivations of the nonlinear equations of motion "
+                "agreeing to the digits printed; Basu-Mandal's coordinates: rear wheel centre "
+                "(x, y, z), yaw theta, "
+                "lean psi, pitch phi, steer psif, wheel angles betar, betaf "
+                "(validation.bicycle)"),
+        "precision": "12 to 14 significant digits (sig_figs; 0: an exact zero)",
+        "state": {"x": 0.0, "y": 0.0, "z": 0.2440472102925, "theta": 0.0,
+                  "psi": 0.9501292851472, "phi": 3.1257073014894, "psif": 0.2311385135743,
+                  "betar": 0.0, "betaf": 0.0, "xd": -2.8069345714545,
+                  "yd": -0.1480982396001, "zd": 0.1058778746261, "thetad": 0.7830033527065,
+                  "psid": 0.6068425835418, "phid": -0.0119185528069,
+                  "psifd": 0.4859824687093, "betard": 8.9129896614890,
+                  "betafd": 8.0133620584155},
+        "accelerations": {"xdd": -0.5041626315047, "ydd": -0.3449706619454,
+                          "zdd": -1.4604528332980, "thetadd": 0.8353281706379,
+                          "psidd": -7.8555281128244, "phidd": 0.1205543897884,
+                          "psifdd": -4.6198904039403, "betardd": 1.8472554144217,
+                          "betafdd": 2.4548072904550},
+        "sig_figs": {"x": 0, "y": 0, "z": 13, "theta": 0, "psi": 13, "phi": 14, "psif": 13,
+                     "betar": 0, "betaf": 0, "xd": 14, "yd": 13, "zd": 13, "thetad": 13,
+                     "psid": 13, "phid": 12, "psifd": 13, "betard": 13, "betafd": 14,
+                     "xdd": 13, "ydd": 13, "zdd": 13, "thetadd": 13, "psidd": 14,
+                     "phidd": 13, "psifdd": 14, "betardd": 14, "betafdd": 13},
+    }
     return refs
 
 
