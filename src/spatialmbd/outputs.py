@@ -479,7 +479,12 @@ def _force(results, model, element: str, states=None) -> dict:
             ldvec = (state.rdot[g.bj[i]] + np.cross(state.omega[g.bj[i]], sj)
                      - state.rdot[g.bi[i]] - np.cross(state.omega[g.bi[i]], si))
             length = float(np.linalg.norm(lvec))
-            ldot = float(lvec @ ldvec) / length
+            if length == 0.0 and g.l0[i] == 0.0:
+                # coincident points of a zero-length spring: u along the relative velocity,
+                # as in the kernel (forces.spring_damper)
+                ldot = float(np.linalg.norm(ldvec))
+            else:
+                ldot = float(lvec @ ldvec) / length
             spring, energy = spring_law(g.k[i], g.nonlinear[i], length - g.l0[i])
             f = spring + g.c[i] * ldot + g.law_values(t)[i, 0]
             cols["length"][k], cols["length_rate"][k] = length, ldot

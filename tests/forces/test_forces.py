@@ -219,6 +219,13 @@ def test_zero_length_spring_damper_holds_a_body_dropped_from_its_anchor():
                                                          + zeta * w / wd * np.sin(wd * res.t)))
     assert np.abs(res.q[:, 0, 2] - z).max() < 1e-8
     assert np.abs(res.q[:, 0, :2]).max() == 0.0 and np.abs(res.v[:, 0, 3:]).max() == 0.0
+    # the outputs, from the coincident start on: no force at rest, then k |z| + c |z'|
+    from spatialmbd.outputs import force_outputs
+    out = force_outputs(res, "spring")
+    assert np.all(np.isfinite(out["force"])) and out["force"][0] == 0.0
+    zd = res.v[:, 0, 2]
+    assert np.allclose(out["force"][1:], k * np.abs(res.q[1:, 0, 2]) + c * np.sign(
+        res.q[1:, 0, 2]) * zd[1:], rtol=1e-10, atol=1e-12)
 
 
 def test_nonlinear_spring_force_law_and_its_outputs():

@@ -46,6 +46,7 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
               "adams_rotspring_case02",
               "adams_revspherical_case01", "adams_revspherical_case02",
               "adams_linactuator_case01", "adams_linactuator_case02",
+              "adams_transpring_case01",
               "free_symmetric", "free_asymmetric", "heavy_top", "slider_crank_kinematics",
               "iftomm_a01", "iftomm_a02", "iftomm_a03", "iftomm_a04", "iftomm_a05",
               "spatial_slider_crank", "meijaard_bicycle", "basu_mandal_bicycle",

@@ -329,10 +329,10 @@ def chrono_model_case(name: str, full: bool) -> CaseResult:
     _compare_tables(case, res, t, tables, outputs(res), exact, scales, entry, test)
     size = max(1.0, float(np.linalg.norm(res.q[:, :, :3], axis=2).max()))
     if name in EXACT:
-        _energy_checks(case, res, "energy balance (T + V - W_driver)(t) - (T + V)(0)")
+        _energy_checks(case, res, "energy balance (T + V - W_nc)(t) - (T + V)(0)")
         _violation_check(case, res, scale=size)
         case.notes.append(f"exact: {entry['exact']}; {entry['model']}; {CONVENTIONS[name]}; "
-                          f"driver work {res.work[-1]:.6g} J")
+                          f"work of the driver or damper {res.work[-1]:.6g} J")
         return case
     _energy_checks(case, res, "energy change")
     # Phi = (u.d, d.d - L^2): a position error dr changes them by at most 2 L dr

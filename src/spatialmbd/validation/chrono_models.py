@@ -151,8 +151,79 @@ def linear_actuator_scales(name: str, t) -> dict:
                 RtorqueA=LINACT_MASS * G * ell)
 
 
+#: utest_JOINT_transpring.cpp, Case01: TestTranSpring with both ends at the origin, the body
+#: (1 kg, centroidal inertia diag(0.04, 0.1, 0.1)) at the origin, k = 10 N/m, c = 0.5 N s/m
+SPRING_DROP = dict(mass=1.0, inertia=(0.04, 0.1, 0.1), stiffness=10.0, damping=0.5)
+
+
+def spring_drop(name: str) -> tuple[ModelBuilder, Callable]:
+    """TranSpring_Case01 of Project Chrono's ``src/tests/unit_tests/joints/
+    utest_JOINT_transpring.cpp`` (commit 7689fbc02d12c5419fa6acad8791100fd89979dd): a body of
+    1 kg at rest at the origin, held by a ChLinkTSDA from its centre of mass to the origin on
+    the ground, free length the initial distance (0), k = 10 N/m, c = 0.5 N s/m, and dropped
+    under gravity 9.80665 m/s^2 along -z. Ours: a spring_damper of zero free length between
+    the same points (its direction at the coincident start is that of the motion).
+
+    Tables: Pos/Vel/Acc of the centre of mass, Quat, Avel/Aacc; Rforce the spring-damper's
+    force on the ground (Chrono writes GetForce() times the unit vector from the ground point
+    to the body's): our element's force f (tension positive) along that unit vector."""
+    p = SPRING_DROP
+    b = ModelBuilder(name, gravity=(0.0, 0.0, -G))
+    b.add_body("pendulum", p["mass"], p["inertia"], r=(0.0, 0.0, 0.0))
+    b.add_force("spring_damper", "spring", body_i="ground", body_j="pendulum",
+                point_i=(0.0, 0.0, 0.0), point_j=(0.0, 0.0, 0.0), stiffness=p["stiffness"],
+                damping=p["damping"], natural_length=0.0)
+
+    def outputs(res) -> dict:
+        from ..outputs import force_outputs
+        body = res.body("pendulum")
+        r = body["r"]
+        length = np.linalg.norm(r, axis=1, keepdims=True)
+        u = np.divide(r, length, out=np.zeros_like(r), where=length > 0)
+        f = force_outputs(res, "spring")["force"]
+        return dict(Pos=r, Vel=body["rdot"], Acc=body["rddot"], Quat=body["p"],
+                    Avel=body["omega"], Aacc=body["omegadot"], Rforce=f[:, None] * u)
+    return b, outputs
+
+
+def spring_drop_exact(name: str, t) -> dict:
+    """The exact solution of TranSpring_Case01: the body falls along z as the damped oscillator
+    m z'' + c z' + k z = -m g from rest at 0, z = z_s (1 - e^(-a t) (cos w t + a/w sin w t)),
+    z_s = -m g / k, a = c / (2 m), w = sqrt(k/m - a^2); it does not turn; the force on the
+    ground is k z + c z' along z. Arrays (nt, k) per table."""
+    p = SPRING_DROP
+    t = np.asarray(t, float)
+    m, k, c = p["mass"], p["stiffness"], p["damping"]
+    zs, a = -m * G / k, c / (2 * m)
+    w = float(np.sqrt(k / m - a * a))
+    e, cs, sn = np.exp(-a * t), np.cos(w * t), np.sin(w * t)
+    z = zs * (1 - e * (cs + a / w * sn))
+    zd = zs * e * (a * a / w + w) * sn
+    zdd = -(k * z + c * zd) / m - G
+    zero = np.zeros((len(t), 3))
+
+    def along_z(x):
+        out = zero.copy()
+        out[:, 2] = x
+        return out
+    return dict(Pos=along_z(z), Vel=along_z(zd), Acc=along_z(zdd),
+                Quat=np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1)), Avel=zero, Aacc=zero,
+                Rforce=along_z(k * z + c * zd))
+
+
+def spring_drop_scales(name: str, t) -> dict:
+    """Natural sizes for the integration bound: the static drop |z_s|, the speed w |z_s|, the
+    acceleration g, the weight; the rates (none) with the floor w."""
+    p = SPRING_DROP
+    zs = p["mass"] * G / p["stiffness"]
+    w = float(np.sqrt(p["stiffness"] / p["mass"]))
+    return dict(Pos=2 * zs, Vel=2 * w * zs, Acc=G, Quat=1.0, Avel=w, Aacc=w * w,
+                Rforce=2 * p["mass"] * G)
+
+
 MODELS = {"RevSpherical_Case01": revolute_spherical, "RevSpherical_Case02": revolute_spherical,
-          "LinActuator_Case01": linear_actuator, "LinActuator_Case02": linear_actuator}
+          "LinActuator_Case01": linear_actuator, "LinActuator_Case02": linear_actuator,
+          "TranSpring_Case01": spring_drop}
 #: which of our outputs each case's reaction tables are (the ``outputs`` functions above)
 _REVSPH = ("Rforce/Rtorque_Body1 = our force_i/moment_i (on the ground, about the revolute "
            "point), _Body2 = force_j/moment_j (on the pendulum, about the spherical point), "
@@ -161,7 +232,11 @@ _LINACT = ("RforceP/RtorqueP = the translational joint's force_i/moment_i (on th
            "about the origin), RforceA/RtorqueA = the translation driver's force_j/moment_j "
            "(on the plate, about its centre of mass)")
 CONVENTIONS = {"RevSpherical_Case01": _REVSPH, "RevSpherical_Case02": _REVSPH,
-               "LinActuator_Case01": _LINACT, "LinActuator_Case02": _LINACT}
+               "LinActuator_Case01": _LINACT, "LinActuator_Case02": _LINACT,
+               "TranSpring_Case01": ("Rforce = the spring-damper's force f (tension positive) "
+                                     "along the unit vector from the ground point to the "
+                                     "body's: its force on the ground")}
 #: the cases with an exact solution: (exact quantities(name, t), natural sizes(name, t))
 EXACT = {"LinActuator_Case01": (linear_actuator_exact, linear_actuator_scales),
-         "LinActuator_Case02": (linear_actuator_exact, linear_actuator_scales)}
+         "LinActuator_Case02": (linear_actuator_exact, linear_actuator_scales),
+         "TranSpring_Case01": (spring_drop_exact, spring_drop_scales)}

@@ -164,6 +164,9 @@ MODEL_CASES = {
     # ADAMS's own error against it (no Chrono tolerance used)
     "LinActuator_Case01": ("utest_JOINT_linactuator.cpp", LINACT_TABLES, None),
     "LinActuator_Case02": ("utest_JOINT_linactuator.cpp", LINACT_TABLES, None),
+    # a damped oscillator along z: exact, compared as the LinActuator cases
+    "TranSpring_Case01": ("utest_JOINT_transpring.cpp",
+                          ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce"), None),
 }
 
 #: Torque-free bodies and other constructed cases (data used by validation.cases).
@@ -290,7 +293,12 @@ def model_case_entries(adams_dir: Path) -> dict:
                            f"{MODELS[case].__name__}): no ADAMS deck is published"),
                  "chrono_test": (f"src/tests/unit_tests/joints/{test} of Project Chrono, "
                                  "commit 7689fbc02d12c5419fa6acad8791100fd89979dd")}
-        if case in EXACT:
+        if case in EXACT and case.startswith("TranSpring"):
+            entry["exact"] = ("the damped oscillator m z'' + c z' + k z = -m g from rest at "
+                              "the anchor, the body not turning; the force on the ground "
+                              "k z + c z' along z (validation.chrono_models."
+                              f"{EXACT[case][0].__name__})")
+        elif case in EXACT:
             entry["exact"] = ("prescribed slide r = v t n along the prismatic axis, constant "
                               "orientation; the actuator carries -m (g.n) n, the prismatic "
                               "joint the normal part of the weight (validation.chrono_models."
