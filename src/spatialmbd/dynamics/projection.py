@@ -9,6 +9,8 @@ least-squares corrections of :mod:`.correction` are used for that instant.
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 from ..errors import ConvergenceError
@@ -27,14 +29,16 @@ class Projection(Standard):
         self.tolerance = check_positive("projection tolerance", tolerance)
         self.max_iterations = int(check_positive("projection max_iterations", max_iterations))
 
-    def project_y(self, system, t, y) -> np.ndarray:
-        """y (a copy) with q and v projected; raises ConvergenceError if Newton fails."""
+    def project_y(self, system, t, y, tolerance: Optional[float] = None) -> np.ndarray:
+        """y (a copy) with q and v projected; raises ConvergenceError if Newton fails.
+        tolerance: on max |Phi| (m), this call only (default: the method's)."""
         y = y.copy()
+        tol = self.tolerance if tolerance is None else float(tolerance)
         if system.table.has_drivers:
             system.table.set_time(t)
         it = -1
         if not system.python_groups:
-            it = project(t, y, system.F, system.I, system.W, self.tolerance,
+            it = project(t, y, system.F, system.I, system.W, tol,
                             self.max_iterations, np.zeros(6 * system.nb))
         if it == -1 or it == -2:
             # D D^T singular here, or Newton on it stalled (D nearly rank deficient: a singular
@@ -42,7 +46,8 @@ class Projection(Standard):
             # which ignores the dependent directions
             nb = system.nb
             try:
-                q, v = self._project_lstsq(system.model, t, y[:7 * nb], y[7 * nb:13 * nb])
+                q, v = self._project_lstsq(system.model, t, y[:7 * nb], y[7 * nb:13 * nb],
+                                           tol)
             except ConvergenceError:
                 q = y[:7 * nb].reshape(nb, 7)
                 phi = system.model.assembler.evaluate(q, None, t).phi
@@ -50,16 +55,17 @@ class Projection(Standard):
                     f"t = {t:.6g} s: projection onto the constraints did not converge in "
                     f"{self.max_iterations} iterations (max |Phi| = {np.abs(phi).max():.3g}), "
                     "nor by least squares; raise method option max_iterations or tolerance "
-                    f"(now {self.max_iterations}, {self.tolerance:.3g})")
+                    f"(now {self.max_iterations}, {tol:.3g})")
                 err.t = t
                 raise err from None
             y[:7 * nb], y[7 * nb:13 * nb] = q.ravel(), v
         return y
 
-    def _project_lstsq(self, model, t, q, v):
+    def _project_lstsq(self, model, t, q, v, tol=None):
         q = np.asarray(q, dtype=float).reshape(model.nb, 7)
-        q, _, _, _ = _correct_positions_lstsq(model, q, t, self.tolerance, self.max_iterations,
-                                              None, None)
+        q, _, _, _ = _correct_positions_lstsq(model, q, t,
+                                              self.tolerance if tol is None else tol,
+                                              self.max_iterations, None, None)
         v, _, _ = _correct_velocities_lstsq(model, q, np.asarray(v, dtype=float), t, None,
                                             None)
         return q, v

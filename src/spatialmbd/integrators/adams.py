@@ -183,6 +183,7 @@ class AdamsBashforthMoulton4(Integrator):
     name = "abm4"
     order = 4
     adaptive = True
+    multistep = True
 
     def __init__(self, step: Optional[float] = None, adaptive: bool = True,
                  fixed_step: bool = False, rtol: float = 1e-6, atol=1e-9,

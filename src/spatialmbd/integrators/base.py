@@ -124,6 +124,12 @@ class Integrator(abc.ABC):
     adaptive: bool = False
     max_step: float = math.inf
     min_step: float = 0.0
+    #: a multistep method: its steps and error estimates build on the earlier states, so a
+    #: projection of every accepted state must be smooth -- converged far below the error
+    #: tolerance (simulate asks for 1e-3 atol), not stopped at a threshold near it, whose
+    #: on/off corrections of about atol would stay in the history as noise the error test
+    #: cannot step below (Andrews' squeezer under bdf4: step size underflow)
+    multistep: bool = False
 
     def integrate(self, problem: ODEProblem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
                   progress: Optional[Callable[[float], None]] = None, events=None,
