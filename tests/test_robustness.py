@@ -87,13 +87,16 @@ def flat_time(n):
 
 
 def test_singular_position_failure_is_diagnosed():
-    """The N-four-bar reaches its flat position; the projection method cannot continue there
-    and the message names the time, the rank deficiency, the joints and the way out."""
+    """The N-four-bar reaches its flat position; the projection method with rk45 at rtol 1e-10
+    cannot continue there and the message names the time, the rank deficiency, the joints and
+    the way out. (Whether a run at rtol near 1e-9 gets through depends on where its steps
+    happen to fall near the flat position -- rk45 and bdf4 both pass or stall there as the
+    tolerances change in their second digit; at 1e-10 and below they stall.)"""
     model = models.n_four_bar(2).compile()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RedundantConstraintsWarning)
-        res = simulate(model, 1.0, method="projection", integrator="bdf4", rtol=1e-9,
-                       atol=1e-11, output_step=0.01)
+        res = simulate(model, 1.0, method="projection", integrator="rk45", rtol=1e-10,
+                       atol=1e-12, output_step=0.01)
     assert res.status == "failed"
     t_flat = flat_time(2)
     assert t_flat - 0.02 < res.t[-1] <= t_flat          # outputs up to the failure
