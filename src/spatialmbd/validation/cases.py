@@ -712,7 +712,8 @@ def case_meijaard_bicycle(full: bool) -> CaseResult:
     case = CaseResult("Whipple bicycle benchmark (Meijaard et al. 2007)", "the nonlinear "
                       "multibody bicycle with knife-edge wheels rolling without slip, "
                       "linearized about its straight run: lean and steer eigenvalues, weave "
-                      "and capsize speeds; a nonlinear run against the linear model; energy",
+                      "and capsize speeds, the torque-to-angle transfer matrix; a nonlinear "
+                      "run against the linear model; energy",
                       f"{ref['source']}; {ref['how']}; {ref['precision']}")
     speeds = np.arange(0.0, 10.01, 0.5 if full else 1.0)
     worst, at = 0.0, 0.0
@@ -746,6 +747,26 @@ def case_meijaard_bicycle(full: bool) -> CaseResult:
                   ref["capsize_speed_m_s"], 1e-8, "the interpolation (1e-10 on the published "
                   "matrices) and the eigenvalue's error near zero, 1e-10 1/s, over its slope "
                   "0.04 1/s per m/s", "m/s")
+
+    # inputs and outputs: the lean torque (on the rear frame about x) and the steer torque
+    # (about the steer axis, between the frames) to the lean and steer angles, against the
+    # benchmark's (M s^2 + v C1 s + g K0 + v^2 K2)^-1 at points s away from the eigenvalues
+    M_, C1_, K0_, K2_ = (np.asarray(a, dtype=float) for a in mats)
+    worst, at = 0.0, ""
+    for v in (0.0, 3.0, 5.0, 8.0):
+        b = models.whipple_bicycle(v)
+        b.add_force("rotational_spring_damper", "steer_torque", joint="steer")
+        lin = linearize(b.compile(), steady=v > 0, inputs=["rear_frame.mx", "steer_torque"],
+                        outputs=["rear_frame.rx", "steer.angle"])
+        for s_ in (0.5j, 1 + 2j, 3.0, -0.7 + 5j, 10j):
+            G = lin.C_out @ np.linalg.solve(s_ * np.eye(lin.A.shape[0]) - lin.A, lin.B)
+            Gr = np.linalg.inv(M_ * s_ * s_ + v * C1_ * s_ + ref["g"] * K0_ + v * v * K2_)
+            err = float(np.abs(G - Gr).max() / np.abs(Gr).max())
+            if err >= worst:
+                worst, at = err, f"v = {v:g} m/s, s = {s_}"
+    case.add("transfer matrix, lean and steer torques to angles (relative, worst of 20)", 0.0,
+             worst, worst, 1e-8, "as the eigenvalues: the differenced linearization",
+             f"worst at {at}", "")
 
     # nonlinear: pushed sideways at 1e-4 rad/s at 5 m/s, lean and steer follow the linear model
     v, eps = 5.0, 1e-4
