@@ -209,6 +209,24 @@ def test_batch_engine_in_a_sweep_matches_simulate_and_records_failures():
     assert c["status"].values[0] == "failed" and "contact" in str(c["message"].values[0])
 
 
+def test_a_builder_sweeps_and_the_batch_rolls_the_bicycle():
+    """A ModelBuilder (what spatialmbd.models gives) is a sweep's model like a Model; the
+    batch engine integrates a model with rolling (nonholonomic) joints, member for member as
+    simulate does: the benchmark bicycle pushed sideways, rider mass varied."""
+    from spatialmbd.models import whipple_bicycle
+    builder = whipple_bicycle(4.6, 0.5)
+    params = {"bodies.rear_frame.mass": [80.0, 90.0]}
+    analysis = dict(type="dynamic", t_end=0.5, output_step=0.05, method="projection",
+                    integrator=dict(name="rk45", rtol=1e-8, atol=1e-10))
+    outs = ["max(rear_frame.wz)", "final(rear_frame.y)"]
+    a = sweep(builder, params, outs, analysis, engine="simulate")
+    b = sweep(builder, params, outs, analysis, engine="batch")
+    assert list(a["status"].values) == list(b["status"].values) == ["success"] * 2
+    for o in outs:
+        np.testing.assert_allclose(b[o].values, a[o].values, rtol=1e-11, atol=1e-13)
+    assert a["final(rear_frame.y)"].values[0] != a["final(rear_frame.y)"].values[1]
+
+
 def test_batch_recursive_and_direct_members_equal_separate_runs(monkeypatch):
     """With method "auto" the batch integrates the pendulum (a tree) in joint coordinates,
     as simulate() does; members differing only in masses, inertias, gravity or initial

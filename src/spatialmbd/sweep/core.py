@@ -303,7 +303,7 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
           progress=None, batch_options: Optional[dict] = None):
     """Run ``model`` once per member of ``params`` and collect ``outputs``.
 
-    model: a Model, a model file path (.yaml/.json), a model dict, or a factory
+    model: a Model or ModelBuilder, a model file path (.yaml/.json), a model dict, or a factory
         callable(**values) -> Model (or (Model, Analysis)) whose keyword names are the
         parameter names.
     params: ``{path: values}`` (a grid; values a list or "start:stop:count"), a list of
@@ -375,7 +375,7 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
 
 def _make_job(model, space: ParameterSpace, outs, analysis, engine, batch_options) -> SweepJob:
     from ..io.modelfile import Analysis, load_model, model_to_dict
-    from ..model import Model
+    from ..model import Model, ModelBuilder
     if isinstance(analysis, Analysis):
         adict = analysis.to_dict()
     elif isinstance(analysis, dict):
@@ -385,7 +385,11 @@ def _make_job(model, space: ParameterSpace, outs, analysis, engine, batch_option
     else:
         raise ModelError(f"analysis: expected an Analysis or a dict, got "
                          f"{type(analysis).__name__}")
-    if isinstance(model, Model):
+    if isinstance(model, ModelBuilder):
+        model.compile()                          # every problem of the builder reported now
+        data = model_to_dict(model)
+        factory = None
+    elif isinstance(model, Model):
         data = model_to_dict(model)
         factory = None
     elif isinstance(model, (str, os.PathLike)):
@@ -399,8 +403,8 @@ def _make_job(model, space: ParameterSpace, outs, analysis, engine, batch_option
     elif callable(model):
         data, factory = None, model
     else:
-        raise ModelError(f"model: expected a Model, a model file, a model dict or a factory "
-                         f"callable, got {type(model).__name__}")
+        raise ModelError(f"model: expected a Model, a ModelBuilder, a model file, a model dict "
+                         f"or a factory callable, got {type(model).__name__}")
     if data is not None:
         if adict is None:
             adict = data.get("analysis") or Analysis().to_dict()
