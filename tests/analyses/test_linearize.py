@@ -141,6 +141,10 @@ def test_free_body_has_six_rigid_body_modes_and_mode_motion_is_animatable():
     b.add_body("box", 2.0, (0.1, 0.2, 0.25))
     md = modes(b.compile())
     assert list(md.table["kind"]) == ["rigid-body"] * 6
+    # shown as the three translations and three rotations, each moving one coordinate
+    assert np.allclose(np.sort(np.abs(md.shapes.real), axis=0)[-1], 1.0)
+    assert np.abs(np.sort(np.abs(md.shapes.real), axis=0)[:-1]).max() < 1e-9
+    assert sorted(np.argmax(np.abs(md.shapes.real), axis=0)) == list(range(6))
     md2 = modes(double_pendulum())
     res = md2.motion(1, amplitude=1e-3)
     viol = res.constraint_violation()["position"]

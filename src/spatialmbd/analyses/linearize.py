@@ -746,6 +746,18 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResu
         Z = np.hstack([U[:, :r].astype(complex), Z[:, ~zero]])
         mag = np.abs(s_vals)
     shapes = lin.basis @ Z if n else np.zeros((6 * lin.model.nb, 0))
+    r = int(np.sum(mag <= max(np.sqrt(zero_tol) * big, 1e-6)))
+    if r > 1:
+        # any basis of the rigid-body motions is one; show the one in which each mode moves a
+        # single body coordinate of its own (QR with column pivoting picks r independent
+        # coordinates; mode i is 1 in the i-th, 0 in the others): a free body's six modes are
+        # then the three translations and three rotations, not mixtures of them
+        import scipy.linalg as sla
+        rigid = np.real(shapes[:, :r])
+        piv = sla.qr(rigid.T, pivoting=True, mode="r")[1][:r]
+        square = rigid[piv]
+        if np.linalg.cond(square) < 1e8:
+            shapes[:, :r] = rigid @ np.linalg.inv(square)
     for k in range(shapes.shape[1]):
         j = int(np.argmax(np.abs(shapes[:, k])))
         if abs(shapes[j, k]) > 0:
