@@ -403,10 +403,20 @@ def test_rolling_coin_lean_eigenvalues_match_the_closed_form(speed):
     assert md.stable == (s2 < 0)
 
 
-def test_partitioned_coordinates_are_refused_with_nonholonomic_constraints():
-    from spatialmbd.errors import ModelError
-    with pytest.raises(ModelError, match="'partition' is not available with nonholonomic"):
-        linearize(rolling_coin(1.0), steady=True, coordinates="partition")
+def test_partitioned_coordinates_with_nonholonomic_constraints():
+    """coordinates='partition': chosen body coordinates for the positions and chosen body
+    velocities for the velocities (named <body>.<vx..wz>); the same eigenvalues as the
+    orthonormal bases."""
+    from spatialmbd.models import whipple_bicycle
+    model = whipple_bicycle(5.0).compile()
+    a = linearize(model, steady=True)
+    b = linearize(model, steady=True, coordinates="partition")
+    assert len(b.coordinates) == 7 and len(b.velocity_coordinates) == 3
+    assert all(c.rsplit(".", 1)[1] in ("vx", "vy", "vz", "wx", "wy", "wz")
+               for c in b.velocity_coordinates)
+    ev = [np.linalg.eigvals(m.A) for m in (a, b)]
+    big = [np.sort_complex(e[np.argsort(np.abs(e))[-4:]]) for e in ev]
+    assert np.abs(big[0] - big[1]).max() < 1e-9
 
 
 def test_bicycle_linearization_analytic_and_differenced_agree_and_frames_label_it():

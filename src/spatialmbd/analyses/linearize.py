@@ -330,17 +330,32 @@ def _velocity_only_rows(model) -> np.ndarray:
     return mask
 
 
+#: the velocity named after each tangent coordinate (partitioned coordinates)
+RATE_OF = {"x": "vx", "y": "vy", "z": "vz", "rx": "wx", "ry": "wy", "rz": "wz"}
+
+
 def _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q, inputs,
-                 outputs, D_full, step, steady, fd_error, messages, input_reference, framed):
+                 outputs, D_full, step, steady, fd_error, messages, input_reference, framed,
+                 coordinates="nullspace", labels=()):
     """The linear model of a nonholonomic system, in first-order form (module docstring,
     "Nonholonomic constraints"): positions dx = N_h a in the null space of the holonomic rows
     D_h, velocities dv = P a + N_v b with N_v the null space of all of D and P the least-norm
     solution of the linearized velocity constraints D dv + d(D v*)/dx dx = 0. With a frame
-    turning at Om the bases turn with it (N_h' = Om N_h, N_v' = Om N_v, P' = Om P)."""
+    turning at Om the bases turn with it (N_h' = Om N_h, N_v' = Om N_v, P' = Om P).
+    coordinates "partition": N_h and N_v by coordinate partitioning (a = chosen body tangent
+    coordinates, b = chosen body velocities), a' read through the left inverse of N_h."""
     nb = model.nb
     qv = q.reshape(nb, 7)
-    N_h, _ = null_space(D[~velocity_only])
-    N_v, _ = null_space(D)
+    if coordinates == "partition":
+        N_h, zlabels = _partition_basis(D[~velocity_only], labels)
+        N_v, wlabels = _partition_basis(D, labels)
+        wlabels = [f"{w.rsplit('.', 1)[0]}.{RATE_OF[w.rsplit('.', 1)[1]]}" for w in wlabels]
+    else:
+        N_h, _ = null_space(D[~velocity_only])
+        N_v, _ = null_space(D)
+        zlabels = [f"z{k}" for k in range(N_h.shape[1])]
+        wlabels = [f"w{k}" for k in range(N_v.shape[1])]
+    L_h = np.linalg.pinv(N_h)                  # N_h^T for an orthonormal basis
     npos, nvel = N_h.shape[1], N_v.shape[1]
     if np.abs(v).max() > 0:
         Dv_x, err = central_jacobian(
@@ -362,8 +377,8 @@ def _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q, 
             messages.append(text)
             warnings.warn(text, TurningNullSpaceWarning, stacklevel=3)
     Xa = P + W @ N_h                                   # dx' = dv + W dx = Xa a + N_v b
-    # a' = N_h^T (dx' - N_h' a)
-    A_aa, A_ab = N_h.T @ (Xa - Om @ N_h), N_h.T @ N_v
+    # a' = N_h^+ (dx' - N_h' a)
+    A_aa, A_ab = L_h @ (Xa - Om @ N_h), L_h @ N_v
     # N_v^T [M dv' + R_v dv + R_x dx] = N_v^T B_q u (N_v^T D^T dlam = 0), with
     # dv' = P a' + Om P a + N_v b' + Om N_v b
     Mv = N_v.T @ M @ N_v
@@ -377,11 +392,10 @@ def _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q, 
     D_out = np.zeros((C_out.shape[0], B.shape[1]))
     return LinearModel(model=model, q=q, v=v.reshape(nb, 6), t=float(t), M=Mv, C=None, K=None,
                        B_u=N_v.T @ B_q, A=A, B=B, C_out=C_out, D_out=D_out, basis=N_h,
-                       coordinates=[f"z{k}" for k in range(npos)], inputs=list(inputs),
+                       coordinates=zlabels, inputs=list(inputs),
                        outputs=list(outputs), steady=steady, fd_error=fd_error,
                        messages=messages, input_reference=np.array(input_reference),
-                       velocity_basis=N_v, velocity_map=P,
-                       velocity_coordinates=[f"w{k}" for k in range(nvel)])
+                       velocity_basis=N_v, velocity_map=P, velocity_coordinates=wlabels)
 
 
 def _basis_turn_rate(model, qv, v, t, keep, D, velocity_only, N_h, N_v, Om) -> float:
@@ -396,7 +410,7 @@ def _basis_turn_rate(model, qv, v, t, keep, D, velocity_only, N_h, N_v, Om) -> f
         Dd = (D_p[rows] - D_m[rows]) / (2 * h)
         if N.shape[1] and D[rows].shape[0]:
             out_of = -np.linalg.lstsq(D[rows], Dd @ N, rcond=None)[0]
-            modelled = Om @ N - N @ (N.T @ Om @ N)
+            modelled = Om @ N - N @ (np.linalg.pinv(N) @ Om @ N)
             rates.append(float(np.linalg.norm(out_of - modelled, 2)))
     return max(rates, default=0.0)
 
@@ -564,13 +578,11 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
             Om[3 * k:3 * k + 3, 3 * k:3 * k + 3] = skew(wf)
     velocity_only = _velocity_only_rows(model)[keep]
     if velocity_only.any():
-        if coordinates == "partition":
-            raise ModelError("linearize: coordinates='partition' is not available with "
-                             "nonholonomic constraints (rolling); use 'nullspace'")
         return _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q,
                             inputs, outputs, D_full, step, steady, max(err_x, err_v),
                             messages, [lam[rows_all[n]] if n in rows_all else 0.0
-                                       for n in inputs], frame_rate is not None)
+                                       for n in inputs], frame_rate is not None,
+                            coordinates, labels)
     if coordinates == "partition":
         N, zlabels = _partition_basis(D, labels)
     else:
