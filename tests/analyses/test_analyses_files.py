@@ -94,6 +94,13 @@ def test_example_scripts_run():
     assert top["growth_rate"](28.0) > 0.1 and top["growth_rate"](31.0) < 1e-8
 
 
+def test_bicycle_stability_script_finds_the_published_speeds(tmp_path):
+    bike = runpy.run_path(str(FOLDER / "bicycle_stability.py"), run_name="example")
+    weave, capsize, png = bike["main"](tmp_path)
+    assert abs(weave - bike["WEAVE"]) < 1e-9 and abs(capsize - bike["CAPSIZE"]) < 1e-8
+    assert png.stat().st_size > 10_000
+
+
 def test_cli_reports_bad_engineering_inputs(tmp_path, capsys):
     """A free body under gravity has no equilibrium; an undriven pendulum cannot be inverted:
     clear messages and a failing exit code, no traceback."""
