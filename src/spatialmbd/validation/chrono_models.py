@@ -221,9 +221,66 @@ def spring_drop_scales(name: str, t) -> dict:
                 Rforce=2 * p["mass"] * G)
 
 
+#: utest_JOINT_tsda.cpp, TestTranSpringCB(jointLocGnd, jointLocPend, PendCSYS, type): the same
+#: 1 kg body (inertia diag(0.04, 0.1, 0.1)) at rest at PendCSYS (position, rotation about z),
+#: a ChLinkTSDA from the body's point jointLocPend to the ground point jointLocGnd (global,
+#: free length their initial distance) with a force functor: type 1 k = 10, c = 0.5; type 2
+#: k = 100, c = 5; type 3 the nonlinear 50 (l - l0) + 10 |l - l0| (l - l0), c = 5
+TSDA_LAWS = {1: dict(stiffness=10.0, damping=0.5), 2: dict(stiffness=100.0, damping=5.0),
+             3: dict(stiffness=50.0, damping=5.0, nonlinear_stiffness=[10.0])}
+TSDA_SETUP = {
+    "TranSpringCB_Case01": dict(ground=(0.0, 0.0, 0.0), attach=(0.0, 0.0, 0.0),
+                                cm=(0.0, 0.0, 0.0), angle_z=0.0, law=1),
+    "TranSpringCB_Case02": dict(ground=(0.0, 0.0, 0.0), attach=(0.0, 2.0, 0.0),
+                                cm=(0.0, 2.0, 0.0), angle_z=0.0, law=2),
+    "TranSpringCB_Case03": dict(ground=(1.0, 2.0, 3.0), attach=(1.0, 4.0, 3.0),
+                                cm=(-1.0, 4.0, 3.0), angle_z=0.0, law=3),
+    "TranSpringCB_Case04": dict(ground=(0.0, 0.0, 0.0), attach=(0.0, 2.0, 0.0),
+                                cm=(0.0, 4.0, 0.0), angle_z=-np.pi / 2, law=3),
+}
+
+
+def spring_callback(name: str) -> tuple[ModelBuilder, Callable]:
+    """TranSpringCB_Case01..04 of Project Chrono's ``src/tests/unit_tests/joints/
+    utest_JOINT_tsda.cpp`` (commit 7689fbc02d12c5419fa6acad8791100fd89979dd): a ChLinkTSDA
+    with a force functor (TSDA_LAWS, TSDA_SETUP), gravity 9.80665 m/s^2 along -z. Ours: a
+    spring_damper between the same points with the same law (the nonlinear one through
+    ``nonlinear_stiffness``). Case01 is TranSpring_Case01's set-up (a zero-length spring at
+    the centre of mass); Case03 and Case04 hang the body off its centre of mass, so it turns.
+
+    Tables: Pos/Vel/Acc of the centre of mass, Quat, Avel/Aacc; Rforce the spring-damper's
+    force on the ground (GetForce() times the unit vector from the body's point to the
+    ground's, GetForce() negative in tension): our force f (tension positive) along the unit
+    vector from the ground point to the body's."""
+    from ..rotations import A_from_p, p_from_axis_angle
+    setup = TSDA_SETUP[name]
+    p = p_from_axis_angle(np.array([0.0, 0.0, 1.0]), setup["angle_z"])
+    A = A_from_p(p)
+    cm, attach = np.asarray(setup["cm"], float), np.asarray(setup["attach"], float)
+    b = ModelBuilder(name, gravity=(0.0, 0.0, -G))
+    b.add_body("pendulum", SPRING_DROP["mass"], SPRING_DROP["inertia"], r=tuple(cm), p=p,
+               points={"attach": tuple(A.T @ (attach - cm))})
+    length = float(np.linalg.norm(attach - np.asarray(setup["ground"], float)))
+    b.add_force("spring_damper", "spring", body_i="ground", body_j="pendulum",
+                point_i=tuple(setup["ground"]), point_j="attach", natural_length=length,
+                **TSDA_LAWS[setup["law"]])
+
+    def outputs(res) -> dict:
+        from ..outputs import force_outputs
+        body = res.body("pendulum")
+        d = res.point("pendulum.attach")["r"] - np.asarray(setup["ground"], float)
+        ell = np.linalg.norm(d, axis=1, keepdims=True)
+        u = np.divide(d, ell, out=np.zeros_like(d), where=ell > 0)
+        f = force_outputs(res, "spring")["force"]
+        return dict(Pos=body["r"], Vel=body["rdot"], Acc=body["rddot"], Quat=body["p"],
+                    Avel=body["omega"], Aacc=body["omegadot"], Rforce=f[:, None] * u)
+    return b, outputs
+
+
 MODELS = {"RevSpherical_Case01": revolute_spherical, "RevSpherical_Case02": revolute_spherical,
           "LinActuator_Case01": linear_actuator, "LinActuator_Case02": linear_actuator,
-          "TranSpring_Case01": spring_drop}
+          "TranSpring_Case01": spring_drop,
+          **{f"TranSpringCB_Case0{k}": spring_callback for k in range(1, 5)}}
 #: which of our outputs each case's reaction tables are (the ``outputs`` functions above)
 _REVSPH = ("Rforce/Rtorque_Body1 = our force_i/moment_i (on the ground, about the revolute "
            "point), _Body2 = force_j/moment_j (on the pendulum, about the spherical point), "
@@ -236,7 +293,21 @@ CONVENTIONS = {"RevSpherical_Case01": _REVSPH, "RevSpherical_Case02": _REVSPH,
                "TranSpring_Case01": ("Rforce = the spring-damper's force f (tension positive) "
                                      "along the unit vector from the ground point to the "
                                      "body's: its force on the ground")}
+CONVENTIONS.update({f"TranSpringCB_Case0{k}": CONVENTIONS["TranSpring_Case01"]
+                    for k in range(1, 5)})
+#: why a case without an exact solution has none
+NO_CLOSED_FORM = {
+    "RevSpherical_Case01": "a body on a revolute-spherical link (two constraint equations, four "
+                           "degrees of freedom) released off its equilibrium",
+    "TranSpringCB_Case02": "an elastic pendulum (a body on a spring-damper, three degrees of "
+                           "freedom of its centre of mass)",
+    "TranSpringCB_Case03": "a body hung off its centre of mass on a nonlinear spring-damper: "
+                           "it falls, swings and turns",
+}
+NO_CLOSED_FORM["RevSpherical_Case02"] = NO_CLOSED_FORM["RevSpherical_Case01"]
+NO_CLOSED_FORM["TranSpringCB_Case04"] = NO_CLOSED_FORM["TranSpringCB_Case03"]
 #: the cases with an exact solution: (exact quantities(name, t), natural sizes(name, t))
 EXACT = {"LinActuator_Case01": (linear_actuator_exact, linear_actuator_scales),
          "LinActuator_Case02": (linear_actuator_exact, linear_actuator_scales),
-         "TranSpring_Case01": (spring_drop_exact, spring_drop_scales)}
+         "TranSpring_Case01": (spring_drop_exact, spring_drop_scales),
+         "TranSpringCB_Case01": (spring_drop_exact, spring_drop_scales)}

@@ -153,6 +153,7 @@ REVSPH_TABLES = ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce_Body1", "R
                  "Rforce_Body2", "Rtorque_Body2")
 LINACT_TABLES = ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "RforceP", "RtorqueP", "RforceA",
                  "RtorqueA")
+SPRING_TABLES = ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce")
 MODEL_CASES = {
     "RevSpherical_Case01": ("utest_JOINT_revsph.cpp", REVSPH_TABLES, dict(
         Pos=1e-4, Vel=1e-4, Acc=1e-1, Quat=1e-5, Avel=1e-4, Aacc=5e-1, Rforce_Body1=5e-1,
@@ -165,8 +166,14 @@ MODEL_CASES = {
     "LinActuator_Case01": ("utest_JOINT_linactuator.cpp", LINACT_TABLES, None),
     "LinActuator_Case02": ("utest_JOINT_linactuator.cpp", LINACT_TABLES, None),
     # a damped oscillator along z: exact, compared as the LinActuator cases
-    "TranSpring_Case01": ("utest_JOINT_transpring.cpp",
-                          ("Pos", "Vel", "Acc", "Quat", "Avel", "Aacc", "Rforce"), None),
+    "TranSpring_Case01": ("utest_JOINT_transpring.cpp", SPRING_TABLES, None),
+    # ChLinkTSDA with force functors (Case03/04 a nonlinear spring; Case01 exact as above)
+    "TranSpringCB_Case01": ("utest_JOINT_tsda.cpp", SPRING_TABLES, None),
+    "TranSpringCB_Case02": ("utest_JOINT_tsda.cpp", SPRING_TABLES, dict(
+        Pos=1e-4, Vel=5e-5, Acc=5e-4, Quat=1e-10, Avel=1e-10, Aacc=1e-10, Rforce=5e-4)),
+    **{f"TranSpringCB_Case0{k}": ("utest_JOINT_tsda.cpp", SPRING_TABLES, dict(
+        Pos=1e-4, Vel=5e-4, Acc=1e-3, Quat=5e-5, Avel=5e-3, Aacc=5e-2, Rforce=5e-3))
+       for k in (3, 4)},
 }
 
 #: Torque-free bodies and other constructed cases (data used by validation.cases).
@@ -286,14 +293,14 @@ def adams_accuracy(adams_dir: Path) -> dict:
 def model_case_entries(adams_dir: Path) -> dict:
     """The entries of the MODEL_CASES (no deck, no closed form): the tables' shape and size
     and Chrono's RMS tolerance for each."""
-    from .chrono_models import EXACT, MODELS
+    from .chrono_models import EXACT, MODELS, NO_CLOSED_FORM
     out = {}
     for case, (test, tables, tols) in MODEL_CASES.items():
         entry = {"model": (f"rebuilt in code from {test} (spatialmbd.validation.chrono_models."
                            f"{MODELS[case].__name__}): no ADAMS deck is published"),
                  "chrono_test": (f"src/tests/unit_tests/joints/{test} of Project Chrono, "
                                  "commit 7689fbc02d12c5419fa6acad8791100fd89979dd")}
-        if case in EXACT and case.startswith("TranSpring"):
+        if case in EXACT and case.startswith(("TranSpring_", "TranSpringCB_")):
             entry["exact"] = ("the damped oscillator m z'' + c z' + k z = -m g from rest at "
                               "the anchor, the body not turning; the force on the ground "
                               "k z + c z' along z (validation.chrono_models."
@@ -305,10 +312,8 @@ def model_case_entries(adams_dir: Path) -> dict:
                               f"{EXACT[case][0].__name__})")
         else:
             entry.update(exact=None, why=(
-                "no closed form: a body on a revolute-spherical link (two constraint "
-                "equations, four degrees of freedom) released off its equilibrium; ours "
-                "against ADAMS within the RMS tolerance Project Chrono's unit test states "
-                "for it"))
+                f"no closed form: {NO_CLOSED_FORM[case]}; ours against ADAMS within the RMS "
+                "tolerance Project Chrono's unit test states for it"))
         entry["quantities"] = {}
         for q in tables:
             t, val, cols = read_table(adams_dir / f"{case}_ADAMS_{q}.txt")
