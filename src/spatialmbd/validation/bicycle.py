@@ -32,6 +32,7 @@ import numpy as np
 
 from .. import models
 from ..rotations import p_from_A
+from .exact import rotation_matrix
 
 #: Meijaard's axes (x forward, y right, z down) in ours (x forward, y left, z up): a half turn
 #: about x, its own inverse
@@ -39,18 +40,15 @@ FLIP = np.diag([1.0, -1.0, -1.0])
 
 
 def _rx(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+    return rotation_matrix((1.0, 0.0, 0.0), a)
 
 
 def _ry(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0, s], [0, 1.0, 0], [-s, 0, c]])
+    return rotation_matrix((0.0, 1.0, 0.0), a)
 
 
 def _rz(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    return rotation_matrix((0.0, 0.0, 1.0), a)
 
 
 def moore_from_basu(basu: dict) -> tuple[np.ndarray, np.ndarray]:
