@@ -20,6 +20,8 @@ not the modulus k.
 * :func:`rotating_pendulum` - I phi'' = K sin phi over the top (IFToMM A02 parallelogram).
 * :func:`bicycle_eigenvalues` - eigenvalues of the lean and steer equations of the Whipple
   bicycle benchmark, M q'' + v C1 q' + (g K0 + v^2 K2) q = 0.
+* :class:`NutatingTop` - the heavy symmetric top in general motion (nutation between the roots
+  of the cubic of u = cos theta, Jacobi elliptic functions).
 """
 from __future__ import annotations
 
@@ -459,3 +461,67 @@ def bicycle_eigenvalues(v: float, M, C1, K0, K2, g: float = 9.81) -> np.ndarray:
     A = np.block([[np.zeros((2, 2)), np.eye(2)],
                   [-np.linalg.solve(M, K), -np.linalg.solve(M, v * C1)]])
     return np.sort_complex(np.linalg.eigvals(A))
+
+
+@dataclass
+class NutatingTop:
+    """Heavy symmetric top with its tip fixed: mass m, centre of mass l from the tip on the
+    symmetry axis, moments I1 (centroidal, transverse) and I3 (axial), gravity g; started at
+    the nutation angle theta0 from the upward vertical with theta' = 0, precession rate
+    phidot0 and axial spin w3 (Goldstein, Classical Mechanics, sec. 5.7).
+
+    With A = I1 + m l^2 about the tip, C = I3 and u = cos(theta), the conserved w3, p_phi =
+    A phi' sin^2 theta + C w3 u and energy give u'^2 = f(u) = (1 - u^2)(alpha - beta u) -
+    (b - a u)^2, alpha = phidot0^2 sin^2 theta0 + beta u0, beta = 2 m g l / A, a = C w3 / A,
+    b = p_phi / A: a cubic beta (u - u1)(u - u2)(u - u3), u1 <= u2 <= 1 < u3, between whose
+    first two roots u oscillates:
+
+        u(t) = u1 + (u2 - u1) sn^2(lam t + t0, m),  lam = sqrt(beta (u3 - u1)) / 2,
+        m = (u2 - u1) / (u3 - u1)
+
+    (substituting gives u'^2 = 4 lam^2 (u2 - u1)^2 sn^2 cn^2 dn^2 = f(u)), t0 = K(m) when it
+    starts at the upper turning point u2, 0 at the lower one u1; nutation period 2 K(m) / lam."""
+
+    m: float
+    l: float
+    I1: float
+    I3: float
+    g: float
+    theta0: float
+    w3: float
+    phidot0: float = 0.0
+
+    def __post_init__(self):
+        A = self.I1 + self.m * self.l ** 2
+        self.A = A
+        u0 = float(np.cos(self.theta0))
+        s2 = 1.0 - u0 * u0
+        self.beta = 2 * self.m * self.g * self.l / A
+        self.a = self.I3 * self.w3 / A
+        self.b = self.phidot0 * s2 + self.a * u0
+        self.alpha = self.phidot0 ** 2 * s2 + self.beta * u0
+        roots = np.sort(np.roots([self.beta, -(self.alpha + self.a ** 2),
+                                  2 * self.a * self.b - self.beta,
+                                  self.alpha - self.b ** 2]).real)
+        self.u1, self.u2, self.u3 = (float(r) for r in roots)
+        self.u0 = u0
+        self.from_top = abs(u0 - self.u2) <= abs(u0 - self.u1)
+        self.lam = float(np.sqrt(self.beta * (self.u3 - self.u1))) / 2.0
+        self.m_ell = (self.u2 - self.u1) / (self.u3 - self.u1)
+        self.K = float(ellipk(self.m_ell))
+
+    @property
+    def period(self) -> float:
+        """Nutation period (s): u returns to its start."""
+        return 2.0 * self.K / self.lam
+
+    def u(self, t) -> np.ndarray:
+        """cos(theta(t)) = u1 + (u2 - u1) sn^2(lam t + t0 | m)."""
+        t = np.asarray(t, dtype=float)
+        shift = self.K if self.from_top else 0.0
+        sn = ellipj(self.lam * t + shift, self.m_ell)[0]
+        return self.u1 + (self.u2 - self.u1) * sn * sn
+
+    def p_phi(self) -> float:
+        """Angular momentum about the vertical (kg m^2/s), conserved."""
+        return self.A * self.b

@@ -436,6 +436,23 @@ def derive(adams_dir: Path) -> dict:
         "theta_rad": top["theta"], "spin_w3": top["spin"], "precession_rate": omega_p,
     }
 
+    from .exact import NutatingTop
+    nut = NutatingTop(top["mass"], top["l"], top["I1"], top["I3"], 9.81, math.pi / 3, 20.0,
+                      0.0)
+    refs["heavy_top_nutation"] = {
+        "source": ("constructed (models.heavy_top / models.HEAVY_TOP data): the heavy "
+                   "symmetric top released with its axis 60 deg from the vertical, spinning at "
+                   "20 rad/s about it, not precessing (H. Goldstein, Classical Mechanics, sec. "
+                   "5.7: the cusped nutation)"),
+        "how": ("u = cos(theta) oscillates between the first two roots of the cubic u'^2 = "
+                "(1 - u^2)(alpha - beta u) - (b - a u)^2: u(t) = u1 + (u2 - u1) sn^2(lam t + "
+                "K | m) (validation.exact.NutatingTop); the spin w3 and the angular momentum "
+                "about the vertical p_phi = A b are conserved"),
+        "precision": "closed form (cubic roots, Jacobi elliptic functions), double precision",
+        "theta0_rad": math.pi / 3, "spin_w3": 20.0, "precession0": 0.0,
+        "u1": nut.u1, "u2": nut.u2, "nutation_period_s": nut.period, "p_phi": nut.p_phi(),
+    }
+
     fs = FREE_SYMMETRIC
     I1, I3 = fs["inertia"][0], fs["inertia"][2]
     refs["free_symmetric"] = {
