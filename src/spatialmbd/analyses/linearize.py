@@ -37,12 +37,13 @@ space of the holonomic rows D_h, dx = N_h a; the velocities satisfy the lineariz
 constraints D dv + d(D v*)/dx dx = 0, so dv = P a + N_v b with N_v the null space of all of D
 and P = -D^+ d(D v*)/dx N_h. With dx' = dv + W dx and N_v^T removing dlam:
 
-    a' = N_h^T (P a + N_v b + W N_h a)
+    a' = N_h^+ (P a + N_v b + W N_h a)          (N_h^+ = N_h^T for an orthonormal basis)
     N_v^T M N_v b' = -N_v^T [M P a' + R_v dv + R_x dx] + N_v^T B_q u
 
 the first-order model x = [a, b] (C and K None). The bases are frozen at the reference
 instant; a TurningNullSpaceWarning says how fast they turn along the motion (not at all for a
-vehicle running straight, whose wheels spin about their axles).
+vehicle running straight, whose wheels spin about their axles). With ``frame_rate`` they turn
+with the frame instead: a' loses N_h^+ Om N_h a, and dv' gains Om (P a + N_v b).
 
 Derivatives: M, the gyroscopic term and their q-dependence analytic; force elements and the
 constraint term D^T lam by central differences (step eps^(1/3), checked against half the step).
