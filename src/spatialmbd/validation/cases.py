@@ -581,6 +581,23 @@ def case_a01(full: bool) -> CaseResult:
                            f"{ref['period_point_mass_s']:.9f} s (I_c = 1e-6 adds "
                            f"{ref['period_s'] - ref['period_point_mass_s']:.2g} s)")
     _energy_checks(case, res, "energy change")
+    # the 2006 specification: 2000 s (845 periods), dop853 at rtol 1e-12
+    long = _sim(b.compile(), 2000.0, full, 1e-12, 1e-12, output_step=1.0,
+                integrator="dop853", atol=1e-14)
+    en = _energy_checks(case, long, "energy change over 2000 s (2006 specification)")
+    # an energy error dE shifts the period by dT/dE dE: over t the motion lags by
+    # (t / T) dT/dE dE, at most v_max times that in position (dT/dE from T(theta0))
+    from scipy.special import ellipk
+    h = 1e-6
+    T_of = [4 * ellipk(np.sin((pend.theta0 + s_) / 2) ** 2) / pend.omega0 for s_ in (h, -h)]
+    dT_dE = (T_of[0] - T_of[1]) / (2 * h) / (pend.m * pend.gn * pend.d * np.sin(pend.theta0))
+    lag = long.t[-1] / ref["period_s"] * abs(dT_dE) * en.error
+    vmax = wmax * pend.d
+    exl = pend.motion(long.t)
+    compare_history(case, "position over 2000 s (2006 specification)", long.q[:, 0, :2],
+                    exl.r[:, :2], integration_bound(long, 1.0) + vmax * lag,
+                    bound_basis(long, 1.0, "m") + " + v_max (t/T) |dT/dE| dE, the lag the "
+                    f"measured energy error dE explains ({vmax * lag:.2g} m)", "m", t=long.t)
     return case
 
 
