@@ -28,6 +28,11 @@ exactly as in src/spatialmbd/models.py; every peer model is generated from the s
   slider translational along the shaft, two rods revolute on the shaft); its loops are closed
   by two stiff spring-dampers (k = 8e5 N/m, c = 4e4 N s/m) from the slider to the rods. Every
   body starts spinning at 2 pi rad/s; 1 s.
+* ``bicycle``: ``whipple_bicycle(4.6, 0.5)`` (the Meijaard et al. 2007 benchmark bicycle, the
+  IFToMM uncontrolled-bicycle manoeuvre: 4.6 m/s, pushed sideways at 0.5 rad/s): two knife-edge
+  wheels rolling without slip, nonholonomic; 1 s. Only Exudyn has an exact rolling joint
+  (``ObjectJointRollingDisc``: the plane on a ground marker, the disc's centre, axis and
+  radius on the wheel); MuJoCo (contacts only) and Pinocchio are not run on it.
 
 Accuracy: the largest distance between a body's final centre of mass and the reference (m);
 target 1e-6 m. Reference: spatialmbd, method "projection", rk45 at rtol 1e-12 (atol 1e-14),
@@ -191,6 +196,11 @@ PROBLEMS = {
                     # stiff (k = 8e5 N/m, c = 4e4 N s/m): explicit fixed steps above ~5e-4 s
                     # are unstable, so the fixed-step sweeps start finer
                     steps=[1e-3, 5e-4, 4e-4, 2.5e-4, 2e-4, 1.25e-4, 1e-4, 5e-5]),
+    # two knife-edge wheels rolling without slip (nonholonomic): neither MuJoCo (contacts
+    # only) nor Pinocchio has an exact rolling joint; Exudyn's ObjectJointRollingDisc is one
+    "bicycle": dict(build=lambda: models.whipple_bicycle(4.6, 0.5), t_end=1.0, cuts={},
+                    peers=("exudyn",),
+                    note="1 s of the Whipple bicycle at 4.6 m/s pushed at 0.5 rad/s"),
 }
 
 
@@ -562,7 +572,24 @@ def exudyn_runner(prob):
         for j in b.joints.values():
             pair = [item[j.body_i], item[j.body_j]]
             pt = list(np.asarray(j.geometry["point"], float))
-            if j.name in axes:
+            if j.type == "rolling_disc":
+                # the plane (a point and its normal) on body j, the disc's centre and axis on
+                # body i (all initially in global axes, the bodies unturned)
+                from exudyn.itemInterface import MarkerBodyRigid, ObjectJointRollingDisc
+                if j.body_j != "ground":
+                    raise ValueError("the rolling plane must be the ground here")
+                wheel = bd[j.body_i]
+                plane = mbs.AddMarker(MarkerBodyRigid(
+                    bodyNumber=item["ground"],
+                    localPosition=list(np.asarray(j.geometry["point2"], float))))
+                centre = mbs.AddMarker(MarkerBodyRigid(
+                    bodyNumber=item[j.body_i],
+                    localPosition=list(wheel["R"].T @ (np.asarray(pt) - wheel["r"]))))
+                mbs.AddObject(ObjectJointRollingDisc(
+                    markerNumbers=[plane, centre], discRadius=float(j.params["radius"]),
+                    discAxis=list(wheel["R"].T @ np.asarray(j.geometry["axis"], float)),
+                    planeNormal=list(np.asarray(j.geometry["axis2"], float))))
+            elif j.name in axes:
                 mbs.CreateGenericJoint(itemNumbers=pair, position=pt,
                                        constrainedAxes=axes[j.name], useGlobalFrame=True,
                                        show=False)
@@ -719,7 +746,7 @@ def reference(prob):
 
 
 # -------------------------------------------------------------------------------- per RHS
-def rhs_costs(prob):
+def rhs_costs(prob, peers_of=("mujoco", "pinocchio", "exudyn")):
     model = prob["model"]
     out = peers.body_rhs_costs(model)
     for method in ("standard", "projection"):        # what a run pays per evaluation
@@ -729,7 +756,7 @@ def rhs_costs(prob):
                            rtol=1e-8, atol=1e-10)
             best = min(best, res.wall_time / res.counters["nfev"])
         out[f"spatialmbd {method} in simulate (wall / nfev, rk45 rtol 1e-8)"] = best
-    if available("pinocchio"):
+    if available("pinocchio") and "pinocchio" in peers_of:
         f, y0, _, ext = pin_problem(prob)
         nq = ext["model"].nq
         q, v = y0[:nq].copy(), y0[nq:].copy()
@@ -741,7 +768,7 @@ def rhs_costs(prob):
             out["pinocchio aba"] = per_call(lambda: pin.aba(ext["model"], ext["data"], q, v,
                                                             tau))
         out["pinocchio whole RHS (Python)"] = per_call(lambda: f(0.0, y0))
-    if available("mujoco"):
+    if available("mujoco") and "mujoco" in peers_of:
         import mujoco
         m, qvel, _ = mujoco_model(prob)
         d = mujoco.MjData(m)
@@ -784,7 +811,7 @@ def problem(key, quick):
         n = int(key.split()[1])
         crosses["closed form (crank-angle ODE)"] = com_error(
             n_four_bar_exact(n, t_end, prob["builder"]), ref)
-    if available("pinocchio"):
+    if available("pinocchio") and "pinocchio" in prob.get("peers", ("pinocchio",)):
         try:
             crosses["pinocchio DOP853 rtol 1e-12"] = com_error(
                 pin_scipy_runner(prob, "DOP853")(1e-12)[1], ref)
@@ -802,7 +829,8 @@ def problem(key, quick):
     steps = prob.get("steps", peers.STEPS)
     steps = steps[::2] if quick else steps
     tols = TOLS[::2] if quick else TOLS
-    if available("mujoco"):
+    peers_of = prob.get("peers", ("mujoco", "pinocchio", "exudyn"))
+    if available("mujoco") and "mujoco" in peers_of:
         runs = {"RK4": mujoco_runner(prob, "RK4")}
         if check_peer("mujoco RK4", runs["RK4"], 1e-4, ref_check, checks):
             rows += sweep("mujoco RK4", sorted(set(steps + [1e-4, 5e-5]), reverse=True),
@@ -812,7 +840,7 @@ def problem(key, quick):
                               mujoco_runner(prob, integ), ref)
         else:
             rows.append(dict(code="mujoco", setting=0, failed="model check at t = 0.1 s"))
-    if available("pinocchio"):
+    if available("pinocchio") and "pinocchio" in peers_of:
         run = pin_scipy_runner(prob, "DOP853")
         if check_peer("pinocchio DOP853", run, 1e-11, ref_check, checks):
             what = "constraintDynamics" if prob["cuts"] else "aba + spring forces"
@@ -824,7 +852,7 @@ def problem(key, quick):
                               pin_scipy_runner(prob, "Radau"), ref)
         else:
             rows.append(dict(code="pinocchio", setting=0, failed="model check at t = 0.1 s"))
-    if available("exudyn"):
+    if available("exudyn") and "exudyn" in peers_of:
         run = exudyn_runner(prob)
         if check_peer("exudyn gen.-alpha", run, 1e-4 if key != "flyball" else 2.5e-5,
                       ref_check, checks):
@@ -843,7 +871,7 @@ def problem(key, quick):
                     rows += sweep(f"exudyn KinematicTree {s}", tols,
                                   exudyn_kt_runner(prob, s), ref)
     log("  per-RHS cost ...")
-    costs = rhs_costs(prob)
+    costs = rhs_costs(prob, peers_of)
     return dict(name=key, t_end=t_end, note=prob["note"], nb=prob["model"].nb,
                 n_eq=prob["model"].n_eq, reference_checks=crosses, model_checks=checks,
                 rows=rows, rhs=costs)
@@ -922,8 +950,9 @@ def tables(results, meta):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--problems", nargs="+", default=["four_bar", "n_four_bar", "bricard",
-                                                      "flyball"],
-                    help="four_bar n_four_bar bricard flyball (n_four_bar = N 2 and 8)")
+                                                      "flyball", "bicycle"],
+                    help="four_bar n_four_bar bricard flyball bicycle (n_four_bar = N 2 and "
+                         "8)")
     ap.add_argument("--quick", action="store_true", help="fewer settings (smoke run)")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"
                                          / "loops_peers"))
