@@ -52,7 +52,8 @@ CASE_NAMES = ("adams_revolute_case01", "adams_revolute_case02", "adams_spherical
               "free_symmetric", "free_asymmetric", "heavy_top", "heavy_top_nutation",
               "slider_crank_kinematics",
               "iftomm_a01", "iftomm_a02", "iftomm_a03", "iftomm_a04", "iftomm_a05",
-              "spatial_slider_crank", "meijaard_bicycle", "basu_mandal_bicycle",
+              "spatial_slider_crank", "meijaard_bicycle", "iftomm_bicycle",
+              "basu_mandal_bicycle",
               "double_pendulum", "robot_arm", "hertz_impact", "cam_follower")
 
 

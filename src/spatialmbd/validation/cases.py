@@ -867,6 +867,32 @@ def case_meijaard_bicycle(full: bool) -> CaseResult:
     return case
 
 
+def case_iftomm_bicycle(full: bool) -> CaseResult:
+    ref = references()["iftomm_bicycle"]
+    case = CaseResult("IFToMM uncontrolled bicycle, manoeuvres M1-M3", "the nonlinear "
+                      "bicycle pushed sideways below (M1), inside (M2) and above (M3) its "
+                      "self-stable speeds, 5 s: centres of mass against an independent code",
+                      f"{ref['source']}; {ref['how']}; {ref['precision']}")
+    for name, m in ref["manoeuvres"].items():
+        res = _sim(models.whipple_bicycle(m["speed"], m["lean_rate"]).compile(), ref["t_s"],
+                   full, 1e-12, 1e-12, method="projection", integrator="dop853",
+                   atol=1e-14, output_step=ref["t_s"])
+        com = np.asarray(m["com"])
+        scale = float(np.abs(com).max())
+        tol = integration_bound(res, scale) + m["step_difference"] / 3 + 1e-8 * scale
+        lean, _ = models.bicycle_lean_steer(res)
+        diff = np.abs(res.q[-1, :, :3] - com)
+        k = np.unravel_index(int(np.argmax(diff)), diff.shape)
+        case.add(f"{name} ({m['speed']:g} m/s, pushed at {m['lean_rate']:g} rad/s): centres "
+                 "of mass at 5 s", float(com[k]), float(res.q[-1, :, :3][k]),
+                 float(diff.max()), tol, bound_basis(res, scale, "m") + " + Exudyn's step "
+                 "error (step_difference / 3) + its Newton tolerance (1e-8 of the positions)",
+                 f"worst of the 4 bodies x 3 coordinates: {res.model.body_names[k[0]]} "
+                 f"{'xyz'[k[1]]}", "m")
+        case.notes.append(f"{name}: lean at 5 s {np.degrees(lean[-1]):.4f} deg")
+    return case
+
+
 def _half_digit(value: float, sig: int) -> float:
     """Half a unit in the last of ``sig`` significant digits of ``value`` (0: exact)."""
     if sig == 0 or value == 0:
@@ -1067,6 +1093,7 @@ CASES = {
     "iftomm_a05": case_a05,
     "spatial_slider_crank": case_spatial_slider_crank,
     "meijaard_bicycle": case_meijaard_bicycle,
+    "iftomm_bicycle": case_iftomm_bicycle,
     "basu_mandal_bicycle": case_basu_mandal_bicycle,
     "double_pendulum": case_double_pendulum,
     "robot_arm": case_robot_arm,

@@ -591,6 +591,42 @@ def derive(adams_dir: Path) -> dict:
         "weave_speed_m_s": 4.29238253634111,
         "capsize_speed_m_s": 6.02426201538837,
     }
+    refs["iftomm_bicycle"] = {
+        "source": ("IFToMM benchmark library, uncontrolled bicycle: the Meijaard et al. (2007) "
+                   "bicycle (models.whipple_bicycle) started upright and straight, pushed "
+                   "sideways: M1 4.0 m/s at 0.05 rad/s, M2 4.6 m/s at 0.5 rad/s, M3 8.0 m/s at "
+                   "0.05 rad/s; the library's own reference solutions are not reachable here"),
+        "how": ("an independent code instead: Exudyn 1.13.6 (Euler-parameter rigid bodies, its "
+                "revolute joints and exact ObjectJointRollingDisc, generalized-alpha rho_inf "
+                "0.9, modified Newton at its default tolerances) on the same data, at the "
+                "fixed steps 1.25e-4 s and 6.25e-5 s; the centres of mass of the four bodies "
+                "(rear frame, rear wheel, front frame, front wheel) at t = 5 s at the finer "
+                "step (bench/bicycle_reference.py)"),
+        "precision": ("second order in the step: the finer step's error is about a third of "
+                      "the two steps' difference (step_difference); plus Exudyn's Newton "
+                      "tolerance (relative 1e-8 of the positions)"),
+        "t_s": 5.0,
+        "manoeuvres": {
+            "M1": dict(speed=4.0, lean_rate=0.05, com=[
+                      [20.292743251956, -0.312856580591, 0.899987752423],
+                      [19.995957823359, -0.268934994681, 0.299996666103],
+                      [20.885068528335, -0.40837278796, 0.699982863612],
+                      [21.003297746395, -0.428952544363, 0.349985255587]],
+                       step_difference=7.44e-08),
+            "M2": dict(speed=4.6, lean_rate=0.5, com=[
+                      [22.875584316537, -4.901594292056, 0.899949739991],
+                      [22.583886640438, -4.831213023375, 0.299983955319],
+                      [23.462027663681, -5.028420718453, 0.699953705213],
+                      [23.580000227414, -5.05065998195, 0.349971006547]],
+                       step_difference=3.03e-07),
+            "M3": dict(speed=8.0, lean_rate=0.05, com=[
+                      [40.292636910491, -0.739458109184, 0.899982442772],
+                      [39.992925888549, -0.725768470791, 0.299994195282],
+                      [40.892346524022, -0.758159271463, 0.699985859557],
+                      [41.012352292675, -0.759972881513, 0.349992536323]],
+                       step_difference=9.42e-08),
+        },
+    }
     refs["basu_mandal_bicycle"] = {
         "source": ("P. Basu-Mandal, A. Chatterjee, J. M. Papadopoulos, Hands-free circular "
                    "motions of a benchmark bicycle, Proc. R. Soc. A 463 (2007) 1983-2003, "
