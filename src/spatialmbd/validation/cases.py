@@ -700,7 +700,28 @@ def case_a04(full: bool) -> CaseResult:
              "motion check", note="position of joint P3 (end of bar 3)", unit="m")
     case.notes.append("standard method: the redundant equation is left out of the multiplier "
                       "solve, so the reactions of its joint are not unique")
+    _exudyn_check(case, model, ref["exudyn"], integrator="dop853", rtol=1e-11, atol=1e-13)
     return case
+
+
+def _exudyn_check(case, model, exu, **settings):
+    """The centres of mass at exu["t_s"] against Exudyn's (references.EXUDYN_HOW): within our
+    integration bound + Exudyn's step error (a third of its two steps' difference) + its
+    Newton tolerance (1e-8 of the positions' size)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RedundantConstraintsWarning)
+        res = _sim(model, exu["t_s"], False, settings.pop("rtol"), 0.0, method="projection",
+                   output_step=exu["t_s"], **settings)
+    com = np.asarray(exu["com"])
+    scale = max(float(np.abs(com).max()), 1.0)
+    diff = np.abs(res.q[-1, :, :3] - com)
+    k = np.unravel_index(int(np.argmax(diff)), diff.shape)
+    case.add(f"centres of mass at {exu['t_s']:g} s against Exudyn (an independent code)",
+             float(com[k]), float(res.q[-1, :, :3][k]), float(diff.max()),
+             integration_bound(res, scale) + exu["step_difference"] / 3 + 1e-8 * scale,
+             bound_basis(res, scale, "m") + " + Exudyn's step error (step_difference / 3, "
+             f"steps {exu['steps'][0]:g} and {exu['steps'][1]:g} s) + its Newton tolerance",
+             f"worst of the bodies' coordinates: {model.body_names[k[0]]} {'xyz'[k[1]]}", "m")
 
 
 def case_a05(full: bool) -> CaseResult:
@@ -720,6 +741,7 @@ def case_a05(full: bool) -> CaseResult:
     case.notes.append(f"slider height {z[0]:.4f} -> {z[-1]:.4f} m (max {z.max():.4f}); damper "
                       f"work {res.work[-1]:.4g} J; {res.counters['nfev']} evaluations, "
                       f"{res.counters['njev']} Jacobians")
+    _exudyn_check(case, model, ref["exudyn"], integrator="bdf4", rtol=1e-9, atol=1e-11)
     return case
 
 

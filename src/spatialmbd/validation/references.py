@@ -522,6 +522,14 @@ def derive(adams_dir: Path) -> dict:
         "how": "published: Gruebler-Kutzbach 0 DoF, actual mobility 1 (one redundant equation)",
         "precision": "exact integers",
         "grubler": 0, "dof": 1, "redundant_equations": 1,
+        "exudyn": dict(how=EXUDYN_HOW,
+                       t_s=10.0, steps=[0.0002, 0.0001], com=[
+                           [0.499999981905, 0.0, -0.000134516955],
+                           [0.999865483041, -0.499999981915, -0.000268997729],
+                           [0.999865483041, -1.00013448078, 0.499731002271],
+                           [0.499999981905, -1.00013448078, 0.999731002271],
+                           [0.0, -0.499999981915, 0.999865519225]],
+                       step_difference=6.34e-09),
     }
 
     refs["iftomm_a05"] = {
@@ -529,6 +537,13 @@ def derive(adams_dir: Path) -> dict:
         "how": ("no torque about the shaft axis: angular momentum about z conserved; "
                 "mechanical energy + elastic energy - damper work conserved"),
         "precision": "invariants (exact)",
+        "exudyn": dict(how=EXUDYN_HOW,
+                       t_s=2.0, steps=[5e-05, 2.5e-05], com=[
+                           [0.0, 0.0, 0.5],
+                           [0.0, -0.0, 0.505909295927],
+                           [0.158175457669, -0.880773929158, 0.519998471181],
+                           [-0.158175457669, 0.880773929158, 0.519998471181]],
+                       step_difference=5.05e-08),
     }
 
     sc = models.slider_crank_iftomm()
@@ -601,7 +616,7 @@ def derive(adams_dir: Path) -> dict:
                 "0.9, modified Newton at its default tolerances) on the same data, at the "
                 "fixed steps 1.25e-4 s and 6.25e-5 s; the centres of mass of the four bodies "
                 "(rear frame, rear wheel, front frame, front wheel) at t = 5 s at the finer "
-                "step (bench/bicycle_reference.py)"),
+                "step (bench/exudyn_references.py)"),
         "precision": ("second order in the step: the finer step's error is about a third of "
                       "the two steps' difference (step_difference); plus Exudyn's Newton "
                       "tolerance (relative 1e-8 of the positions)"),
@@ -660,6 +675,14 @@ def derive(adams_dir: Path) -> dict:
                      "phidd": 13, "psifdd": 14, "betardd": 14, "betafdd": 13},
     }
     return refs
+
+
+#: provenance of the references computed with Exudyn (validation cases iftomm_a04, iftomm_a05)
+EXUDYN_HOW = ("Exudyn 1.13.6, an independent code (Euler-parameter rigid bodies, its own "
+              "joints and spring-dampers, generalized-alpha rho_inf 0.9, modified Newton at "
+              "its default tolerances), on the same model data at two fixed steps; the "
+              "centres of mass of every body at the end at the finer step "
+              "(bench/exudyn_references.py)")
 
 
 def main(argv=None) -> int:
