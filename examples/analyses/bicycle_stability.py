@@ -42,8 +42,8 @@ def capsize_margin(speed: float) -> float:
     return float(real[np.argmin(np.abs(real))])
 
 
-def main(out_dir: Path = Path(".")):
-    speeds = np.linspace(0.0, 10.0, 101)
+def main(out_dir: Path = Path("."), n_speeds: int = 101):
+    speeds = np.linspace(0.0, 10.0, n_speeds)
     ev = np.array([np.sort_complex(lean_steer_eigenvalues(v)) for v in speeds])
     weave = brentq(weave_margin, 3.5, 5.0, xtol=1e-12)
     # the capsize eigenvalue passes through the six zero ones: bracket it where it is clear

@@ -96,7 +96,7 @@ def test_example_scripts_run():
 
 def test_bicycle_stability_script_finds_the_published_speeds(tmp_path):
     bike = runpy.run_path(str(FOLDER / "bicycle_stability.py"), run_name="example")
-    weave, capsize, png = bike["main"](tmp_path)
+    weave, capsize, png = bike["main"](tmp_path, n_speeds=21)
     assert abs(weave - bike["WEAVE"]) < 1e-9 and abs(capsize - bike["CAPSIZE"]) < 1e-8
     assert png.stat().st_size > 10_000
 
