@@ -604,6 +604,16 @@ def exudyn_runner(prob):
                 mbs.CreatePrismaticJoint(itemNumbers=pair, position=pt,
                                          axis=list(j.geometry["axis"]), useGlobalFrame=True,
                                          show=False)
+            elif j.type == "universal":
+                # a generic joint free to turn about axis (of body i) and axis2 (of body j):
+                # the frame's x and y axes; its z rotation (x0 . y1 = 0) and the point held
+                a = np.asarray(j.geometry["axis"], float)
+                c = np.asarray(j.geometry["axis2"], float)
+                a, c = a / np.linalg.norm(a), c / np.linalg.norm(c)
+                mbs.CreateGenericJoint(itemNumbers=pair, position=pt,
+                                       rotationMatrixAxes=np.column_stack([a, c, np.cross(a, c)]),
+                                       constrainedAxes=[1, 1, 1, 0, 0, 1], useGlobalFrame=True,
+                                       show=False)
             else:
                 raise ValueError(j.type)
         for bi, pi, bj, pj, k, c, l0 in springs(b):

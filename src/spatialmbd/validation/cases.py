@@ -760,6 +760,8 @@ def case_spatial_slider_crank(full: bool) -> CaseResult:
     _violation_check(case, res)
     other = simulate(models.slider_crank(driven=False).compile(), 0.01, output_step=0.01,
                      hold={"crank": ["rx"]}).energy()["total"][0]
+    _exudyn_check(case, model, ref["exudyn"], integrator="dop853", rtol=1e-12, atol=1e-14,
+                  hold={"crank": ["rx"]})
     case.notes.append(f"models.slider_crank (universal axes (1,2,0)/sqrt5 on the rod, z on the "
                       f"slider) gives {other:.8f} J for the same initial state; without holding "
                       "the crank speed the minimum-norm correction slows the crank")

@@ -562,6 +562,13 @@ def derive(adams_dir: Path) -> dict:
                  "(0, -2, 1)/sqrt 5 (rod) and the crank speed held at 6 rad/s in the "
                  "velocity correction (models.slider_crank_iftomm); models.slider_crank's "
                  "axes give 0.76662000 J"),
+        "exudyn": dict(how=EXUDYN_HOW + "; from the velocities of the initial "
+                       "correction with the crank's 6 rad/s held",
+                       t_s=2.0, steps=[0.0001, 5e-05], com=[
+                           [0.0, 0.068214654268, 0.095716429491],
+                           [0.144542599376, 0.018214654268, 0.035716429491],
+                           [0.289085198752, 0.0, 0.0]],
+                       step_difference=3.38e-07),
     }
 
     refs["slider_crank_kinematics"] = {
