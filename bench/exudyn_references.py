@@ -25,7 +25,8 @@ spatialmbd.validation.references stores (with this provenance) for:
 * ``spatial_slider_crank``: the IFToMM spatial slider-crank (models.slider_crank_iftomm), 2 s,
   steps 1e-4 and 5e-5 s, started from the consistent velocities spatialmbd's correction gives
   with the crank's 6 rad/s held (energy 0.76643568 J, the published value); its universal
-  joint as a generic joint free about the two axes (loops_peers.py).
+  joint as a generic joint free about the two axes (loops_peers.py);
+* ``double_pendulum``: models.double_pendulum (chaotic), 2 s, steps 5e-5 and 2.5e-5 s.
 """
 from __future__ import annotations
 
@@ -77,6 +78,10 @@ def main():
     out["spatial_slider_crank"] = dict(t_s=2.0, steps=[1e-4, 5e-5], com=com,
                                        step_difference=diff)
     print(f"spatial slider-crank: step difference {diff:.2g} m", flush=True)
+    com, diff = exudyn_com(dict(builder=models.double_pendulum(), t_end=2.0), (5e-5, 2.5e-5))
+    out["double_pendulum"] = dict(t_s=2.0, steps=[5e-5, 2.5e-5], com=com,
+                                  step_difference=diff)
+    print(f"double pendulum: step difference {diff:.2g} m", flush=True)
     print(json.dumps(out, indent=1))
 
 

@@ -991,12 +991,17 @@ def case_basu_mandal_bicycle(full: bool) -> CaseResult:
 # ------------------------------------------------------------------------------ invariants
 def case_double_pendulum(full: bool) -> CaseResult:
     case = CaseResult("Spatial double pendulum", "models.double_pendulum: energy conservation "
-                      "and constraints (chaotic: no closed form)",
-                      "constructed model; invariant: total energy (conservative system)")
-    res = _sim(models.double_pendulum().compile(), 10.0 if full else 2.0, full, 1e-8, 1e-10,
-               method="standard", output_step=0.01)
+                      "and constraints (chaotic: no closed form); the first 2 s against an "
+                      "independent code",
+                      "constructed model; invariant: total energy (conservative system); "
+                      + references()["double_pendulum"]["exudyn"]["how"])
+    model = models.double_pendulum().compile()
+    res = _sim(model, 10.0 if full else 2.0, full, 1e-8, 1e-10, method="standard",
+               output_step=0.01)
     _energy_checks(case, res, "energy change")
     _violation_check(case, res)
+    _exudyn_check(case, model, references()["double_pendulum"]["exudyn"], integrator="dop853",
+                  rtol=1e-12, atol=1e-14)
     return case
 
 

@@ -613,6 +613,17 @@ def derive(adams_dir: Path) -> dict:
         "weave_speed_m_s": 4.29238253634111,
         "capsize_speed_m_s": 6.02426201538837,
     }
+    refs["double_pendulum"] = {
+        "source": "constructed (models.double_pendulum): two rods on revolute joints, chaotic",
+        "how": ("invariants (energy, constraints) over the run, and the first 2 s against an "
+                "independent code"),
+        "precision": "invariants exact; the independent code to its step error",
+        "exudyn": dict(how=EXUDYN_HOW,
+                       t_s=2.0, steps=[5e-05, 2.5e-05], com=[
+                           [-0.0, 0.440721093114, -0.23614596775],
+                           [0.490314623349, 0.927696834538, -0.38596651839]],
+                       step_difference=3.7e-08),
+    }
     refs["iftomm_bicycle"] = {
         "source": ("IFToMM benchmark library, uncontrolled bicycle: the Meijaard et al. (2007) "
                    "bicycle (models.whipple_bicycle) started upright and straight, pushed "
