@@ -743,3 +743,37 @@ def test_browser_draws_meshes(browser, tmp_path, renderer):
     _check_scene_shown(browser, session, renderer, f"mesh_{renderer}")
     assert browser.errors(session) == []
     browser.close_page(session)
+
+
+def travelling_cart_scene(n_frames=101, t_end=5.0, speed=4.0):
+    """A 1 m cart driving 20 m along x: it travels 20 times its own size."""
+    t = np.linspace(0.0, t_end, n_frames)
+    r = np.stack([speed * t, 0 * t, 0.25 + 0 * t], axis=1)
+    p = np.tile([1.0, 0.0, 0.0, 0.0], (n_frames, 1))
+    return {"t": t, "bodies": [{"name": "cart", "r": r, "p": p,
+                                "shapes": [{"type": "box", "size": [1.0, 0.5, 0.3],
+                                            "center": [0, 0, 0]}]}],
+            "gravity": [0, 0, -9.81]}
+
+
+@pytest.mark.browser
+def test_browser_follows_a_travelling_mechanism(browser, pendulum_page, tmp_path):
+    """A mechanism travelling many times its size is followed by the camera (on by default,
+    the checkbox ticked): the camera looks at the cart wherever it is; #follow=0 or
+    setFollow(false) frame the whole motion again. A pendulum is not followed."""
+    page = write_animation_html(tmp_path / "cart.html", travelling_cart_scene(), title="cart")
+    session = _load(browser, page, "#t=0")
+    assert browser.evaluate(session, "spatialmbdViewer.isFollowing()") is True
+    assert browser.evaluate(session, "document.getElementById('chk-follow').checked") is True
+    for t in (0.0, 2.5, 5.0):
+        target = browser.evaluate(session, f"spatialmbdViewer.setTime({t}), "
+                                           "spatialmbdViewer.cameraTarget()")
+        assert np.allclose(target, [4.0 * t, 0.0, 0.25], atol=1e-9), (t, target)
+    browser.evaluate(session, "spatialmbdViewer.setFollow(false)")
+    whole = browser.evaluate(session, "spatialmbdViewer.cameraTarget()")
+    assert abs(whole[0] - 10.0) < 1.5                     # the middle of the whole 20 m
+    session = _load(browser, page, "#follow=0")
+    assert browser.evaluate(session, "spatialmbdViewer.isFollowing()") is False
+    assert browser.errors(session) == []
+    session = _load(browser, pendulum_page, "#t=0")
+    assert browser.evaluate(session, "spatialmbdViewer.isFollowing()") is False

@@ -316,6 +316,7 @@
   // bounding box of the whole motion (for auto-fit, grid and marker sizes)
   // ------------------------------------------------------------------------------------------
   var bbMin = [0, 0, 0], bbMax = [0, 0, 0];  // the ground frame at the origin is always shown
+  var frameRadius = 0;     // the largest half-diagonal of the bodies' own box at one instant
   function grow(v) {
     for (var i = 0; i < 3; i++) {
       if (v[i] < bbMin[i]) { bbMin[i] = v[i]; }
@@ -328,15 +329,21 @@
     for (var k = 0; k < nF; k += stride) { ks.push(k); }
     if (ks[ks.length - 1] !== nF - 1) { ks.push(nF - 1); }
     ks.forEach(function (k) {
+      var lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+      function own(v) {
+        grow(v);
+        for (var i = 0; i < 3; i++) { lo[i] = Math.min(lo[i], v[i]); hi[i] = Math.max(hi[i], v[i]); }
+      }
       var poses = bodies.map(function (b) {
         var ps = bodyPose(b, { k: k, a: 0 });
-        grow(ps.pos);
+        own(ps.pos);
         b.meshes.forEach(function (m) {
-          m.verts.forEach(function (v) { grow(add(ps.pos, matVec(ps.A, v))); });
+          m.verts.forEach(function (v) { own(add(ps.pos, matVec(ps.A, v))); });
         });
         return ps;
       });
       joints.forEach(function (j) { grow(jointPoint(j, poses)); });
+      if (bodies.length) { frameRadius = Math.max(frameRadius, 0.5 * norm(sub(hi, lo))); }
     });
     groundMeshes.forEach(function (m) { m.verts.forEach(grow); });
   })();
@@ -346,6 +353,10 @@
   grow([1.15 * axLen, 1.15 * axLen, 1.15 * axLen]);
   var bbCenter = scale(add(bbMin, bbMax), 0.5);
   var sceneRadius = Math.max(0.5 * norm(sub(bbMax, bbMin)), 1e-6);
+  // follow: the camera moves with the bodies (their mean position), for a mechanism that
+  // travels several times its own size (a vehicle); on by default then
+  var follow = frameRadius > 0 && sceneRadius > 4 * frameRadius;
+  var followOffset = [0, 0, 0];      // the user's pan relative to the followed point
 
   // ------------------------------------------------------------------------------------------
   // springs, dampers, massless links, arrows and points: world-space primitives per frame
@@ -488,7 +499,25 @@
 
   /* Frame the bounding box of the whole motion for the current viewing direction: the
    * smallest distance at which all 8 corners project inside the view (with a margin). */
+  function bodiesCentre(poses) {
+    var c = [0, 0, 0];
+    poses.forEach(function (ps) { c = add(c, ps.pos); });
+    return poses.length ? scale(c, 1 / poses.length) : bbCenter.slice();
+  }
+  function followedTarget() {
+    var frm = frameAt(curTime);
+    return add(bodiesCentre(bodies.map(function (b) { return bodyPose(b, frm); })),
+               followOffset);
+  }
   function fit() {
+    if (follow) {
+      // the bodies at this instant, whatever their size, a third of the view across
+      followOffset = [0, 0, 0];
+      cam.target = followedTarget();
+      cam.dist = 3.0 * Math.max(frameRadius, 1e-6) / Math.tan(FOVY / 2);
+      requestRender();
+      return;
+    }
     cam.target = bbCenter.slice();
     cam.dist = 1;
     var fr = cameraFrame();
@@ -725,6 +754,7 @@
   }
 
   function render() {
+    if (follow) { cam.target = followedTarget(); }
     var fr = cameraFrame();
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
     var frm = frameAt(curTime);
@@ -871,6 +901,13 @@
   var speedSel = document.getElementById('speed');
   var btnFit = document.getElementById('btn-fit');
   var chkLabels = document.getElementById('chk-labels');
+  var chkFollow = document.getElementById('chk-follow');
+  chkFollow.checked = follow;
+  function setFollow(on) {
+    follow = !!on;
+    chkFollow.checked = follow;
+    fit();
+  }
   var digits = duration > 0 && duration < 10 ? 3 : 2;
 
   slider.min = String(tStart);
@@ -958,6 +995,7 @@
   speedSel.addEventListener('change', function () { setSpeed(speedSel.value); });
   btnFit.addEventListener('click', function () { fit(); });
   chkLabels.addEventListener('change', function () { showLabels = chkLabels.checked; requestRender(); });
+  chkFollow.addEventListener('change', function () { setFollow(chkFollow.checked); });
   window.addEventListener('resize', function () { requestRender(); });
 
   document.addEventListener('keydown', function (ev) {
@@ -989,7 +1027,9 @@
     if (drag.pan) {
       var fr = cameraFrame();
       var s = 2 * cam.dist * Math.tan(FOVY / 2) / Math.max(viewH, 1);
-      cam.target = add(cam.target, add(scale(fr.r, -dx * s), scale(fr.u, dy * s)));
+      var shift = add(scale(fr.r, -dx * s), scale(fr.u, dy * s));
+      if (follow) { followOffset = add(followOffset, shift); }
+      cam.target = add(cam.target, shift);
     } else {
       cam.yaw -= dx * 0.008;
       cam.pitch = Math.max(-1.55, Math.min(1.55, cam.pitch + dy * 0.008));
@@ -1020,6 +1060,7 @@
       if (i > 0) { params[decodeURIComponent(kv.slice(0, i))] = decodeURIComponent(kv.slice(i + 1)); }
     });
     if (params.speed !== undefined) { setSpeed(params.speed); }
+    if (params.follow !== undefined) { setFollow(params.follow === '1'); }
     if (params.t !== undefined) {
       setTime(params.t);
       return true;
@@ -1048,6 +1089,11 @@
     setSpeed: setSpeed,
     getSpeed: function () { return speed; },
     fit: fit,
+    /* follow the bodies with the camera (on by default when they travel several times their
+     * own size), and where the camera looks */
+    setFollow: function (on) { setFollow(on); draw(); },
+    isFollowing: function () { return follow; },
+    cameraTarget: function () { return cam.target.slice(); },
     /* orbit angles in degrees (yaw about up, pitch above the horizon), then fit */
     setView: function (yawDeg, pitchDeg) {
       cam.yaw = Number(yawDeg) * Math.PI / 180;
