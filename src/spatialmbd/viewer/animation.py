@@ -41,8 +41,10 @@ shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x,
 ``gravity``  optional [gx, gy, gz]; the initial camera uses up = -gravity (default up = +z).
 
 The page exposes ``window.spatialmbdViewer`` (``setTime(t)``, ``getTime()``, ``nFrames``,
-``ready``, ``play()``, ``pause()``, ``isPlaying()``, ``fit()``) and honours a URL hash
-``#t=1.25`` (show that time, paused), ``#speed=2``, ``#play=1``, ``#renderer=canvas``;
+``ready``, ``play()``, ``pause()``, ``isPlaying()``, ``fit()``, ``setFollow(on)``,
+``isFollowing()``, ``cameraTarget()``) and honours a URL hash ``#t=1.25`` (show that time,
+paused), ``#speed=2``, ``#play=1``, ``#renderer=canvas``, ``#follow=0|1`` (the camera follows
+the bodies; on by default when they travel more than 4 times their own size);
 ``spatialmbdViewer.renderer()`` says which renderer draws ("webgl" or "canvas").
 """
 from __future__ import annotations
