@@ -899,9 +899,9 @@ EXAMPLES.update({
 # ------------------------------------------------------------------------------------------
 #: Data of the benchmark bicycle of Meijaard, Papadopoulos, Ruina and Schwab, "Linearized
 #: dynamics equations for the balance and steer of a bicycle: a benchmark and review",
-#: Proc. R. Soc. A 463 (2007) 1955-1982, its parameter table (SI units). Their axes are x forward, y to
-#: the right, z down, origin at the rear contact point; here they are turned into x forward,
-#: y to the left, z up (y and z change sign, so do the xz products of inertia).
+#: Proc. R. Soc. A 463 (2007) 1955-1982, its parameter table (SI units). Their axes are x
+#: forward, y to the right, z down, origin at the rear contact point; here they are turned into
+#: x forward, y to the left, z up (y and z change sign, so do the xz products of inertia).
 #: w wheelbase, c trail, lam steer-axis tilt from the vertical (rad), g gravity; rear wheel
 #: (rR, mR, IRxx = IRzz, IRyy about the axle); rear frame and rider B (centre of mass xB, zB
 #: as in the source, z down; inertia IB about it, source axes); front frame (fork and

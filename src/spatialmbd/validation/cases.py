@@ -512,10 +512,10 @@ def case_heavy_top_nutation(full: bool) -> CaseResult:
                     integration_bound(res, ref["spin_w3"]), bound_basis(res, ref["spin_w3"]),
                     "rad/s", t=res.t)
     _energy_checks(case, res, "energy change")
+    periods = res.t[-1] / ref["nutation_period_s"]
     case.notes.append(f"nutation between theta = {np.degrees(np.arccos(ref['u2'])):.2f} and "
                       f"{np.degrees(np.arccos(ref['u1'])):.2f} deg, period "
-                      f"{ref['nutation_period_s']:.6f} s ({res.t[-1] / ref['nutation_period_s']:.1f}"
-                      " periods run)")
+                      f"{ref['nutation_period_s']:.6f} s ({periods:.1f} periods run)")
     return case
 
 
@@ -704,10 +704,10 @@ def case_a04(full: bool) -> CaseResult:
     return case
 
 
-def _exudyn_check(case, model, exu, **settings):
+def _exudyn_check(case, model, exu, label="", **settings):
     """The centres of mass at exu["t_s"] against Exudyn's (references.EXUDYN_HOW): within our
     integration bound + Exudyn's step error (a third of its two steps' difference) + its
-    Newton tolerance (1e-8 of the positions' size)."""
+    Newton tolerance (1e-8 of the positions' size). Returns our run."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RedundantConstraintsWarning)
         res = _sim(model, exu["t_s"], False, settings.pop("rtol"), 0.0, method="projection",
@@ -716,12 +716,13 @@ def _exudyn_check(case, model, exu, **settings):
     scale = max(float(np.abs(com).max()), 1.0)
     diff = np.abs(res.q[-1, :, :3] - com)
     k = np.unravel_index(int(np.argmax(diff)), diff.shape)
-    case.add(f"centres of mass at {exu['t_s']:g} s against Exudyn (an independent code)",
+    case.add(f"{label}centres of mass at {exu['t_s']:g} s against Exudyn (an independent code)",
              float(com[k]), float(res.q[-1, :, :3][k]), float(diff.max()),
              integration_bound(res, scale) + exu["step_difference"] / 3 + 1e-8 * scale,
              bound_basis(res, scale, "m") + " + Exudyn's step error (step_difference / 3, "
              f"steps {exu['steps'][0]:g} and {exu['steps'][1]:g} s) + its Newton tolerance",
              f"worst of the bodies' coordinates: {model.body_names[k[0]]} {'xyz'[k[1]]}", "m")
+    return res
 
 
 def case_a05(full: bool) -> CaseResult:
@@ -898,21 +899,11 @@ def case_iftomm_bicycle(full: bool) -> CaseResult:
                       "self-stable speeds, 5 s: centres of mass against an independent code",
                       f"{ref['source']}; {ref['how']}; {ref['precision']}")
     for name, m in ref["manoeuvres"].items():
-        res = _sim(models.whipple_bicycle(m["speed"], m["lean_rate"]).compile(), ref["t_s"],
-                   full, 1e-12, 1e-12, method="projection", integrator="dop853",
-                   atol=1e-14, output_step=ref["t_s"])
-        com = np.asarray(m["com"])
-        scale = float(np.abs(com).max())
-        tol = integration_bound(res, scale) + m["step_difference"] / 3 + 1e-8 * scale
+        res = _exudyn_check(case, models.whipple_bicycle(m["speed"], m["lean_rate"]).compile(),
+                            dict(m, t_s=ref["t_s"], steps=ref["steps"]),
+                            label=f"{name} ({m['speed']:g} m/s, pushed at {m['lean_rate']:g} "
+                                  "rad/s): ", integrator="dop853", rtol=1e-12, atol=1e-14)
         lean, _ = models.bicycle_lean_steer(res)
-        diff = np.abs(res.q[-1, :, :3] - com)
-        k = np.unravel_index(int(np.argmax(diff)), diff.shape)
-        case.add(f"{name} ({m['speed']:g} m/s, pushed at {m['lean_rate']:g} rad/s): centres "
-                 "of mass at 5 s", float(com[k]), float(res.q[-1, :, :3][k]),
-                 float(diff.max()), tol, bound_basis(res, scale, "m") + " + Exudyn's step "
-                 "error (step_difference / 3) + its Newton tolerance (1e-8 of the positions)",
-                 f"worst of the 4 bodies x 3 coordinates: {res.model.body_names[k[0]]} "
-                 f"{'xyz'[k[1]]}", "m")
         case.notes.append(f"{name}: lean at 5 s {np.degrees(lean[-1]):.4f} deg")
     return case
 

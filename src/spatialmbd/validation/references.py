@@ -639,6 +639,7 @@ def derive(adams_dir: Path) -> dict:
                       "the two steps' difference (step_difference); plus Exudyn's Newton "
                       "tolerance (relative 1e-8 of the positions)"),
         "t_s": 5.0,
+        "steps": [1.25e-4, 6.25e-5],
         "manoeuvres": {
             "M1": dict(speed=4.0, lean_rate=0.05, com=[
                       [20.292743251956, -0.312856580591, 0.899987752423],
