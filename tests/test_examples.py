@@ -16,6 +16,15 @@ def test_the_issue_list_of_examples_is_there():
             "bricard", "heavy_top", "robot_arm"} <= names
 
 
+def test_the_generated_examples_match_their_generator(tmp_path):
+    """The model files written from models.EXAMPLES are what write_examples() writes today
+    (a changed model or writer shows up here, not as a stale example)."""
+    from spatialmbd.io.writer import write_examples
+    root = EXAMPLES[0].parent
+    for path in write_examples(tmp_path):
+        assert (root / path.name).read_text() == path.read_text(), path.name
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_example_runs_from_the_cli(path, tmp_path, capsys):
     _, analysis = load_model(path)
