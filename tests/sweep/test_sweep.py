@@ -9,8 +9,9 @@ from spatialmbd import ModelBuilder
 from spatialmbd.errors import ModelError
 from spatialmbd.models import slider_crank
 from spatialmbd.sweep import (QUIET_WORKERS, forward_sensitivities, get_path, grid,
-                              latin_hypercube, local_cluster, parse_range, period, points,
-                              save_result, sensitivities, set_path, sweep, to_dataframe)
+                              latin_hypercube, local_cluster, parse_range, peak, period,
+                              points, save_result, sensitivities, set_path, sweep, to_dataframe,
+                              trough)
 
 xr = pytest.importorskip("xarray")
 
@@ -82,6 +83,29 @@ def test_period_of_sampled_sine_and_output_errors():
     assert np.isnan(period(t, np.ones_like(t)))
     with pytest.raises(ModelError, match="unknown reduction 'median'"):
         sweep(PENDULUM, {"bodies.pendulum.mass": [1]}, ["median(pendulum.z)"])
+
+
+def test_peak_and_trough_between_the_samples():
+    """peak / trough: the extreme sample refined by the local cubic, O(dt^4) against the
+    samples' O(dt^2); never inside the samples' range; a monotonic signal's end sample."""
+    errors = []
+    for dt in (0.1, 0.05, 0.025):
+        t = np.arange(0.0, 3.0, dt)
+        x = 2.0 * np.sin(2.0 * t + 0.3) + 0.5
+        assert peak(t, x) >= x.max() and trough(t, x) <= x.min()
+        errors.append((abs(peak(t, x) - 2.5), abs(trough(t, x) + 1.5), 2.5 - x.max()))
+    e = np.array(errors)
+    assert np.all(e[:, :2] < 2e-2 * e[:, 2:])                  # far inside the sample error
+    assert np.all(e[:-1, 0] / e[1:, 0] > 10)                   # ~ 16 per halving: 4th order
+    t = np.linspace(0.0, 1.0, 11)
+    assert peak(t, t ** 3 + t) == 2.0 and trough(t, t ** 3 + t) == 0.0   # the end samples
+    assert trough(t, t ** 2) == pytest.approx(0.0, abs=1e-15)          # x' = 0 at the end
+    assert peak(t[:2], t[:2]) == 0.1                                   # two samples
+    # a parabola is reproduced exactly, its vertex between two samples
+    assert peak(t, 1.0 - (t - 0.537) ** 2) == pytest.approx(1.0, abs=1e-14)
+    # a sampled step: the documented overshoot (6 % of the jump), above the samples
+    step = np.where(t < 0.45, -5.0, 4.0)
+    assert 4.0 < peak(t, step) < 4.0 + 0.07 * 9.0
 
 
 # ------------------------------------------------------------------------------ physics
@@ -315,7 +339,7 @@ def test_sensitivities_finite_differences_against_forward():
                     integrator=dict(name="rk4", step=4e-3))
     params = {"bodies.pendulum.mass": None, "bodies.pendulum.inertia.0": None}
     outs = ["final(pendulum.z)", "max(pendulum.wx)", "period(pendulum.wx)",
-            "mean(pendulum.y)"]
+            "mean(pendulum.y)", "trough(pendulum.wx)"]
     fd = sensitivities(PENDULUM, params, outs, analysis, engine="batch")
     fw = forward_sensitivities(PENDULUM, params, outs, analysis)
     assert (fd["status"] == "success").all()

@@ -10,14 +10,14 @@ differences checked by Richardson extrapolation); :mod:`.batch` integrates many 
 topology in one compiled call. Dask and xarray come with ``pip install 'spatialmbd[dask]'``.
 """
 from .core import QUIET_WORKERS, SweepJob, local_cluster, run_chunk, save_result, sweep, to_dataframe
-from .outputs import REDUCTIONS, Output, parse_outputs, period
+from .outputs import REDUCTIONS, Output, parse_outputs, peak, period, trough
 from .params import (ParameterSpace, as_space, get_path, grid, latin_hypercube, parse_range,
                      points, set_path)
 from .sensitivity import forward_sensitivities, sensitivities
 
 __all__ = ["sweep", "grid", "points", "latin_hypercube", "ParameterSpace", "parse_range",
            "as_space",
-           "Output", "parse_outputs", "period", "REDUCTIONS", "set_path", "get_path",
+           "Output", "parse_outputs", "period", "peak", "trough", "REDUCTIONS", "set_path", "get_path",
            "save_result", "to_dataframe", "SweepJob", "run_chunk", "sensitivities",
            "forward_sensitivities", "simulate_batch", "local_cluster", "QUIET_WORKERS"]
 

@@ -3,7 +3,10 @@ time series.
 
 An output is written ``reduction(column)`` or just ``column`` (the whole time series):
 
-    max(pendulum.z)       min(...)   final(...)   mean(...)   absmax(...)
+    max(pendulum.z)       min(...)   final(...)   mean(...)   absmax(...)   (of the samples)
+    peak(pendulum.z)      trough(...)   the largest / smallest value between the samples: the
+                          extreme sample refined by the cubic through the four samples
+                          around it (for smooth columns; at a jump or kink use max / min)
     period(pendulum.wx)   the mean time between upward zero crossings (s), each crossing
                           located by the cubic through the four samples around it
     pendulum.z            the time series (a "time" dimension in the result)
@@ -29,7 +32,7 @@ import numpy as np
 from ..errors import ModelError
 from ..jit import njit
 
-__all__ = ["Output", "parse_outputs", "REDUCTIONS", "period", "Columns"]
+__all__ = ["Output", "parse_outputs", "REDUCTIONS", "period", "peak", "trough", "Columns"]
 
 _BODY_Q = ("x", "y", "z", "e0", "e1", "e2", "e3")
 _BODY_V = ("vx", "vy", "vz", "wx", "wy", "wz")
@@ -135,10 +138,70 @@ def _cubic_root(t, x, k):
     return a + s
 
 
+def peak(t: np.ndarray, x: np.ndarray) -> float:
+    """The largest value of x(t) between the samples (a smooth x).
+
+    The largest sample x_k is refined by the stationary points of the cubics through the four
+    samples around each interval next to it (:func:`cubic_coefficients`, as :func:`period`
+    locates its crossings): the error is O(dt^4) instead of the samples' O(dt^2). Never less
+    than the largest sample. At a jump or a kink the cubic overshoots (a sampled step: by 6 % of
+    the jump): use max there.
+    """
+    return peak_at(np.ascontiguousarray(t, dtype=float),
+                   np.ascontiguousarray(x, dtype=float))[0]
+
+
+def trough(t: np.ndarray, x: np.ndarray) -> float:
+    """The smallest value of x(t) between the samples: -peak(t, -x)."""
+    return -peak(t, -np.asarray(x, dtype=float))
+
+
+@njit
+def peak_at(t, x):
+    """(value, j, s) of :func:`peak`: the value at t_j + s, s in [0, t_j+1 - t_j] (s = 0 and
+    j = k at the largest sample x_k itself when no cubic rises above it)."""
+    k = int(np.argmax(x))
+    best, jb, sb = x[k], k, 0.0
+    if x.size < 3:
+        return best, jb, sb
+    for j in range(max(0, k - 1), min(k + 1, x.size - 1)):    # the intervals next to x_k
+        a, c = cubic_coefficients(t, x, j)
+        h = t[j + 1] - a
+        # stationary points: c1 + 2 c2 s + 3 c3 s^2 = 0, the maxima among them (p'' < 0)
+        c1, c2 = c[1], c[2]
+        c3 = c[3] if c.size > 3 else 0.0
+        qa, qb, qc = 3.0 * c3, 2.0 * c2, c1
+        roots = np.empty(2)
+        nr = 0
+        if qa == 0.0:
+            if qb != 0.0:
+                roots[0] = -qc / qb
+                nr = 1
+        else:
+            disc = qb * qb - 4.0 * qa * qc
+            if disc >= 0.0:
+                r = -0.5 * (qb + math.copysign(math.sqrt(disc), qb))   # the stable pair
+                if r != 0.0:
+                    roots[0], roots[1] = r / qa, qc / r
+                    nr = 2
+                else:
+                    roots[0] = 0.0
+                    nr = 1
+        for i in range(nr):
+            s = roots[i]
+            if 0.0 < s < h and qb + 2.0 * qa * s < 0.0:
+                v = _poly(c, s)[0]
+                if v > best:
+                    best, jb, sb = v, j, s
+    return best, jb, sb
+
+
 REDUCTIONS: dict = {
     "max": lambda t, x: float(np.max(x)),
     "min": lambda t, x: float(np.min(x)),
     "absmax": lambda t, x: float(np.max(np.abs(x))),
+    "peak": peak,
+    "trough": trough,
     "final": lambda t, x: float(x[-1]),
     "initial": lambda t, x: float(x[0]),
     "mean": lambda t, x: float(np.mean(x)),

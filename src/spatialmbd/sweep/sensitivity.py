@@ -23,7 +23,8 @@ differences of the compiled right-hand side (as CVODES does without a user Jacob
 from f(y +- eps s_j), f_p from the packed model floats F at x0 +- delta. After each step the
 Euler parameters are renormalised and their sensitivities projected with (I - p p^T) / |p|.
 Outputs: reductions of body state columns (x..e3, vx..wz): final, initial, mean, max, min
-(derivative at the extremum), period (derivatives of the crossing times, -s / xdot).
+(derivative at the extreme sample), peak, trough (s at the interpolated extremum t*: x' = 0
+there, so d x(t*(p), p) / dp = s(t*)), period (derivatives of the crossing times, -s / xdot).
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ import numpy as np
 from ..errors import ModelError
 from ..integrators.controller import landing_steps, landing_time
 from .core import SUCCESS, _make_job, sweep
-from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs
+from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs, peak_at
 from .params import ParameterSpace, get_path, points
 
 __all__ = ["sensitivities", "forward_sensitivities"]
@@ -314,6 +315,12 @@ def _reduce_derivative(reduction, t, x, s):
                 else np.argmax(np.abs(x)))
         sign = 1.0 if reduction != "absmax" else float(np.sign(x[k]))
         return float(sign * x[k]), sign * s[k]
+    if reduction in ("peak", "trough"):
+        sign = 1.0 if reduction == "peak" else -1.0
+        t = np.ascontiguousarray(t, dtype=float)
+        value, j, at = peak_at(t, np.ascontiguousarray(sign * x, dtype=float))
+        return sign * value, np.array([_poly(cubic_coefficients(
+            t, np.ascontiguousarray(s[:, i]), j)[1], at)[0] for i in range(s.shape[1])])
     if reduction == "period":
         from .outputs import period
         idx = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
