@@ -2,8 +2,8 @@
 
 The crank of examples/slider_crank.yaml is driven at 6 rad/s; a dynamic analysis of the driven
 (zero degree-of-freedom) mechanism gives the driver's reaction, the torque that keeps the speed.
-We sweep the rod mass, then differentiate the torque's extremes over the revolution with
-respect to every link mass by central differences (Richardson-checked steps). The extremes are
+We sweep the rod mass, then differentiate the torque's extremes and RMS over the revolution
+(what sizes the motor) with respect to every link mass by central differences (Richardson-checked steps). The extremes are
 ``peak`` / ``trough``, located between the output samples (the torque is smooth), so they and
 their derivatives do not carry the samples' O(dt^2) error.
 
@@ -28,14 +28,15 @@ def main(argv=None):
     analysis = dict(ANALYSIS, t_end=ANALYSIS["t_end"] / 4) if args.quick else ANALYSIS
     masses = [0.5, 1.0] if args.quick else [0.25, 0.5, 1.0, 2.0]
     steps = (1e-3,) if args.quick else (1e-2, 1e-3, 1e-4)
-    extremes = {"max": f"peak({TORQUE})", "min": f"trough({TORQUE})"}
-    ds = sweep(MODEL, {"bodies.rod.mass": masses}, extremes, analysis, args.scheduler)
-    print(f"{'rod mass [kg]':>14} {'peak |T| [N m]':>15} {'max [N m]':>10} {'min [N m]':>10}")
+    measures = {"max": f"peak({TORQUE})", "min": f"trough({TORQUE})", "rms": f"rms({TORQUE})"}
+    ds = sweep(MODEL, {"bodies.rod.mass": masses}, measures, analysis, args.scheduler)
+    print(f"{'rod mass [kg]':>14} {'peak |T| [N m]':>15} {'max [N m]':>10} {'min [N m]':>10} "
+          f"{'rms [N m]':>10}")
     for j, m in enumerate(ds["bodies.rod.mass"].values):
-        hi, lo = ds["max"].values[j], ds["min"].values[j]
-        print(f"{m:14.3g} {max(abs(hi), abs(lo)):15.6f} {hi:10.6f} {lo:10.6f}")
+        hi, lo, rms = ds["max"].values[j], ds["min"].values[j], ds["rms"].values[j]
+        print(f"{m:14.3g} {max(abs(hi), abs(lo)):15.6f} {hi:10.6f} {lo:10.6f} {rms:10.6f}")
     sens = sensitivities(MODEL, ["bodies.crank.mass", "bodies.rod.mass", "bodies.slider.mass"],
-                         extremes, analysis, args.scheduler, relative_steps=steps)
+                         measures, analysis, args.scheduler, relative_steps=steps)
     print("\nd(output)/d(mass) [N m / kg] (error estimate)")
     for o in sens["output"].values:
         row = "  ".join(

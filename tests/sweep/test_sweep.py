@@ -339,7 +339,7 @@ def test_sensitivities_finite_differences_against_forward():
                     integrator=dict(name="rk4", step=4e-3))
     params = {"bodies.pendulum.mass": None, "bodies.pendulum.inertia.0": None}
     outs = ["final(pendulum.z)", "max(pendulum.wx)", "period(pendulum.wx)",
-            "mean(pendulum.y)", "trough(pendulum.wx)"]
+            "mean(pendulum.y)", "trough(pendulum.wx)", "rms(pendulum.vy)"]
     fd = sensitivities(PENDULUM, params, outs, analysis, engine="batch")
     fw = forward_sensitivities(PENDULUM, params, outs, analysis)
     assert (fd["status"] == "success").all()

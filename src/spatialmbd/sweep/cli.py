@@ -28,7 +28,7 @@ def add_parser(command, add_analysis_options) -> None:
                 "start:stop:count:log or v1,v2,...; several --param make a grid (or, with "
                 "--lhs N, N Latin-hypercube samples between the first and last value). An "
                 "OUTPUT is reduction(column) with reduction max, min, absmax, final, initial, "
-                "mean (of the samples), peak, trough (between the samples, for smooth "
+                "mean, rms (of the samples), peak, trough (between the samples, for smooth "
                 "columns) or period (zero crossings), or a column for its whole time series.",
                 """
                 spatialmbd sweep pendulum.yaml --param bodies.pendulum.mass=1:10:10 \\

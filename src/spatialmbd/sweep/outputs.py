@@ -3,7 +3,8 @@ time series.
 
 An output is written ``reduction(column)`` or just ``column`` (the whole time series):
 
-    max(pendulum.z)       min(...)   final(...)   mean(...)   absmax(...)   (of the samples)
+    max(pendulum.z)       min(...)   final(...)   mean(...)   rms(...)   absmax(...)
+                          (of the samples; rms = sqrt(mean(x^2)), e.g. a motor's torque)
     peak(pendulum.z)      trough(...)   the largest / smallest value between the samples: the
                           extreme sample refined by the cubic through the four samples
                           around it (for smooth columns; at a jump or kink use max / min)
@@ -205,6 +206,7 @@ REDUCTIONS: dict = {
     "final": lambda t, x: float(x[-1]),
     "initial": lambda t, x: float(x[0]),
     "mean": lambda t, x: float(np.mean(x)),
+    "rms": lambda t, x: float(np.sqrt(np.mean(np.square(x)))),
     "period": period,
 }
 

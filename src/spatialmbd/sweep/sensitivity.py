@@ -22,7 +22,7 @@ derivatives of M, g and gamma with respect to q, so f_y S and f_p are directiona
 differences of the compiled right-hand side (as CVODES does without a user Jacobian): f_y s_j
 from f(y +- eps s_j), f_p from the packed model floats F at x0 +- delta. After each step the
 Euler parameters are renormalised and their sensitivities projected with (I - p p^T) / |p|.
-Outputs: reductions of body state columns (x..e3, vx..wz): final, initial, mean, max, min
+Outputs: reductions of body state columns (x..e3, vx..wz): final, initial, mean, rms, max, min
 (derivative at the extreme sample), peak, trough (s at the interpolated extremum t*: x' = 0
 there, so d x(t*(p), p) / dp = s(t*)), period (derivatives of the crossing times, -s / xdot).
 """
@@ -310,6 +310,9 @@ def _reduce_derivative(reduction, t, x, s):
         return x[0], s[0]
     if reduction == "mean":
         return float(np.mean(x)), s.mean(axis=0)
+    if reduction == "rms":                                    # d sqrt(mean(x^2)) / dp
+        rms = float(np.sqrt(np.mean(np.square(x))))
+        return rms, (x[:, None] * s).mean(axis=0) / rms
     if reduction in ("max", "min", "absmax"):
         k = int(np.argmax(x) if reduction == "max" else np.argmin(x) if reduction == "min"
                 else np.argmax(np.abs(x)))
