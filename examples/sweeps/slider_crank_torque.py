@@ -3,9 +3,10 @@
 The crank of examples/slider_crank.yaml is driven at 6 rad/s; a dynamic analysis of the driven
 (zero degree-of-freedom) mechanism gives the driver's reaction, the torque that keeps the speed.
 We sweep the rod mass, then differentiate the torque's extremes and RMS over the revolution
-(what sizes the motor) with respect to every link mass by central differences (Richardson-checked steps). The extremes are
-``peak`` / ``trough``, located between the output samples (the torque is smooth), so they and
-their derivatives do not carry the samples' O(dt^2) error.
+(what sizes the motor) with respect to every link mass by central differences
+(Richardson-checked steps). The extremes are ``peak`` / ``trough``, located between the output
+samples (the torque is smooth), so they and their derivatives do not carry the samples'
+O(dt^2) error.
 
     python examples/sweeps/slider_crank_torque.py [--scheduler serial|processes|dask]
 """

@@ -17,7 +17,8 @@ from .sensitivity import forward_sensitivities, sensitivities
 
 __all__ = ["sweep", "grid", "points", "latin_hypercube", "ParameterSpace", "parse_range",
            "as_space",
-           "Output", "parse_outputs", "period", "peak", "trough", "REDUCTIONS", "set_path", "get_path",
+           "Output", "parse_outputs", "period", "peak", "trough", "REDUCTIONS", "set_path",
+           "get_path",
            "save_result", "to_dataframe", "SweepJob", "run_chunk", "sensitivities",
            "forward_sensitivities", "simulate_batch", "local_cluster", "QUIET_WORKERS"]
 
