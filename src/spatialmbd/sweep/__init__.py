@@ -9,7 +9,8 @@ member; :func:`sensitivities` differentiates outputs with respect to parameters 
 differences checked by Richardson extrapolation); :mod:`.batch` integrates many members of one
 topology in one compiled call. Dask and xarray come with ``pip install 'spatialmbd[dask]'``.
 """
-from .core import QUIET_WORKERS, SweepJob, local_cluster, run_chunk, save_result, sweep, to_dataframe
+from .core import (QUIET_WORKERS, SweepJob, local_cluster, run_chunk, save_result, sweep,
+                   to_dataframe)
 from .outputs import REDUCTIONS, Output, parse_outputs, peak, period, trough
 from .params import (ParameterSpace, as_space, get_path, grid, latin_hypercube, parse_range,
                      points, set_path)

@@ -35,8 +35,8 @@ model's masses, inertias, gravity or initial state (probed, :func:`_direct_entri
 built: their values are written into copies of one built model's arrays and packs.
 
 Scope (checked, with a ModelError naming what is not supported): dynamic analyses with the
-"standard", "baumgarte", "projection" or "recursive" method (where simulate() would fall back to least
-squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
+"standard", "baumgarte", "projection" or "recursive" method (where simulate() would fall back to
+least squares for a singular D D^T, a batch member fails instead); models whose right-hand side is
 fully compiled (every joint type and force element compiled), without drivers or
 time-dependent force laws (set from Python at every evaluation), contact elements (their
 impact memory is kept by events) or force-element states; no redundant constraints. Models
