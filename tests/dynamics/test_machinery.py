@@ -61,6 +61,28 @@ def test_sparse_cholesky_matches_dense_factorization(n, density):
     assert not spc.numeric(sym.arrays(), Cx, np.zeros(sym.nnz_L), np.zeros(n))
 
 
+def test_symbolic_analysis_is_shared_by_equal_patterns():
+    """spc.symbolic: one read-only SparseCholesky per pattern (two builds of one topology share
+    it, with identical results); a different pattern gets its own."""
+    rng = np.random.default_rng(7)
+    rows, cols = random_pattern(rng, 30, 0.1)
+    a = spc.symbolic(30, rows, cols)
+    assert spc.symbolic(30, rows.copy(), cols.copy()) is a
+    assert not a.perm.flags.writeable and not a.Li.flags.writeable
+    i = int(np.nonzero(rows != cols)[0][-1])
+    rows2, cols2 = rows.copy(), cols.copy()
+    rows2[i], cols2[i] = cols[i], rows[i]                 # the same entry, other triangle
+    assert spc.symbolic(30, rows2, cols2) is not a
+    assert spc.symbolic(31, rows, cols) is not a
+    model = models.slider_crank(driven=False)
+    r1 = simulate(model.compile(), 0.2, output_step=0.1)
+    r2 = simulate(model.compile(), 0.2, output_step=0.1)
+    from spatialmbd.dynamics import EquationsOfMotion
+    assert EquationsOfMotion(model.compile()).system.S is EquationsOfMotion(
+        model.compile()).system.S
+    np.testing.assert_array_equal(r1.q, r2.q)
+
+
 def test_drop_tolerance_leaves_out_exactly_the_dependent_rows():
     """S = B B^T with rows 3 and 7 of B combinations of others: rank 8 of 10. factor() with a
     drop tolerance drops two rows, and the rows kept are independent and span the rest."""

@@ -533,7 +533,7 @@ class System:
         pair_ptr = np.zeros(nb + 1, dtype=np.int64)
         np.cumsum(npair, out=pair_ptr[1:])
         pa, pc = _pairs(inc_ptr, red, int(pair_ptr[-1]))
-        self.S = spc.SparseCholesky(rk, pa, pc)
+        self.S = spc.symbolic(rk, pa, pc)
         pair_pos = self.S.positions(pa, pc) if pa.size else np.zeros(0, np.int64)
         return dict(inc_ptr=inc_ptr, inc_row=red.astype(np.int64),
                     inc_side=side.astype(np.int64), pair_ptr=pair_ptr, pair_pos=pair_pos)
@@ -572,7 +572,7 @@ class System:
         a6 = np.arange(6)
         R = (6 * blk_b1[:, None, None] + a6[None, :, None]) * np.ones((1, 1, 6), np.int64)
         C = (6 * blk_b2[:, None, None] + a6[None, None, :]) * np.ones((1, 6, 1), np.int64)
-        K = spc.SparseCholesky(6 * nb, R.ravel(), C.ravel())
+        K = spc.symbolic(6 * nb, R.ravel(), C.ravel())
         blkpos = K.positions(R.ravel(), C.ravel()).reshape(nblk, 6, 6)
         diag = np.arange(nblk) < nb
         lower = K.pinv[R] > K.pinv[C]               # the duplicate of an upper entry
