@@ -21,6 +21,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .errors import ConvergenceError, ModelError, SingularMatrixError, SpatialMBDError
+from .rank import RANK_RTOL, row_rank
 from .rotations import rotate_p
 from .state import BodyState
 
@@ -239,14 +240,17 @@ class Mobility:
 
 def mobility(model, q: Optional[np.ndarray] = None, t: float = 0.0,
              tol: Optional[float] = None) -> Mobility:
-    """Gruebler count next to the numerical rank of D (SVD) and the redundant equations.
+    """Gruebler count next to the numerical rank of D and the redundant equations.
 
-    Redundant equations are found by QR with column pivoting of D^T: the rows of D that the
-    pivoting leaves after the first rank pivots depend linearly on earlier ones. A state that
-    violates the constraints (max |Phi| > ASSEMBLED) is first moved onto Phi = 0 (minimum-norm
-    Newton), because off the manifold the rank is not that of the mechanism; the result says
-    how far (``violation``, ``correction``). tol: singular values above it count (default
-    max(m, n) eps s_max 1e3, scaled to the matrix).
+    The rank and the redundant equations come from the one rank decision of the project
+    (:func:`spatialmbd.rank.row_rank`): the equations are taken in the model's order, and one
+    that depends on those before it (relative distance to their span at most ``tol``, default
+    :data:`spatialmbd.rank.RANK_RTOL`) is redundant -- the later equations of a redundant
+    loop are the ones left out, on every machine (a pivoted QR breaks the ties of symmetric
+    mechanisms by round-off). A state that violates the constraints (max |Phi| > ASSEMBLED)
+    is first moved onto Phi = 0 (minimum-norm Newton), because off the manifold the rank is not
+    that of the mechanism; the result says how far (``violation``, ``correction``). The
+    singular values of D are reported alongside (``singular_values``).
     """
     q = model.q0 if q is None else np.asarray(q).reshape(model.nb, 7)
     cv = model.assembler.evaluate(q, None, t)
@@ -270,15 +274,12 @@ def mobility(model, q: Optional[np.ndarray] = None, t: float = 0.0,
     if m == 0:
         return Mobility(6 * model.nb, 0, 6 * model.nb, 0, [], np.zeros(0))
     s = np.linalg.svd(D, compute_uv=False)
-    if tol is None:
-        tol = max(m, n) * np.finfo(float).eps * s[0] * 1e3
-    rank = int(np.sum(s > tol))
+    decision = row_rank(D, RANK_RTOL if tol is None else tol)
+    rank = decision.rank
     redundant = []
-    if rank < m:
-        _, _, piv = la.qr(D.T, pivoting=True, mode="economic")
-        for row in sorted(piv[rank:]):
-            name, typ, lab = model.equation_labels[row]
-            redundant.append((int(row), name, typ, lab))
+    for row in decision.dependent:
+        name, typ, lab = model.equation_labels[row]
+        redundant.append((int(row), name, typ, lab))
     return Mobility(grubler=6 * model.nb - m, rank=rank, dof=n - rank, n_equations=m,
                     redundant=redundant, singular_values=s, violation=violation,
                     correction=correction,

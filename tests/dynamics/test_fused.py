@@ -155,21 +155,23 @@ def test_compiled_rk4_is_fourth_order():
     assert np.all(np.abs(orders - 4.0) < 0.3), orders
 
 
-def test_stalled_compiled_run_keeps_its_outputs_and_is_diagnosed(monkeypatch):
-    """A compiled run whose step control stalls (the N-four-bar at rk45 rtol 1e-9, at the flat
-    position of t = 0.7144 s) is not rerun by the Python driver: the result holds the outputs
-    reached, and the message says where the steps stalled and that it is a singular position."""
+def test_locked_mechanism_keeps_its_outputs_and_is_diagnosed():
+    """A driver that tears the mechanism (the slider of a slider-crank pushed on past its dead
+    centre, where the crank would need an infinite rate) stops where the steps stall: the
+    result holds the outputs reached, and the message says where and that it is a singular
+    position. (It used the N-four-bar at rk45 rtol 1e-9, which still stalls at its flat
+    position of t = 2.66 s -- a defect, measured by bench/singular.py, not a behaviour to
+    keep.)"""
     import warnings
 
     from spatialmbd import models
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("the Python driver was used")
-    monkeypatch.setattr(sim, "ODEProblem", refuse)
-    model = models.n_four_bar(2).compile()
+    from spatialmbd.motion import ConstantVelocity
+    b = models.slider_crank(driven=False)
+    b.add_driver("translation", "push", ConstantVelocity(rate=0.5), joint="D")
+    model = b.compile()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = sim.simulate(model, 10.0, output_step=0.01, method="projection", rtol=1e-9,
+        res = sim.simulate(model, 2.0, output_step=0.01, method="projection", rtol=1e-9,
                            atol=1e-11)
     assert res.status == "failed"
     assert "rk45: step size h =" in res.message and "underflow" in res.message
@@ -178,3 +180,4 @@ def test_stalled_compiled_run_keeps_its_outputs_and_is_diagnosed(monkeypatch):
     # every output before the stall is kept
     assert res.t[-1] <= t_stall < res.t[-1] + 0.01 and len(res.t) == int(t_stall / 0.01) + 1
     assert np.all(np.isfinite(res.q)) and np.all(np.isfinite(res.vdot))
+

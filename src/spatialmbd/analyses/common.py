@@ -10,6 +10,8 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+
+from ..rank import left_null_space as _left_null_space
 import scipy.sparse as sp
 
 from ..kinematics import apply_correction
@@ -79,13 +81,11 @@ def null_space(D: np.ndarray, rtol: float = 1e-9):
 
 
 def left_null_space(D: np.ndarray):
-    """Basis (m, m - rank) of the vectors w with D^T w = 0 (redundant constraint rows)."""
+    """Orthonormal basis (m, m - rank) of the vectors w with D^T w = 0 (the self-stresses of
+    redundant constraint rows), with the project's one rank decision (:mod:`spatialmbd.rank`)."""
     if D.shape[0] == 0:
         return np.zeros((0, 0))
-    U, s, _ = np.linalg.svd(D)
-    tol = max(D.shape) * np.finfo(float).eps * (s[0] if s.size else 1.0) * 1e3
-    rank = int(np.sum(s > tol))
-    return U[:, rank:].copy()
+    return _left_null_space(D)
 
 
 def potential_energy(model, q: np.ndarray, t: float, state=None) -> float:

@@ -32,6 +32,7 @@ import numpy as np
 from ..errors import ConvergenceError, ModelError, SingularMatrixError
 from ..kinematics import JacobianFactor, apply_correction, mobility, solve_positions
 from ..state import BodyState
+from ..rank import nonunique_rows
 from .common import (dense, driver_rows, driver_units, kinetic_energy, left_null_space,
                      potential_energy, reactions_frame, results_object)
 
@@ -318,15 +319,20 @@ def inverse_dynamics(model, t: Optional[Sequence[float]] = None, *, motion=None,
     mask = np.zeros(model.n_eq, dtype=bool)
     mask[list(rows.values())] = True
     messages = []
-    redundant = sorted({r[1] for r in mob.redundant})
     unique = True
-    if redundant:
-        W = left_null_space(dense(model.assembler.evaluate(q, None, t[0]).D))
-        unique = not (W.shape[1] and np.linalg.norm(W[mask], 2) > 1e-9)
+    redundant = []
+    if mob.redundant:
+        # the one rank decision (spatialmbd.rank): the reactions that a self-stress reaches --
+        # every joint of a redundant loop, not only the one whose equation was left out
+        D0 = dense(model.assembler.evaluate(q, None, t[0]).D)
+        loose = nonunique_rows(D0)
+        labels = model.equation_labels
+        redundant = sorted({labels[r][0] for r in loose if not mask[r]})
+        unique = not mask[loose].any()
         if unique:
-            text = (f"{mob.n_redundant} redundant constraint equation(s) among the joints (in "
-                    f"{', '.join(redundant)}): the driver efforts are unique, the reactions "
-                    "of the joints of the redundant loop are minimum-norm ones, not unique")
+            text = (f"{mob.n_redundant} redundant constraint equation(s) among the joints: the "
+                    "driver efforts are unique, the reactions of the joints of the redundant "
+                    f"loop ({', '.join(redundant)}) are minimum-norm ones, not unique")
         else:
             text = (f"{mob.n_redundant} redundant constraint equation(s) (in "
                     f"{', '.join(redundant)}): the drivers over-determine the motion; the "

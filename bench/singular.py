@@ -1,0 +1,154 @@
+"""Singular positions: the N-four-bar (IFToMM A02) and the Bricard linkage through every
+method x integrator x rtol x OpenBLAS kernel.
+
+On the parallelogram branch every crank angle phi (from the vertical, about z) obeys
+I phi'' = K sin phi (models.n_four_bar), so the joint B0 (tip of crank 1) has the exact path
+(1 - sin phi, cos phi); a run passes when it ends with status success within END_TOL of it.
+The Bricard linkage (a closed loop with one redundant equation and 1 DoF) passes when it ends
+with status success and its constraint violation and energy stay bounded.
+
+Each OpenBLAS kernel runs in its own process (OpenBLAS reads OPENBLAS_CORETYPE when it loads).
+
+    python bench/singular.py                      # the whole table -> bench/results/singular.md
+    python bench/singular.py --quick              # N = 2 and 8, fewer tolerances
+    python bench/singular.py --worker N t_end ... # one process (used by the above)
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+METHODS = ("projection", "standard", "baumgarte", "penalty", "augmented_lagrangian")
+INTEGRATORS = ("rk45", "dop853")
+RTOLS = (1e-4, 1e-6, 1e-8, 1e-10)
+KERNELS = ("Haswell", "Zen", "SkylakeX", "Prescott")
+END_TOL = 1e-4
+WALL = 30.0
+
+
+def reference(n: int, t_end: float):
+    """phi(t) of the parallelogram branch (dense, rtol 1e-13)."""
+    from scipy.integrate import solve_ivp
+    L, a, m, g = 1.0, 0.02, 1.0, 9.81
+    Ic = m * (L * L + a * a) / 12.0
+    I = (n + 1) * (Ic + m * L * L / 4.0) + n * m * L * L
+    K = m * g * L * ((n + 1) / 2.0 + n)
+    sol = solve_ivp(lambda t, y: [y[1], K / I * np.sin(y[0])], (0.0, t_end), [0.0, -1.0],
+                    method="DOP853", rtol=1e-13, atol=1e-13, dense_output=True)
+    return sol.sol
+
+
+def b0_error(model, res, phi) -> float:
+    from spatialmbd.rotations import A_from_p
+    k = model.body_index("crank1")
+    q = res.q[-1, k]
+    tip = q[:3] + A_from_p(q[3:]) @ np.array([0.0, 0.5, 0.0])
+    ph = phi(res.t[-1])[0]
+    exact = np.array([1.0 - np.sin(ph), np.cos(ph), 0.0])
+    return float(np.linalg.norm(tip - exact))
+
+
+def worker(n: int, t_end: float, methods, integrators, rtols) -> list:
+    from spatialmbd import models
+    from spatialmbd.simulate import simulate
+    model = models.n_four_bar(n).compile() if n else models.bricard().compile()
+    phi = reference(n, t_end) if n else None
+    rows = []
+    for method in methods:
+        for integrator in integrators:
+            for rtol in rtols:
+                t0 = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    try:
+                        res = simulate(model, t_end, method=method, integrator=integrator,
+                                       rtol=rtol, atol=rtol * 1e-2, output_step=t_end / 200,
+                                       max_wall_time=WALL)
+                        status, t_last, message = res.status, float(res.t[-1]), res.message
+                        steps = int(res.counters.get("steps", 0))
+                        evals = int(res.counters.get("nfev", 0))
+                    except Exception as exc:                      # noqa: BLE001 (a table cell)
+                        res, status, t_last, message, steps, evals = None, "error", 0.0, \
+                            str(exc), 0, 0
+                wall = time.perf_counter() - t0
+                if res is not None and n and status == "success":
+                    err = b0_error(model, res, phi)
+                elif res is not None and not n and status == "success":
+                    err = float(np.max(list(res.constraint_violation().values())[0]))
+                else:
+                    err = float("nan")
+                ok = status == "success" and t_last == t_end and err < END_TOL
+                rows.append(dict(n=n, method=method, integrator=integrator, rtol=rtol,
+                                 status=status, t=t_last, steps=steps, evals=evals,
+                                 wall=wall, error=err, passed=bool(ok),
+                                 message=(message or "")[:120]))
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--kernels", nargs="*", default=list(KERNELS))
+    ap.add_argument("--methods", nargs="*", default=list(METHODS))
+    ap.add_argument("--integrators", nargs="*", default=list(INTEGRATORS))
+    ap.add_argument("--rtols", nargs="*", type=float, default=list(RTOLS))
+    ap.add_argument("--sizes", nargs="*", type=int, default=None,
+                    help="N of the N-four-bar (0: the Bricard linkage)")
+    ap.add_argument("--worker", nargs=2, metavar=("N", "T_END"))
+    ap.add_argument("-o", default=str(Path(__file__).parent / "results" / "singular.md"))
+    args = ap.parse_args(argv)
+    if args.worker:
+        rows = worker(int(args.worker[0]), float(args.worker[1]), args.methods,
+                      args.integrators, args.rtols)
+        print(json.dumps(rows))
+        return 0
+    sizes = args.sizes or ([2, 8, 0] if args.quick else [2, 8, 40, 0])
+    rtols = [1e-6, 1e-8] if args.quick else args.rtols
+    table = []
+    for kernel in args.kernels:
+        for n in sizes:
+            t_end = {0: 10.0, 40: 20.0}.get(n, 10.0)
+            env = dict(os.environ, OPENBLAS_CORETYPE=kernel)
+            cmd = [sys.executable, __file__, "--worker", str(n), str(t_end), "--methods",
+                   *args.methods, "--integrators", *args.integrators, "--rtols",
+                   *map(str, rtols)]
+            out = subprocess.run(cmd, env=env, capture_output=True, text=True)
+            if out.returncode:
+                print(out.stderr[-2000:], file=sys.stderr)
+                continue
+            for row in json.loads(out.stdout.strip().splitlines()[-1]):
+                row["kernel"] = kernel
+                table.append(row)
+                print(f"{kernel:9s} N={n:2d} {row['method']:21s} {row['integrator']:6s} "
+                      f"{row['rtol']:.0e} {'PASS' if row['passed'] else 'FAIL'} "
+                      f"{row['status']:8s} t={row['t']:.4g} steps={row['steps']} "
+                      f"wall={row['wall']:.2f}s err={row['error']:.2e}", flush=True)
+    lines = ["# Singular positions: N-four-bar (A02) and Bricard", "",
+             f"`python bench/singular.py{' --quick' if args.quick else ''}`; pass = status "
+             f"success at t_end and (N-four-bar) B0 within {END_TOL:g} m of the exact "
+             "parallelogram-branch path. Wall-time cap per run "
+             f"{WALL:g} s. N = 0 is the Bricard linkage.", "",
+             "| kernel | N | method | integrator | rtol | pass | status | t end | steps | "
+             "wall (s) | B0 error (m) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in table:
+        lines.append(f"| {r['kernel']} | {r['n']} | {r['method']} | {r['integrator']} | "
+                     f"{r['rtol']:.0e} | {'yes' if r['passed'] else '**no**'} | {r['status']} "
+                     f"| {r['t']:.4g} | {r['steps']} | {r['wall']:.2f} | {r['error']:.2e} |")
+    passed = sum(r["passed"] for r in table)
+    lines += ["", f"{passed} of {len(table)} runs pass."]
+    Path(args.o).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.o).write_text("\n".join(lines) + "\n")
+    print(f"{passed} of {len(table)} pass; table in {args.o}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
