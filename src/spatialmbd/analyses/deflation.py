@@ -17,12 +17,16 @@ So stability verdicts, critical-speed roots and modal tables use the reduced sys
    position and heading) and the rotation of each body alone about its centre of mass (a
    wheel's spin about its axle). They are fixed by the geometry, so no parameter of the model
    can tune one of them onto an eigenvector whose eigenvalue happens to cross zero.
-2. Admissible: the part of their span that moves along the constraints, dx = N_h a (the
-   holonomic null space, ``lin.basis``); their rates dv = N_h a that satisfy all constraints,
-   dv = N_v b (``lin.velocity_basis``; with holonomic constraints only, the rates z').
-3. Ignorable: the largest subspace U of those states that A maps into itself,
-   (I - U U^T) A U = 0: nothing outside U depends on them. Shrunk from the candidates by the
-   null space of (I - U U^T) A U until it holds.
+2. Admissible: the part of their span that moves along the constraints. A configuration
+   candidate carries the reference velocities it turns (a heading change of a bicycle rolling
+   forward turns its velocities with it): dx = N_h a and dv = P a + N_v b (``lin.basis``,
+   ``lin.velocity_map``, ``lin.velocity_basis``; with holonomic constraints only,
+   dx = N z, dx' = dv + W dx = N z'). A rate candidate is the motion's velocity alone.
+3. Ignorable: the largest subspace U_c of the admissible configurations that A maps into
+   itself (a heading feeds only the position; nothing feeds a lean), then the largest
+   subspace U_r of the admissible rates that A maps into U_c + U_r (a forward speed feeds
+   only the position and the wheel angles): null spaces of (I - U U^T) A U, shrunk until
+   they hold. A tilted top's configuration feeds its tilt rates, so it stays.
 4. With Q an orthonormal complement of U, [U Q]^T A [U Q] = [[G, U^T A Q], [0, Q^T A Q]] is
    block triangular: the eigenvalues of A are those of G (the ignorable block: zeros, or the
    decay of an ignorable rate under damping) and those of the reduced matrix Q^T A Q, which
@@ -177,6 +181,23 @@ def _complement(U: np.ndarray) -> np.ndarray:
     return Qf[:, k:]
 
 
+def _shrink(A: np.ndarray, U: np.ndarray, fixed: np.ndarray, bound: float) -> np.ndarray:
+    """The largest subspace of span(U) (orthonormal, orthogonal to ``fixed``) that A maps into
+    itself plus span(fixed): null space of (I - W W^T) A U, W = [fixed, U], shrunk until it
+    holds (at most dim U rounds)."""
+    while U.shape[1]:
+        W = np.hstack([fixed, U])
+        R = _complement(W).T @ A @ U
+        if R.size == 0:
+            break
+        _, s, Vt = np.linalg.svd(R)
+        rank = int(np.sum(s > bound))
+        if rank == 0:
+            break
+        U = U @ Vt[rank:].T
+    return U
+
+
 def deflate(lin, tol: float = 1e-8) -> ReducedSystem:
     """The reduced system of a LinearModel: its ignorable states (rigid motions of the whole
     mechanism, single bodies spinning about their centres of mass, and the rates of those
@@ -187,22 +208,21 @@ def deflate(lin, tol: float = 1e-8) -> ReducedSystem:
     nb = lin.model.nb
     X, V = _candidates(np.asarray(lin.q, dtype=float).reshape(nb, 7),
                        np.asarray(lin.v, dtype=float).reshape(nb, 6))
-    # the candidate motions (with the velocities they carry) and their rates
-    U = _admissible(lin, np.hstack([X, np.zeros_like(X)]), np.hstack([V, X]), tol)
     bound = tol * scale
-    residual = 0.0
-    while U.shape[1]:
-        Q = _complement(U)
-        R = Q.T @ A @ U
-        _, s, Vt = np.linalg.svd(R) if R.size else (None, np.zeros(0), np.eye(U.shape[1]))
-        residual = float(np.abs(R).max()) if R.size else 0.0
-        rank = int(np.sum(s > bound))
-        if rank == 0:
-            break
-        U = U @ Vt[rank:].T                        # the states nothing outside U depends on
-        residual = 0.0
+    # configurations: the candidate motions with the velocities they carry; ignorable if A
+    # maps them into themselves (a heading feeds only the position, nothing feeds the lean)
+    Uc = _shrink(A, _admissible(lin, X, V, tol), np.zeros((n_x, 0)), bound)
+    # rates: the candidate motions' velocities; ignorable if A maps them into the ignorable
+    # configurations and themselves (a forward speed feeds only the position and wheel angles)
+    Ur = np.zeros((n_x, 0))
+    rates = _admissible(lin, np.zeros_like(X), X, tol)
+    if rates.shape[1]:
+        Ur = _shrink(A, _orth(rates - Uc @ (Uc.T @ rates), tol), Uc, bound)
+    U = np.hstack([Uc, Ur])
+    R = _complement(U).T @ A @ U
+    residual = float(np.abs(R).max()) if R.size else 0.0
     Q = _complement(U)
-    positions = _orth(U[:n], tol)
+    positions = _orth(Uc[:n], tol)
     return ReducedSystem(A=Q.T @ A @ Q, basis=Q, deflated=U, G=U.T @ A @ U,
                          coupling=U.T @ A @ Q, positions=positions, residual=residual,
                          tolerance=bound, tol=tol)

@@ -1,4 +1,5 @@
-"""Linearization about an equilibrium or a steady motion, and vibration modes.
+"""Linearization about an equilibrium or a steady motion (modes: modes.py; the reduced
+system without the ignorable modes: deflation.py; inputs and outputs: linear_io.py).
 
 Reference: (q*, v*, t) with vdot*, lam* from the equations of motion M vdot = g + D^T lam,
 D vdot = gamma (dynamics/eom.py sign convention). Perturbations live in the tangent space:

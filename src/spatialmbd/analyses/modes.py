@@ -16,7 +16,10 @@ class ModalResults:
 
     table: DataFrame, one row per mode: eigenvalue (real, imag; 1/s), omega_n (rad/s),
     frequency_hz, damped_frequency_hz, damping_ratio, kind ("rigid-body", "oscillatory",
-    "overdamped", "unstable"). shapes (6 nb, k) complex: body tangent coordinates
+    "non-oscillatory", "unstable"), oscillatory (a complex pair), time_constant_s (1/|Re s|),
+    whirl ("forward" / "backward" about a spinning body's axis, or ""), motion. A real
+    eigenvalue is a decay or a divergence: its omega_n, frequencies and damping ratio are NaN.
+    Rigid-body modes: s = 0, omega_n = 0. shapes (6 nb, k) complex: body tangent coordinates
     [dx, dy, dz (m), rx, ry, rz (rad)] per body, largest entry 1. linear: the LinearModel.
     """
 
@@ -82,9 +85,19 @@ class ModalResults:
     def summary(self) -> str:
         lines = [f"modes: {len(self.eigenvalues)} ({'stable' if self.stable else 'UNSTABLE'})"]
         for k, row in self.table.iterrows():
-            lines.append(f"  mode {k}: {row['kind']:11s} f = {row['frequency_hz']:.6g} Hz "
-                         f"(omega_n {row['omega_n']:.6g} rad/s), damping ratio "
-                         f"{row['damping_ratio']:.4g}; {row['motion']}")
+            if row["kind"] == "rigid-body":
+                text = "rigid-body"
+            elif row["oscillatory"]:
+                text = (f"{'unstable oscillatory' if row['kind'] == 'unstable' else 'oscillatory'}"
+                        f" f = {row['frequency_hz']:.6g} Hz (omega_n {row['omega_n']:.6g} rad/s),"
+                        f" damping ratio {row['damping_ratio']:.4g}")
+            else:
+                unstable = row["kind"] == "unstable"
+                text = (f"{'unstable (divergence)' if unstable else 'non-oscillatory'}"
+                        f" s = {row['real']:.6g} 1/s, no frequency")
+                if np.isfinite(row["time_constant_s"]):
+                    text += f" (time constant {row['time_constant_s']:.4g} s)"
+            lines.append(f"  mode {k}: {text}; {row['motion']}")
         return "\n".join(lines)
 
 
@@ -116,30 +129,40 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResu
         s_vals = np.where(lam2 >= 0, 1j * np.sqrt(np.abs(lam2)), np.sqrt(np.abs(lam2)) + 0j)
         Z = Z.astype(complex)
     else:
-        ev, V = np.linalg.eig(lin.A)
+        ev, X, rigid = _eigenpairs(lin)
         # one of each complex-conjugate pair (Im >= 0), all real ones
         pick = [k for k in range(ev.size) if ev[k].imag > 1e-12 * max(1, abs(ev[k]))]
         reals = [k for k in range(ev.size) if abs(ev[k].imag) <= 1e-12 * max(1, abs(ev[k]))]
         idx = pick + reals
-        s_vals, Z = ev[idx], V[:n, idx]
+        s_vals, Z = ev[idx], X[:n, idx]
+        s_vals[len(pick):] = s_vals[len(pick):].real
     mag = np.abs(s_vals)
     big = mag.max() if mag.size else 0.0
     zero = mag <= max(np.sqrt(zero_tol) * big, 1e-6)
-    if zero.sum() > 1:
-        # a rigid-body coordinate gives a double zero eigenvalue of A (a Jordan block with one
-        # eigenvector): keep one mode per independent zero-frequency shape. Without the
-        # symmetric problem those shapes are the positions of the null space of A (the states
-        # that stay put), which the eigenvectors of the defective zero eigenvalue resolve
-        # only to about the square root of the rounding
-        if symmetric:
-            U, sv, _ = np.linalg.svd(Z[:, zero])
-        else:
-            _, sa, Vt = np.linalg.svd(lin.A)
-            k = min(int(zero.sum()), int(np.sum(sa <= np.sqrt(zero_tol) * sa[0])))
-            U, sv, _ = np.linalg.svd(Vt[Vt.shape[0] - k:, :n].T) if k else (None, [0.0], None)
+    if symmetric and zero.sum() > 1:
+        # keep one mode per independent zero-frequency shape
+        U, sv, _ = np.linalg.svd(Z[:, zero])
         r = int(np.sum(np.asarray(sv) > 1e-6 * max(sv[0], 1e-300))) if sv[0] > 0 else 0
         s_vals = np.concatenate([np.zeros(r, complex), s_vals[~zero]])
         Z = np.hstack([U[:, :r].astype(complex), Z[:, ~zero]])
+        mag = np.abs(s_vals)
+    elif not symmetric and (rigid.shape[1] or zero.sum() > 1):
+        # the deflated ignorable positions are rigid-body modes (one per independent shape);
+        # zeros left in the reduced system (a mechanism without stiffness that no symmetry
+        # explains) are defective too: their shapes are the positions of its null space
+        red = lin.reduced()
+        shapes0 = [rigid]
+        if zero.any() and red.A.size:
+            _, sa, Vt = np.linalg.svd(red.A)
+            k = min(int(zero.sum()), int(np.sum(sa <= np.sqrt(zero_tol) * max(sa[0], 1e-300))))
+            if k:
+                shapes0.append((red.basis @ Vt[Vt.shape[0] - k:].T)[:n])
+        W = np.hstack(shapes0)
+        U, sv, _ = np.linalg.svd(W) if W.size else (None, np.zeros(1), None)
+        r = int(np.sum(sv > 1e-6 * sv[0])) if sv[0] > 0 else 0
+        s_vals = np.concatenate([np.zeros(r, complex), s_vals[~zero]])
+        Z = np.hstack([U[:, :r].astype(complex) if r else np.zeros((n, 0), complex),
+                       Z[:, ~zero]])
         mag = np.abs(s_vals)
     shapes = lin.basis @ Z if n else np.zeros((6 * lin.model.nb, 0))
     r = int(np.sum(mag <= max(np.sqrt(zero_tol) * big, 1e-6)))
@@ -164,21 +187,79 @@ def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResu
             kinds.append("rigid-body")
         elif s.real > 1e-9 * max(abs(s), 1.0):
             kinds.append("unstable")
-        elif abs(s.imag) > 1e-12 * abs(s):
+        elif abs(s.imag) > 0:
             kinds.append("oscillatory")
         else:
-            kinds.append("overdamped")
+            kinds.append("non-oscillatory")
     order = np.lexsort((mag, [k != "rigid-body" for k in kinds]))
     s_vals, shapes = s_vals[order], shapes[:, order]
     kinds = [kinds[k] for k in order]
+    rigid_mode = np.array(kinds) == "rigid-body"
+    # a real eigenvalue is a decay or a divergence, not an oscillation: no frequency, no
+    # damping ratio (its time constant instead); a complex pair has both
+    oscillating = (np.abs(s_vals.imag) > 0) & ~rigid_mode
     mag = np.abs(s_vals)
-    omega_n = np.where(np.array(kinds) == "rigid-body", 0.0, mag)
-    zeta = np.where(omega_n > 0, 0.0 - s_vals.real / np.where(mag > 0, mag, 1), np.nan)
+    omega_n = np.where(rigid_mode, 0.0, np.where(oscillating, mag, np.nan))
+    zeta = np.where(oscillating, -s_vals.real / np.where(mag > 0, mag, 1), np.nan)
     zeta[np.abs(zeta) < 1e-12] = 0.0                       # round-off of undamped systems
+    damped = np.where(rigid_mode, 0.0, np.where(oscillating, np.abs(s_vals.imag), np.nan))
+    tau = np.full(s_vals.size, np.nan)
+    decays = ~rigid_mode & (np.abs(s_vals.real) > 1e-12 * np.maximum(mag, 1.0))
+    tau[decays] = 1.0 / np.abs(s_vals.real[decays])
+    whirls = [_whirl(lin, shapes[:, k]) if oscillating[k] else ""
+              for k in range(shapes.shape[1])]
+    motion = []
+    for k in range(shapes.shape[1]):
+        x = shapes[:, k].real if np.abs(shapes[:, k].real).max() > 1e-9 else shapes[:, k].imag
+        text = describe_direction(lin.model, x)
+        motion.append(f"{whirls[k]}; {text}" if whirls[k] else text)
     table = pd.DataFrame(dict(
         real=s_vals.real, imag=s_vals.imag, omega_n=omega_n, frequency_hz=omega_n / (2 * np.pi),
-        damped_frequency_hz=np.abs(s_vals.imag) / (2 * np.pi), damping_ratio=zeta, kind=kinds,
-        motion=[describe_direction(lin.model, shapes[:, k].real if np.abs(shapes[:, k].real).max()
-                                   > 1e-9 else shapes[:, k].imag)
-                for k in range(shapes.shape[1])]))
+        damped_frequency_hz=damped / (2 * np.pi), damping_ratio=zeta, kind=kinds,
+        oscillatory=oscillating, time_constant_s=tau,
+        whirl=[w.split(" whirl")[0] for w in whirls],
+        motion=motion))
     return ModalResults(linear=lin, eigenvalues=s_vals, shapes=shapes, table=table)
+
+
+def _eigenpairs(lin):
+    """(eigenvalues (m,), eigenvectors (n_x, m), rigid (n, r)) of A from its reduced system:
+    the reduced matrix's eigenpairs lifted to the full state and the ignorable block's
+    non-zero ones; rigid: the deflated ignorable positions (rigid-body mode shapes in z)."""
+    red = lin.reduced()
+    n_x = lin.A.shape[0]
+    if red.A.size:
+        ev, Y = np.linalg.eig(red.A)
+        X = np.column_stack([red.lift(ev[k], Y[:, k]) for k in range(ev.size)])
+    else:
+        ev, X = np.zeros(0, complex), np.zeros((n_x, 0), complex)
+    if red.k:
+        evG, VG = np.linalg.eig(red.G)
+        keep = red.deflated_eigenvalues() != 0
+        ev = np.concatenate([ev, evG[keep]])
+        X = np.hstack([X, red.deflated @ VG[:, keep]])
+    return ev.astype(complex), X.astype(complex), red.positions
+
+
+def _whirl(lin, shape: np.ndarray) -> str:
+    """"forward whirl" / "backward whirl" of an oscillatory mode shape (6 nb,) complex: the
+    body with the largest rotation whose spin axis (its reference angular velocity) the
+    rotation vector circles about, in the sense of the spin or against it; "" when no
+    spinning body moves on a near-circular path (|Re x Im| below 0.1 of (|Re|^2 + |Im|^2)/2).
+    x(t) = Re(phi e^{i w t}) (w > 0) turns about -(Re phi x Im phi)."""
+    nb = lin.model.nb
+    phi = np.asarray(shape).reshape(nb, 6)[:, 3:]
+    omega = np.asarray(lin.v, dtype=float).reshape(nb, 6)[:, 3:]
+    if lin.frame_rate is not None:
+        omega = omega - np.asarray(lin.frame_rate, dtype=float)    # spin seen in the frame
+    b = int(np.argmax(np.linalg.norm(phi, axis=1)))
+    re, im = phi[b].real, phi[b].imag
+    axis = -np.cross(re, im)
+    size = 0.5 * (re @ re + im @ im)
+    spin = float(np.linalg.norm(omega[b]))
+    if size == 0 or spin == 0 or np.linalg.norm(axis) < 0.1 * size:
+        return ""
+    along = float(axis @ omega[b]) / (np.linalg.norm(axis) * spin)
+    if abs(along) < 0.5:
+        return ""
+    return ("forward" if along > 0 else "backward") + f" whirl of {lin.model.body_names[b]}"
