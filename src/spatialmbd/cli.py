@@ -449,9 +449,10 @@ def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> i
                 raise UsageError(f"output file {str(out)!r}: the model has no modes to animate")
             motion = results.motion(k, amplitude=0.1)
             save_results(motion, out, analysis=analysis)
-            notes.append(f"{out} holds the motion of mode {k} ({kinds[k]}, "
-                         f"{results.table['frequency_hz'][k]:.6g} Hz, largest entry 0.1 m or "
-                         "rad); write a .csv for the table of all modes")
+            f_k = results.table["frequency_hz"][k]
+            what = f"{f_k:.6g} Hz" if f_k == f_k else f"s = {results.table['real'][k]:.6g} 1/s"
+            notes.append(f"{out} holds the motion of mode {k} ({kinds[k]}, {what}, largest "
+                         "entry 0.1 m or rad); write a .csv for the table of all modes")
         else:
             save_results(results.results, out, analysis=analysis, table=table)
     if not quiet:

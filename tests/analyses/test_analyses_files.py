@@ -31,7 +31,7 @@ def test_analysis_example_runs_from_the_cli(path, tmp_path, capsys):
     elif analysis.type == "static":
         assert len(table) == 1 and "STABLE" in text
     else:
-        assert (table["frequency_hz"] >= 0).all() and "modes:" in text
+        assert (table["frequency_hz"].dropna() >= 0).all() and "modes:" in text
 
 
 def test_double_pendulum_modes_file_gives_the_closed_form_frequencies(tmp_path):
@@ -97,7 +97,7 @@ def test_example_scripts_run():
 def test_bicycle_stability_script_finds_the_published_speeds(tmp_path):
     bike = runpy.run_path(str(FOLDER / "bicycle_stability.py"), run_name="example")
     weave, capsize, png = bike["main"](tmp_path, n_speeds=21)
-    assert abs(weave - bike["WEAVE"]) < 1e-9 and abs(capsize - bike["CAPSIZE"]) < 1e-8
+    assert abs(weave - bike["WEAVE"]) < 1e-9 and abs(capsize - bike["CAPSIZE"]) < 1e-9
     assert png.stat().st_size > 10_000
 
 

@@ -13,7 +13,8 @@ driven coordinate increases.
 """
 from .inverse import InverseDynamicsResults, inverse_dynamics, prescribed_motion_model
 from .statics import QuasiStaticResults, StaticResults, quasi_static, static_equilibrium
-from .linearize import LinearModel, ModalResults, linearize, modes
+from .linearize import LinearModel, linearize
+from .modes import ModalResults, modes
 
 __all__ = ["inverse_dynamics", "InverseDynamicsResults", "prescribed_motion_model",
            "static_equilibrium", "StaticResults", "quasi_static", "QuasiStaticResults",

@@ -1,4 +1,5 @@
-"""Linearization about an equilibrium or a steady motion, and vibration modes.
+"""Linearization about an equilibrium or a steady motion (modes: modes.py; the reduced
+system without the ignorable modes: deflation.py; inputs and outputs: linear_io.py).
 
 Reference: (q*, v*, t) with vdot*, lam* from the equations of motion M vdot = g + D^T lam,
 D vdot = gamma (dynamics/eom.py sign convention). Perturbations live in the tangent space:
@@ -52,7 +53,6 @@ constraint term D^T lam by central differences (step eps^(1/3), checked against 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
@@ -60,8 +60,10 @@ import numpy as np
 from ..errors import ModelError, SimulationError
 from ..rotations import skew
 from ..state import BodyState
-from .common import (COMPONENTS, central_jacobian, default_step, dense, describe_direction,
-                     driver_rows, null_space, perturb, results_object)
+from .common import (COMPONENTS, central_jacobian, default_step, dense, driver_rows,
+                     null_space, perturb)
+from .linear_io import _input_columns, _output_rows
+from .linear_model import LinearModel
 
 
 class NotEquilibriumError(SimulationError):
@@ -98,228 +100,6 @@ def _global_inertia(model, q):
     A = A_from_p(np.asarray(q).reshape(-1, 7)[:, 3:])
     return A @ model.inertia @ np.swapaxes(A, 1, 2)
 
-
-# ------------------------------------------------------------------------------- inputs/outputs
-def _input_columns(model, inputs, D_full, q):
-    """B_q (6 nb, k): generalized force per unit input; input drivers' rows."""
-    nb = model.nb
-    rows = driver_rows(model)
-    cols, dropped = [], []
-    state = BodyState.from_qv(q, None, 0.0)
-    for name in inputs:
-        if name in rows:
-            cols.append(D_full[rows[name]].copy())          # effort lam_k acts as D_k^T lam_k
-            dropped.append(rows[name])
-            continue
-        body, _, comp = name.rpartition(".")
-        forces = ("fx", "fy", "fz", "mx", "my", "mz")
-        if body in model.body_names and comp in forces:
-            col = np.zeros(6 * nb)
-            col[6 * model.body_index(body) + forces.index(comp)] = 1.0
-            cols.append(col)
-            continue
-        group = next((g for g in model.force_groups if name in g.names), None)
-        if group is not None and group.name == "rotational_spring_damper":
-            k = group.names.index(name)             # torque along the joint angle (effort
-            cols.append(_angle_row(model, q, group.bi[k], group.bj[k], group.R_i[k],
-                                   group.R_j[k]))   # convention: -actuator)
-            continue
-        if group is not None and group.name in ("point_force", "torque"):
-            k = group.names.index(name)
-            b = group.body[k]
-            d = group.direction[k]
-            d = state.A[b] @ d if group.in_body[k] else d
-            col = np.zeros(6 * nb)
-            if group.name == "point_force":
-                s = state.A[b] @ group.point[k]
-                col[6 * b:6 * b + 3], col[6 * b + 3:6 * b + 6] = d, np.cross(s, d)
-            else:
-                col[6 * b + 3:6 * b + 6] = d
-            cols.append(col)
-            continue
-        raise ModelError(f"linearize input {name!r}: not a driver, a point_force, torque or "
-                         "rotational_spring_damper element or '<body>.<fx|fy|fz|mx|my|mz>' "
-                         f"(drivers: {', '.join(rows) or 'none'})")
-    B = np.column_stack(cols) if cols else np.zeros((6 * nb, 0))
-    return B, dropped
-
-
-OUTPUT_COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "vx", "vy", "vz", "wx", "wy", "wz")
-
-
-def _angle_row(model, q, body_i, body_j, R_i, R_j) -> np.ndarray:
-    """d(theta)/dv (6 nb,) of the rotation of body j relative to body i about u_i (the angle
-    of angle drivers and rotational springs) at q."""
-    from ..constraints.primitives import relative_angle
-    nb = model.nb
-    state = BodyState.from_qv(q, None, 0.0)
-    _, D, _, _ = relative_angle(state, np.array([body_i]), np.array([body_j]),
-                                np.asarray(R_i)[None], np.asarray(R_j)[None])
-    row = np.zeros(6 * (nb + 1))
-    row[6 * body_i:6 * body_i + 6] += D[0, :6]
-    row[6 * body_j:6 * body_j + 6] += D[0, 6:]
-    return row[:6 * nb]
-
-
-def _joint_angle(model, name):
-    """(body_i, body_j, R_i, R_j) of a revolute or cylindrical joint, or None."""
-    for g in model.constraint_groups:
-        if g.name in ("revolute", "cylindrical") and name in g.names:
-            k = g.names.index(name)
-            return g.body_i[k], g.body_j[k], g.geometry.R_i[k], g.geometry.R_j[k]
-    return None
-
-
-def _output_rows(model, outputs, D_full, q, W, v, t, step):
-    """(C_x, C_v): output = C_x dx + C_v dx' for each named output (dv = dx' - W dx)."""
-    nb = model.nb
-    rows = driver_rows(model)
-    state = BodyState.from_qv(q, None, 0.0)
-    w = np.asarray(v, dtype=float).reshape(nb, 6)[:, 3:]
-    Cx, Cv = [], []
-    for name in outputs:
-        cx, cv = np.zeros(6 * nb), np.zeros(6 * nb)
-        base, _, comp = name.rpartition(".")
-        if name in rows or (comp == "rate" and base in rows):
-            row = D_full[rows[name if name in rows else base]]
-            if name in rows:
-                cx = row.copy()                              # change of the driven coordinate
-            else:                                            # its rate D_k v: D_k dv + ...
-                cv, cx = row.copy(), -row @ W
-                if np.abs(v).max() > 0:                      # ... + d(D_k v*)/dx dx
-                    k = rows[base]
-                    cx = cx + central_jacobian(
-                        lambda dx: np.atleast_1d(dense(model.assembler.evaluate(
-                            perturb(q, dx), None, t).D)[k] @ v), 6 * nb, step,
-                        what=f"d(rate of {base})/dx")[0][0]
-        elif comp in ("angle", "angle_rate") and _joint_angle(model, base) is not None:
-            geo = _joint_angle(model, base)
-            row = _angle_row(model, q, *geo)
-            if comp == "angle":
-                cx = row
-            else:                                    # D_theta dv + d(D_theta v*)/dx dx
-                cv, cx = row.copy(), -row @ W
-                if np.abs(v).max() > 0:
-                    cx = cx + central_jacobian(
-                        lambda dx: np.atleast_1d(_angle_row(model, perturb(q, dx), *geo) @ v),
-                        6 * nb, step, what=f"d(rate of {base})/dx")[0][0]
-        elif base in model.body_names and comp in OUTPUT_COMPONENTS:
-            k = 6 * model.body_index(base) + OUTPUT_COMPONENTS.index(comp) % 6
-            if OUTPUT_COMPONENTS.index(comp) < 6:
-                cx[k] = 1.0
-            else:                                            # dv = dx' - W dx
-                cv[k] = 1.0
-                cx = -W[k].copy()
-        elif base in model.points and comp in ("x", "y", "z", "vx", "vy", "vz"):
-            b, local = model.points[base]
-            s = state.A[b] @ local
-            c = ("x", "y", "z", "vx", "vy", "vz").index(comp)
-            sel = np.zeros(6 * nb)
-            sel[6 * b + c % 3] = 1.0
-            # point displacement dr - s~ dpi (row c of [I, -s~])
-            sel[6 * b + 3:6 * b + 6] = -skew(s)[c % 3]
-            if c < 3:
-                cx = sel
-            else:                    # d(rdot + w x s) = dv_r - s~ dw + w*~ (-s~ dpi)
-                cv, cx = sel, -sel @ W
-                cx[6 * b + 3:6 * b + 6] += -(skew(w[b]) @ skew(s))[c % 3]
-        else:
-            raise ModelError(f"linearize output {name!r}: use '<body>.<x|y|z|rx|ry|rz|vx|vy|vz|"
-                             "wx|wy|wz>', '<body>.<point>.<x|y|z|vx|vy|vz>', "
-                             "'<joint>.angle' / '<joint>.angle_rate' (revolute, cylindrical) "
-                             "or a driver name (its coordinate; '<driver>.rate' for its rate)")
-        Cx.append(cx)
-        Cv.append(cv)
-    return (np.array(Cx).reshape(-1, 6 * nb), np.array(Cv).reshape(-1, 6 * nb))
-
-
-# ------------------------------------------------------------------------------- result
-@dataclass
-class LinearModel:
-    """M z'' + C z' + K z = B_u u in independent coordinates z, and the first-order form
-    x' = A x + B u, y = C_out x + D_out u with x = [z, z'].
-
-    basis (6 nb, n): dx = basis @ z maps z to body tangent coordinates (translation m,
-    rotation vector rad, per body, global axes). coordinates: names of z. inputs, outputs:
-    names. q, v, t: the reference. fd_error: estimated error of the differenced parts.
-    input_reference: the reference value of each input (the effort an input driver delivers
-    at the reference, N m or N; 0 for force inputs, whose reference is part of the model); u
-    is the deviation from it.
-
-    With nonholonomic constraints (rolling) the velocities are fewer than the positions and
-    there is no second-order form: C and K are None and x = [z, w], where dx = basis @ z
-    (n positions) and dv = velocity_map @ z + velocity_basis @ w (n_velocity velocities,
-    named velocity_coordinates); M = velocity_basis^T M velocity_basis and B_u are in w.
-    """
-
-    model: object
-    q: np.ndarray
-    v: np.ndarray
-    t: float
-    M: np.ndarray
-    C: np.ndarray
-    K: np.ndarray
-    B_u: np.ndarray
-    A: np.ndarray
-    B: np.ndarray
-    C_out: np.ndarray
-    D_out: np.ndarray
-    basis: np.ndarray
-    coordinates: list
-    inputs: list
-    outputs: list
-    steady: bool
-    fd_error: float = 0.0
-    messages: list = field(default_factory=list)
-    input_reference: np.ndarray = None
-    velocity_basis: Optional[np.ndarray] = None
-    velocity_map: Optional[np.ndarray] = None
-    velocity_coordinates: Optional[list] = None
-
-    @property
-    def n(self) -> int:
-        """Number of independent position coordinates z."""
-        return self.basis.shape[1]
-
-    @property
-    def nonholonomic(self) -> bool:
-        return self.velocity_basis is not None
-
-    @property
-    def n_velocity(self) -> int:
-        """Number of independent velocities (n without nonholonomic constraints)."""
-        return self.velocity_basis.shape[1] if self.nonholonomic else self.n
-
-    def frames(self) -> dict:
-        """The matrices as labelled DataFrames: M, C, K (not with nonholonomic constraints),
-        B_u, A, B, C_out, D_out."""
-        import pandas as pd
-        z = list(self.coordinates)
-        w = list(self.velocity_coordinates) if self.nonholonomic else z
-        x = z + (w if self.nonholonomic else [f"d({c})/dt" for c in z])
-        out = dict(M=pd.DataFrame(self.M, index=w, columns=w))
-        if not self.nonholonomic:
-            out.update(C=pd.DataFrame(self.C, index=z, columns=z),
-                       K=pd.DataFrame(self.K, index=z, columns=z))
-        out.update(B_u=pd.DataFrame(self.B_u, index=w, columns=self.inputs),
-                   A=pd.DataFrame(self.A, index=x, columns=x),
-                   B=pd.DataFrame(self.B, index=x, columns=self.inputs),
-                   C_out=pd.DataFrame(self.C_out, index=self.outputs, columns=x),
-                   D_out=pd.DataFrame(self.D_out, index=self.outputs, columns=self.inputs))
-        return out
-
-    def summary(self) -> str:
-        ev = np.linalg.eigvals(self.A) if self.A.size else np.zeros(0)
-        coords = (f"{self.n} independent position and {self.n_velocity} velocity coordinates "
-                  "(nonholonomic)" if self.nonholonomic else
-                  f"{self.n} independent coordinates")
-        lines = [f"linearization about {'a steady motion' if self.steady else 'an equilibrium'}"
-                 f" at t = {self.t:.6g} s: {coords}, "
-                 f"{len(self.inputs)} inputs, {len(self.outputs)} outputs",
-                 f"largest real part of the eigenvalues of A: "
-                 f"{ev.real.max() if ev.size else 0.0:.6g} 1/s"]
-        lines.extend(self.messages)
-        return "\n".join(lines)
 
 
 def _velocity_only_rows(model) -> np.ndarray:
@@ -579,11 +359,13 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
             Om[3 * k:3 * k + 3, 3 * k:3 * k + 3] = skew(wf)
     velocity_only = _velocity_only_rows(model)[keep]
     if velocity_only.any():
-        return _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q,
+        lin = _first_order(model, q, v, t, keep, D, velocity_only, M, Rv, Rx, W, Om, B_q,
                             inputs, outputs, D_full, step, steady, max(err_x, err_v),
                             messages, [lam[rows_all[n]] if n in rows_all else 0.0
                                        for n in inputs], frame_rate is not None,
                             coordinates, labels)
+        lin.frame_rate = None if frame_rate is None else wf
+        return lin
     if coordinates == "partition":
         N, zlabels = _partition_basis(D, labels)
     else:
@@ -623,179 +405,5 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
                        coordinates=zlabels, inputs=list(inputs), outputs=list(outputs),
                        steady=steady, fd_error=max(err_x, err_v), messages=messages,
                        input_reference=np.array([lam[rows_all[n]] if n in rows_all else 0.0
-                                                 for n in inputs]))
-
-
-# ------------------------------------------------------------------------------- modes
-@dataclass
-class ModalResults:
-    """Natural frequencies, damping ratios and mode shapes.
-
-    table: DataFrame, one row per mode: eigenvalue (real, imag; 1/s), omega_n (rad/s),
-    frequency_hz, damped_frequency_hz, damping_ratio, kind ("rigid-body", "oscillatory",
-    "overdamped", "unstable"). shapes (6 nb, k) complex: body tangent coordinates
-    [dx, dy, dz (m), rx, ry, rz (rad)] per body, largest entry 1. linear: the LinearModel.
-    """
-
-    linear: LinearModel
-    eigenvalues: np.ndarray
-    shapes: np.ndarray
-    table: object
-
-    @property
-    def model(self):
-        return self.linear.model
-
-    @property
-    def frequencies_hz(self) -> np.ndarray:
-        return self.table["frequency_hz"].to_numpy()
-
-    @property
-    def stable(self) -> bool:
-        return not (self.table["kind"] == "unstable").any()
-
-    def shapes_table(self):
-        """Real parts of the shapes, rows "<body>.<x|y|z|rx|ry|rz>", one column per mode."""
-        import pandas as pd
-        labels = [f"{name}.{c}" for name in self.model.body_names for c in COMPONENTS]
-        return pd.DataFrame(self.shapes.real, index=labels,
-                            columns=[f"mode{k}" for k in range(self.shapes.shape[1])])
-
-    def to_dataframe(self):
-        """One row per mode: the table and the real parts of the shapes (columns
-        "shape.<body>.<x|y|z|rx|ry|rz>")."""
-        import pandas as pd
-        shapes = self.shapes_table().T.add_prefix("shape.").reset_index(drop=True)
-        return pd.concat([self.table.reset_index(drop=True), shapes], axis=1)
-
-    def motion(self, mode: int, amplitude: float = 0.1, cycles: float = 2.0,
-               points_per_cycle: int = 40):
-        """A Results object animating one mode: q(t) = q* moved by amplitude * Re(shape
-        e^{i omega t}) (amplitude in m or rad of the largest entry); rigid-body and overdamped
-        modes move as amplitude * shape * sin(2 pi t) over 1 s cycles."""
-        from ..kinematics import apply_correction
-        s = self.eigenvalues[mode]
-        omega = abs(s.imag)
-        period = 2 * np.pi / omega if omega > 1e-9 else 1.0
-        t = np.linspace(0.0, cycles * period, int(cycles * points_per_cycle) + 1)
-        phi = self.shapes[:, mode]
-        q0 = self.linear.q
-        nb = q0.shape[0]
-        Q = np.empty((t.size, nb, 7))
-        V = np.zeros((t.size, nb, 6))
-        for k, tk in enumerate(t):
-            if omega > 1e-9:
-                dx = amplitude * np.real(phi * np.exp(1j * omega * tk))
-                dv = amplitude * np.real(1j * omega * phi * np.exp(1j * omega * tk))
-            else:
-                dx = amplitude * np.real(phi) * np.sin(2 * np.pi * tk / period)
-                dv = amplitude * np.real(phi) * np.cos(2 * np.pi * tk / period) * 2 * np.pi
-            Q[k] = apply_correction(q0, dx)
-            V[k] = dv.reshape(nb, 6)
-        return results_object(self.model, t, Q, V, np.zeros_like(V),
-                              np.zeros((t.size, self.model.n_eq)),
-                              settings={"analysis": "mode", "mode": mode})
-
-    def summary(self) -> str:
-        lines = [f"modes: {len(self.eigenvalues)} ({'stable' if self.stable else 'UNSTABLE'})"]
-        for k, row in self.table.iterrows():
-            lines.append(f"  mode {k}: {row['kind']:11s} f = {row['frequency_hz']:.6g} Hz "
-                         f"(omega_n {row['omega_n']:.6g} rad/s), damping ratio "
-                         f"{row['damping_ratio']:.4g}; {row['motion']}")
-        return "\n".join(lines)
-
-
-def modes(model_or_linear, *args, zero_tol: float = 1e-8, **kwargs) -> ModalResults:
-    """Vibration modes of a LinearModel, or of ``linearize(model, *args, **kwargs)``.
-
-    Undamped, non-gyroscopic systems (C = 0): the symmetric problem K phi = omega^2 M phi
-    (real shapes; omega^2 < 0 is an unstable, divergent direction). Otherwise the eigenvalues
-    s of A: omega_n = |s|, damping ratio -Re(s)/|s|, damped frequency |Im s|. Eigenvalues with
-    |s|^2 below zero_tol times the largest |s|^2 (a stiffness 1e-8 of the largest: the accuracy
-    of the differenced stiffness), or |s| < 1e-6 rad/s, are rigid-body modes.
-    """
-    import pandas as pd
-    lin = model_or_linear if isinstance(model_or_linear, LinearModel) else \
-        linearize(model_or_linear, *args, **kwargs)
-    n = lin.n
-    if lin.nonholonomic:
-        symmetric = False
-    else:
-        Ms, Ks = 0.5 * (lin.M + lin.M.T), 0.5 * (lin.K + lin.K.T)
-        scale_c = np.abs(lin.C).max() if lin.C.size else 0.0
-        ref = max(np.abs(lin.K).max() if n else 0.0, 1e-300)
-        symmetric = scale_c <= 1e-10 * np.sqrt(ref * max(np.abs(Ms).max(), 1e-300))
-    if n == 0:
-        s_vals, Z = np.zeros(0, complex), np.zeros((0, 0), complex)
-    elif symmetric:
-        import scipy.linalg as sla
-        lam2, Z = sla.eigh(Ks, Ms)
-        s_vals = np.where(lam2 >= 0, 1j * np.sqrt(np.abs(lam2)), np.sqrt(np.abs(lam2)) + 0j)
-        Z = Z.astype(complex)
-    else:
-        ev, V = np.linalg.eig(lin.A)
-        # one of each complex-conjugate pair (Im >= 0), all real ones
-        pick = [k for k in range(ev.size) if ev[k].imag > 1e-12 * max(1, abs(ev[k]))]
-        reals = [k for k in range(ev.size) if abs(ev[k].imag) <= 1e-12 * max(1, abs(ev[k]))]
-        idx = pick + reals
-        s_vals, Z = ev[idx], V[:n, idx]
-    mag = np.abs(s_vals)
-    big = mag.max() if mag.size else 0.0
-    zero = mag <= max(np.sqrt(zero_tol) * big, 1e-6)
-    if zero.sum() > 1:
-        # a rigid-body coordinate gives a double zero eigenvalue of A (a Jordan block with one
-        # eigenvector): keep one mode per independent zero-frequency shape. Without the
-        # symmetric problem those shapes are the positions of the null space of A (the states
-        # that stay put), which the eigenvectors of the defective zero eigenvalue resolve
-        # only to about the square root of the rounding
-        if symmetric:
-            U, sv, _ = np.linalg.svd(Z[:, zero])
-        else:
-            _, sa, Vt = np.linalg.svd(lin.A)
-            k = min(int(zero.sum()), int(np.sum(sa <= np.sqrt(zero_tol) * sa[0])))
-            U, sv, _ = np.linalg.svd(Vt[Vt.shape[0] - k:, :n].T) if k else (None, [0.0], None)
-        r = int(np.sum(np.asarray(sv) > 1e-6 * max(sv[0], 1e-300))) if sv[0] > 0 else 0
-        s_vals = np.concatenate([np.zeros(r, complex), s_vals[~zero]])
-        Z = np.hstack([U[:, :r].astype(complex), Z[:, ~zero]])
-        mag = np.abs(s_vals)
-    shapes = lin.basis @ Z if n else np.zeros((6 * lin.model.nb, 0))
-    r = int(np.sum(mag <= max(np.sqrt(zero_tol) * big, 1e-6)))
-    if r > 1:
-        # any basis of the rigid-body motions is one; show the one in which each mode moves a
-        # single body coordinate of its own (QR with column pivoting picks r independent
-        # coordinates; mode i is 1 in the i-th, 0 in the others): a free body's six modes are
-        # then the three translations and three rotations, not mixtures of them
-        import scipy.linalg as sla
-        rigid = np.real(shapes[:, :r])
-        piv = sla.qr(rigid.T, pivoting=True, mode="r")[1][:r]
-        square = rigid[piv]
-        if np.linalg.cond(square) < 1e8:
-            shapes[:, :r] = rigid @ np.linalg.inv(square)
-    for k in range(shapes.shape[1]):
-        j = int(np.argmax(np.abs(shapes[:, k])))
-        if abs(shapes[j, k]) > 0:
-            shapes[:, k] = shapes[:, k] / shapes[j, k]
-    kinds = []
-    for s in s_vals:
-        if abs(s) <= max(np.sqrt(zero_tol) * big, 1e-6):
-            kinds.append("rigid-body")
-        elif s.real > 1e-9 * max(abs(s), 1.0):
-            kinds.append("unstable")
-        elif abs(s.imag) > 1e-12 * abs(s):
-            kinds.append("oscillatory")
-        else:
-            kinds.append("overdamped")
-    order = np.lexsort((mag, [k != "rigid-body" for k in kinds]))
-    s_vals, shapes = s_vals[order], shapes[:, order]
-    kinds = [kinds[k] for k in order]
-    mag = np.abs(s_vals)
-    omega_n = np.where(np.array(kinds) == "rigid-body", 0.0, mag)
-    zeta = np.where(omega_n > 0, 0.0 - s_vals.real / np.where(mag > 0, mag, 1), np.nan)
-    zeta[np.abs(zeta) < 1e-12] = 0.0                       # round-off of undamped systems
-    table = pd.DataFrame(dict(
-        real=s_vals.real, imag=s_vals.imag, omega_n=omega_n, frequency_hz=omega_n / (2 * np.pi),
-        damped_frequency_hz=np.abs(s_vals.imag) / (2 * np.pi), damping_ratio=zeta, kind=kinds,
-        motion=[describe_direction(lin.model, shapes[:, k].real if np.abs(shapes[:, k].real).max()
-                                   > 1e-9 else shapes[:, k].imag)
-                for k in range(shapes.shape[1])]))
-    return ModalResults(linear=lin, eigenvalues=s_vals, shapes=shapes, table=table)
+                                                 for n in inputs]),
+                       frame_rate=None if frame_rate is None else wf)
