@@ -25,7 +25,7 @@ def cmd_animate(args) -> int:
                                 "HDF5 results file (`spatialmbd run MODEL -o out.h5`) or the "
                                 "model file")
     else:
-        model, analysis = common.load(args.input)
+        model, analysis = common.load(args.input, **common.import_options(args, args.input))
         analysis, notes = common.apply_overrides(analysis, args)
         if not args.quiet:
             for note in notes:
@@ -73,4 +73,5 @@ def add_parser(command) -> None:
                    help="draw the joint reaction forces as arrows (model files only)")
     common.add_analysis_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    common.add_import_options(p)
     p.set_defaults(func=cmd_animate)

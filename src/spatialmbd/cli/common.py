@@ -40,8 +40,10 @@ def err(*lines: str) -> None:
         print(line, file=sys.stderr)
 
 
-def load(path: str):
-    """(Model, Analysis) of a model file; file problems raise ModelFileError / UsageError."""
+def load(path: str, **import_options):
+    """(Model, Analysis) of a model file, or of an MJCF/URDF file imported in memory (with the
+    default analysis; ``import_options``: strict, verbose, quiet of :func:`import_file`); file
+    problems raise ModelFileError / UsageError."""
     p = pathlib.Path(path)
     if not p.exists():
         raise UsageError(f"no such model file: {path}")
@@ -49,7 +51,8 @@ def load(path: str):
         raise UsageError(f"{path} is a directory, not a model file")
     if p.suffix.lower() in MJCF_SUFFIXES:        # MJCF / URDF: imported, default analysis
         from ..io.modelfile import load_model, model_to_dict
-        return load_model(model_to_dict(import_file(p, lenient=False)))
+        builder = import_file(p, **import_options)
+        return load_model(model_to_dict(builder, meshes="arrays"))
     from ..io.modelfile import load_model
     return load_model(p)
 
@@ -57,15 +60,48 @@ def load(path: str):
 MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
 
 
-def import_file(path, lenient: bool):
-    """ModelBuilder of an MJCF/URDF file; what is left out is printed as a warning."""
-    from ..importers import import_mjcf
+def import_options(args, path) -> dict:
+    """The import options of the command line (--strict, --verbose, -q) for an MJCF/URDF
+    ``path``; {} for a model file."""
+    if pathlib.Path(path).suffix.lower() not in MJCF_SUFFIXES:
+        return {}
+    return dict(strict=bool(getattr(args, "strict", False)),
+                verbose=bool(getattr(args, "verbose", False)),
+                quiet=bool(getattr(args, "quiet", False)))
+
+
+def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True) -> None:
+    """--strict, --verbose (and the accepted no-op --lenient) of MJCF/URDF imports."""
+    g = parser.add_argument_group("MJCF/URDF import" + (" (when the input is a .xml or .urdf "
+                                                        "file)" if model_files else ""))
+    g.add_argument("--strict", action="store_true",
+                   help="refuse features with no exact counterpart (actuators, tendons, "
+                        "armature, friction loss, ...) instead of leaving them out")
+    g.add_argument("--verbose", action="store_true",
+                   help="list every feature left out, not only their counts")
+    g.add_argument("--lenient", action="store_true", help=argparse.SUPPRESS)   # the default
+
+
+def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool = False):
+    """ModelBuilder of an MJCF/URDF file. What is left out is summarised on stderr in one
+    line (counts per kind; every feature with ``verbose``); ``strict``: refused instead."""
+    from ..importers import read_mjcf
+    from ..importers.mjcf.report import details
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        builder = import_mjcf(path, strict=not lenient)
+        imported = read_mjcf(path, strict=strict)
+    if imported.left_out and not (quiet and not verbose):
+        err(f"note: left out of {pathlib.Path(path).name}: {imported.summary}"
+            + ("" if verbose else " (--verbose lists them; --strict refuses those with no "
+                                  "exact counterpart)"))
+    if verbose:
+        for line in details(imported.left_out):
+            err(f"  {line}")
     for w in caught:
-        err(f"warning: {w.message}")
-    return builder
+        text = str(w.message)
+        if not text.startswith("left out:"):
+            err(f"warning: {text}")
+    return imported.builder
 
 
 def check_name(kind: str, name: str) -> str:

@@ -8,7 +8,7 @@ from . import common
 
 def cmd_info(args) -> int:
     from ..kinematics import mobility
-    model, analysis = common.load(args.model)
+    model, analysis = common.load(args.model, **common.import_options(args, args.model))
     state = model.builder_state
     g = model.gravity
     lines = [f"model {model.name!r} ({args.model})",
@@ -91,4 +91,5 @@ def add_parser(command) -> None:
                 spatialmbd info four_bar.yaml
                 """)
     p.add_argument("model", metavar="MODEL", help="model file")
+    common.add_import_options(p)
     p.set_defaults(func=cmd_info)

@@ -24,6 +24,24 @@ class _QuietOrQuantity(argparse.Action):
         namespace.quantity = list(namespace.quantity or []) + list(values)
 
 
+#: inputs that are models (run first, with the analysis options), not results files
+MODEL_SUFFIXES = (".yaml", ".yml", ".json") + common.MJCF_SUFFIXES
+
+
+def _run(path, args):
+    """The results of the analysis of a model file or an MJCF/URDF file (imported in memory)."""
+    model, analysis = common.load(path, **common.import_options(args, path))
+    analysis, notes = common.apply_overrides(analysis, args)
+    quiet = getattr(args, "quiet", False)
+    if not quiet:
+        for note in notes:
+            print(f"note: {note}")
+    results, wall, warning_texts = common.run_analysis(model, analysis, progress=not quiet)
+    if not quiet:
+        print(common.summary(results, wall, warning_texts))
+    return results
+
+
 def cmd_plot(args) -> int:
     from ..io.results_io import load_results
     from ..plotting import plot_results
@@ -32,7 +50,8 @@ def cmd_plot(args) -> int:
             raise common.UsageError(f"no such results file: {path}")
     outs = common.output_paths(args, pathlib.Path(args.results[0]).stem, ".png",
                                (".png", ".svg", ".pdf"))
-    loaded = [load_results(p) for p in args.results]
+    loaded = [_run(p, args) if pathlib.Path(p).suffix.lower() in MODEL_SUFFIXES
+              else load_results(p) for p in args.results]
     labels = args.labels or ([pathlib.Path(p).stem for p in args.results]
                              if len(loaded) > 1 else None)
     if labels is not None and len(labels) != len(loaded):
@@ -66,7 +85,9 @@ def add_parser(command) -> None:
                 spatialmbd plot pendulum.h5 --x pivot.angle -y pivot.angle_rate -o phase.png
                 spatialmbd plot crank.h5 --x crank_drive.coordinate -y D.translation -o s.png
                 """)
-    p.add_argument("results", nargs="+", metavar="RESULTS", help="results file(s), .h5 or .csv")
+    p.add_argument("results", nargs="+", metavar="RESULTS",
+                   help="results file(s), .h5 or .csv; or a model file (.yaml, .json) or an "
+                        "MJCF/URDF file (.xml, .urdf), whose analysis is run first")
     p.add_argument("-y", "--y", "--quantity", dest="quantity", action="extend", nargs="+",
                    metavar="QUANTITY",
                    help="what to plot (repeatable; patterns allowed; several series per "
@@ -87,4 +108,6 @@ def add_parser(command) -> None:
                        help="linear y axes everywhere (default: log for violations only)")
     p.add_argument("--title", help="figure title")
     p.add_argument("--quiet", action="store_true", help="print nothing")
+    common.add_analysis_options(p)
+    common.add_import_options(p)
     p.set_defaults(func=cmd_plot, quantity=None)

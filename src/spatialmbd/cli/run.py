@@ -12,7 +12,7 @@ RESULT_SUFFIXES = (".csv", ".h5", ".hdf5")
 
 
 def cmd_run(args) -> int:
-    model, analysis = common.load(args.model)
+    model, analysis = common.load(args.model, **common.import_options(args, args.model))
     analysis, notes = common.apply_overrides(analysis, args)
     if getattr(args, "outputs", None):
         analysis = _with_outputs(model, analysis, args.outputs)
@@ -184,4 +184,5 @@ def add_parser(command) -> None:
                    help="stop after N accepted integration steps")
     g.add_argument("--max-wall-time", type=common.positive, metavar="S",
                    help="stop after S seconds of wall time")
+    common.add_import_options(p)
     p.set_defaults(func=cmd_run)
