@@ -1,9 +1,9 @@
 """Mesh sidecars: the triangle meshes of a model file in one NumPy archive next to it.
 
 ``save_model(builder, "robot.yaml")`` writes a mesh shape whose vertices are given inline (as
-arrays or lists) with at least :data:`SIDECAR_MIN_VERTICES` vertices into ``robot.meshes.npz``
-and the shape in the model file as a reference ``{type: mesh, file: robot.meshes.npz, mesh:
-NAME, center, p, ...}``. The archive holds ``NAME.vertices`` (n, 3) and ``NAME.faces`` (m, 3)
+arrays or lists) into ``robot.meshes.npz`` when it is named (``mesh: NAME``, as imported meshes
+are) or has at least :data:`SIDECAR_MIN_VERTICES` vertices, and the shape in the model file
+as a reference ``{type: mesh, file: robot.meshes.npz, mesh: NAME, center, p, ...}``. The archive holds ``NAME.vertices`` (n, 3) and ``NAME.faces`` (m, 3)
 for each mesh, in the dtype given (an imported MuJoCo mesh: float32 and int32, exactly MuJoCo's
 numbers), each distinct mesh once however many shapes use it. Reading is in
 :func:`spatialmbd.meshes.read_sidecar`.
@@ -65,7 +65,8 @@ class MeshStore:
     def reference(self, shape: dict):
         """The shape with its inline mesh moved into the store, or None (kept inline)."""
         arrays = _arrays(shape)
-        if arrays is None or arrays[0].shape[0] < self.min_vertices:
+        if arrays is None or (shape.get("mesh") is None and
+                              arrays[0].shape[0] < self.min_vertices):
             return None
         V, F = arrays
         V = V if V.dtype.kind == "f" else V.astype(float)

@@ -34,7 +34,6 @@ of 1e300 is refused here, not after the file is written).
 from __future__ import annotations
 
 import pathlib
-import re
 import warnings
 from dataclasses import dataclass, field
 from typing import Optional, Union
@@ -105,7 +104,8 @@ def _check_ranges(builder) -> None:
             if path and path[0] in ("bodies", "joints"):
                 spec = (bodies if path[0] == "bodies" else joints)[path[1]]
                 rest = "".join(f"[{k}]" if isinstance(k, int) else f".{k}" for k in path[2:])
-                return f"{path[0][:-1]} {spec.name!r}{rest}"
+                kind = "body" if path[0] == "bodies" else "joint"
+                return f"{kind} {spec.name!r}{rest}"
             return ".".join(str(k) for k in path)
         raise ModelError("the imported model has values the model-file reader refuses: "
                          + "; ".join(f"{where(path)}: {message}"
