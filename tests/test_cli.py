@@ -180,7 +180,7 @@ def _nan_force_loader(path):
 
 def test_failed_simulation_exit_1_with_partial_results(tmp_path, pendulum_file, monkeypatch,
                                                         capsys):
-    monkeypatch.setattr(cli, "_load", _nan_force_loader)
+    monkeypatch.setattr(cli.common, "load", _nan_force_loader)
     csv, h5 = tmp_path / "fail.csv", tmp_path / "fail.h5"
     assert main(["run", str(pendulum_file), "-o", str(csv), "-o", str(h5)]) == 1
     captured = capsys.readouterr()

@@ -313,7 +313,7 @@ def test_any_exception_or_ctrl_c_mid_run_keeps_the_results(kind, status):
 
 def test_cli_writes_interrupted_runs_with_exit_130(tmp_path, monkeypatch, capsys):
     from spatialmbd import cli
-    monkeypatch.setattr(cli, "_load", lambda path: _force_model("interrupt"))
+    monkeypatch.setattr(cli.common, "load", lambda path: _force_model("interrupt"))
     out = tmp_path / "r.csv"
     assert cli.main(["run", str(PENDULUM), "-q", "-o", str(out)]) == 130
     assert out.read_text().startswith("# status: interrupted")

@@ -31,3 +31,70 @@ def check_time(name: str, value, positive=False) -> float:
         raise ModelError(f"{name}: expected a finite{' positive' if positive else ''} number "
                          f"of seconds, got {value!r}")
     return value
+
+
+# ============================================================================ ranges
+#: magnitude limits checked at load time (SI units), so that values that cannot be meant
+#: (1e300 m, a mass of 5e-324 kg) are errors naming their place instead of failures deep in
+#: a run; see docs/reliability.md. (key -> (smallest non-zero |x|, largest |x|, unit))
+RANGES = {
+    "length": (1e-100, 1e6, "m"),
+    "velocity": (1e-100, 1e6, "m/s"),
+    "angular_velocity": (1e-100, 1e6, "rad/s"),
+    "gravity": (1e-100, 1e4, "m/s^2"),
+    "mass": (1e-12, 1e12, "kg"),
+    "inertia": (1e-100, 1e12, "kg m^2"),
+    "number": (1e-100, 1e12, ""),
+}
+_RANGE_KEYS = {"position": "length", "points": "length", "center": "length",
+               "size": "length", "radius": "length", "length": "length", "natural_length": "length",
+               "velocity": "velocity", "angular_velocity": "angular_velocity",
+               "angular_velocity_local": "angular_velocity", "gravity": "gravity",
+               "mass": "mass", "inertia": "inertia"}
+_RANGE_KEYS.update({k: "length" for k in ("point", "point2", "point_i", "point_j")})
+
+
+def _range_kind(path: tuple, key, kind: str) -> str:
+    """The quantity a value at path + (key,) is checked as (RANGES), given its parent's:
+    the nearest key naming one (a point's name under "points" names none)."""
+    return _RANGE_KEYS.get(key, kind) if isinstance(key, str) and not (
+        path and path[-1] == "points") else kind
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:12]}...{text[-6:]} ({len(text)} digits)"
+
+
+def range_problems(data) -> list:
+    """(path, message) of every finite number of a plain structure (dicts, lists, numbers as a
+    model file gives them) outside RANGES, by the nearest key naming a quantity: the rule of
+    the model-file reader, shared with the importers."""
+    out = []
+    stack = [(data, (), "number")]
+    while stack:
+        value, path, kind = stack.pop()
+        if isinstance(value, dict):
+            for k, v in value.items():
+                stack.append((v, path + (k,), _range_kind(path, k, kind)))
+        elif isinstance(value, (list, tuple)):
+            stack.extend((v, path + (k,), kind) for k, v in enumerate(value))
+        elif isinstance(value, (int, float)) and not isinstance(value, bool) and value != 0:
+            try:
+                if not math.isfinite(value):
+                    continue
+            except OverflowError:
+                continue
+            low, high, unit = RANGES[kind]
+            size = abs(float(value))
+            what = {"number": "a number", "inertia": "an inertia",
+                    "angular_velocity": "an angular velocity"}.get(kind, f"a {kind}")
+            if size > high:
+                out.append((path, f"{_short(value)}{' ' + unit if unit else ''} is out of range "
+                                  f"for {what} (|x| <= {high:g}{' ' + unit if unit else ''}); "
+                                  "check the value and its units"))
+            elif size < low:
+                out.append((path, f"{_short(value)}{' ' + unit if unit else ''} is too small "
+                                  f"for {what} (|x| >= {low:g}{' ' + unit if unit else ''}, or "
+                                  "0); check the value and its units"))
+    return out

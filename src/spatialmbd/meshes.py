@@ -6,8 +6,13 @@ indices, counter-clockwise seen from outside) or a ``file`` (STL, OBJ, PLY, OFF,
 with an optional ``scale`` (one number or three, applied to the vertices first), and like every
 shape a ``center`` (m) and an orientation ``p`` (Euler parameters) in the axes of its body.
 
+A mesh sidecar (``file: robot.meshes.npz`` with ``mesh: NAME``) is a NumPy ``.npz`` archive
+written next to a model file by ``save_model`` and ``spatialmbd import`` (docs/import.md): for
+each mesh NAME the arrays ``NAME.vertices`` (n, 3) floats and ``NAME.faces`` (m, 3) integers,
+each mesh stored once however many shapes use it, its vertices without repeats.
+
 :func:`mesh_arrays` returns the scaled vertices and the faces, checked (finite, indices in
-range); files are read once per (path, modification time).
+range); files are read once per (path, modification time), a sidecar mesh on first use.
 """
 from __future__ import annotations
 
@@ -19,6 +24,8 @@ import numpy as np
 from .errors import ModelError
 
 _CACHE: dict = {}
+#: the suffix of mesh sidecars (NumPy archives of named meshes)
+SIDECAR_SUFFIX = ".npz"
 
 
 def _trimesh():
@@ -63,6 +70,72 @@ def read_file(path) -> tuple:
     return V.copy(), F.copy()
 
 
+def compact(vertices, faces) -> tuple:
+    """(vertices without repeated rows, faces renumbered onto them): the same triangles."""
+    V = np.asarray(vertices)
+    F = np.asarray(faces, dtype=np.int64)
+    unique, inverse = np.unique(V, axis=0, return_inverse=True)
+    return unique, inverse.reshape(-1)[F].astype(F.dtype)
+
+
+def _sidecar(path: str):
+    """The open archive of a sidecar (cached per path and modification time)."""
+    key = ("npz", path, os.path.getmtime(path))
+    if key not in _CACHE:
+        import zipfile
+        try:
+            _CACHE[key] = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, zipfile.BadZipFile) as exc:
+            raise ModelError(f"mesh sidecar {path}: cannot be read ({exc}); write it again "
+                             "with spatialmbd import or save_model") from None
+    return _CACHE[key]
+
+
+def read_sidecar(path, name, what: str = "mesh") -> tuple:
+    """(vertices (n, 3), faces (m, 3)) of mesh ``name`` in the sidecar ``path``, checked:
+    ModelError naming ``what`` (the shape and its body), the mesh and the file otherwise."""
+    path = resolve_file(path)
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"{what}: a mesh from the sidecar {path} needs its name (mesh: NAME)")
+    key = ("npz-mesh", path, os.path.getmtime(path), name)
+    if key not in _CACHE:
+        archive = _sidecar(path)
+        names = sorted({k.rsplit(".", 1)[0] for k in archive.files})
+        if f"{name}.vertices" not in archive.files or f"{name}.faces" not in archive.files:
+            near = ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
+            raise ModelError(f"{what}: the mesh sidecar {path} has no mesh {name!r} (it holds "
+                             f"{len(names)}: {near})")
+        try:
+            V = np.asarray(archive[f"{name}.vertices"])
+            F = np.asarray(archive[f"{name}.faces"])
+        except (OSError, ValueError) as exc:
+            raise ModelError(f"{what}: mesh {name!r} of the sidecar {path} cannot be read "
+                             f"({exc})") from None
+        where = f"{what} (mesh {name!r} of {path})"
+        if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 3 or V.dtype.kind != "f":
+            raise ModelError(f"{where}: vertices must be (n, 3) floats with n >= 3, got "
+                             f"{V.dtype} of shape {V.shape}")
+        if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] < 1 or F.dtype.kind not in "iu":
+            raise ModelError(f"{where}: faces must be (m, 3) integers, got {F.dtype} of shape "
+                             f"{F.shape}")
+        _check(V.astype(float), F.astype(np.int64), where)
+        _CACHE[key] = (V.astype(float), F.astype(np.int64))
+    V, F = _CACHE[key]
+    return V.copy(), F.copy()
+
+
+def _check(V, F, what: str) -> None:
+    bad = ~np.isfinite(V)
+    if np.any(bad):
+        k = int(np.argwhere(bad)[0][0])
+        raise ModelError(f"{what}.vertices[{k}]: non-finite coordinates {V[k].tolist()}")
+    bad = (F < 0) | (F >= V.shape[0])
+    if np.any(bad):
+        k = int(np.argwhere(bad)[0][0])
+        raise ModelError(f"{what}.faces[{k}]: vertex index {F[k].tolist()} out of range "
+                         f"0..{V.shape[0] - 1}")
+
+
 def _scale(shape: dict, what: str) -> np.ndarray:
     s = np.asarray(shape.get("scale", 1.0), dtype=float).reshape(-1)
     if s.size == 1:
@@ -78,7 +151,9 @@ def mesh_arrays(shape: dict, what: str = "mesh") -> tuple:
     has_inline = shape.get("vertices") is not None or shape.get("faces") is not None
     if shape.get("file") is not None and has_inline:
         raise ModelError(f"{what}: give either a file or vertices and faces, not both")
-    if shape.get("file") is not None:
+    if shape.get("file") is not None and str(shape["file"]).lower().endswith(SIDECAR_SUFFIX):
+        V, F = read_sidecar(shape["file"], shape.get("mesh"), what)
+    elif shape.get("file") is not None:
         V, F = read_file(shape["file"])
     elif shape.get("vertices") is not None and shape.get("faces") is not None:
         try:
@@ -97,11 +172,5 @@ def mesh_arrays(shape: dict, what: str = "mesh") -> tuple:
         F = F.astype(np.int64)
     else:
         raise ModelError(f"{what}: a mesh needs a file or vertices and faces")
-    if not np.all(np.isfinite(V)):
-        raise ModelError(f"{what}.vertices: non-finite coordinates")
-    bad = (F < 0) | (F >= V.shape[0])
-    if np.any(bad):
-        k = int(np.argwhere(bad)[0][0])
-        raise ModelError(f"{what}.faces[{k}]: vertex index {F[k].tolist()} out of range "
-                         f"0..{V.shape[0] - 1}")
+    _check(V, F, what)
     return V * _scale(shape, what), F

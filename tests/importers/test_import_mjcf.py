@@ -85,7 +85,7 @@ def test_double_pendulum_matches_mujoco():
 
 
 def test_urdf_arm_matches_mujoco():
-    with pytest.warns(MJCFImportWarning, match="collisions of geoms"):
+    with pytest.warns(MJCFImportWarning, match=r"left out: \d+ colliding geoms"):
         imported = read_mjcf(EXAMPLES / "arm6.urdf")
     b = imported.builder
     # the base is fused to the world, the tool link to link6 (fixed joints)
@@ -197,18 +197,22 @@ BAD = """<mujoco><worldbody>
 
 def test_unsupported_features_are_named():
     with pytest.raises(ModelError) as info:
-        read_mjcf(BAD)
+        read_mjcf(BAD, strict=True)
     text = str(info.value)
-    for word in ("tendon 'cable'", "actuator 'motor_a'", "joint equality 'couple'",
-                 "contact pair 'touch'", "armature of joint 'ja'", "strict=False"):
+    for word in ("tendon 'cable'", "actuator 'motor_a'", "equality constraint 'couple'",
+                 "contact pair 'touch'", "armature value 'ja'", "strict=False"):
         assert word in text, (word, text)
+    assert "joint limit" not in text and "colliding geom" not in text   # never an error
     with pytest.warns(MJCFImportWarning) as record:
-        imported = read_mjcf(BAD, strict=False)
+        imported = read_mjcf(BAD)                                      # the default
     messages = " ".join(str(w.message) for w in record)
-    for word in ("tendon 'cable'", "actuator 'motor_a'", "limits of joint 'ja'",
-                 "collisions of geoms 'ga'"):
-        assert word in messages, (word, messages)
-    assert any("couple" in x for x in imported.left_out)
+    assert ("left out: 1 actuator, 1 tendon, 1 contact pair, 1 armature value, 1 equality "
+            "constraint, 1 joint limit, 2 colliding geoms") in messages, messages
+    kinds = {(x.kind, x.element) for x in imported.left_out}
+    assert {("tendon", "cable"), ("actuator", "motor_a"), ("joint limit", "ja"),
+            ("colliding geom", "ga"), ("colliding geom", "gb"), ("equality", "couple"),
+            ("contact pair", "touch"), ("armature", "ja")} == kinds
+    assert "polycoef" in next(x.detail for x in imported.left_out if x.kind == "equality")
     assert list(imported.builder.joints) == ["ja", "jb"]
 
 
@@ -243,8 +247,10 @@ def test_names_shared_across_kinds_are_made_unique_and_keyframes_noted():
         <geom type="box" pos="0.1 0 0" size="0.1 0.01 0.01"/></body></worldbody>
       <equality><weld name="arm_spring" body1="arm"/></equality>
       <keyframe><key name="home" qpos="0.3"/></keyframe></mujoco>"""
-    with pytest.warns(MJCFImportWarning, match=r"keyframes \['home'\] are not used"):
-        builder = read_mjcf(xml, strict=False).builder
+    with pytest.warns(MJCFImportWarning, match=r"left out: 1 colliding geom, 1 keyframe"):
+        imported = read_mjcf(xml, strict=False)
+    builder = imported.builder
+    assert ("keyframe", "home") in [(x.kind, x.element) for x in imported.left_out]
     assert list(builder.bodies) == ["arm"]
     assert list(builder.joints) == ["arm_", "arm_spring_"]     # joints are named first
     assert list(builder.forces) == ["arm_spring"]
@@ -269,7 +275,7 @@ def test_cli_import_and_run(tmp_path, capsys):
     assert main(["import", str(tmp_path / "none.xml")]) == 2
     bad = tmp_path / "bad.xml"
     bad.write_text(BAD)
-    assert main(["import", str(bad), "-o", str(tmp_path / "bad.yaml")]) == 2
+    assert main(["import", str(bad), "--strict", "-o", str(tmp_path / "bad.yaml")]) == 2
     assert "tendon 'cable'" in capsys.readouterr().err
     assert main(["import", str(bad), "--lenient", "-q", "-o", str(tmp_path / "bad.yaml")]) == 0
     assert main(["info", str(EXAMPLES / "double_pendulum.xml")]) == 0

@@ -142,7 +142,7 @@ def _parse(P, data, default_name="model"):
                     _vector(P, path + (key, pname), vec)
         if "shapes" in d and _list(P, path + ("shapes",), d["shapes"], "shapes"):
             for k, s in enumerate(d["shapes"]):
-                _shape(P, path + ("shapes", k), s)
+                _shape(P, path + ("shapes", k), s, owner=f"body {d.get('name')!r}")
         if "color" in d:
             _color(P, path + ("color",), d["color"])
         if len(P) != n0 or P.flagged(path) or not complete:
@@ -430,7 +430,7 @@ def _parse(P, data, default_name="model"):
     shapes = _section(data, "ground_shapes")
     if _list(P, ("ground_shapes",), shapes, "shapes"):
         for k, s in enumerate(shapes):
-            if _shape(P, ("ground_shapes", k), s):
+            if _shape(P, ("ground_shapes", k), s, owner="the ground"):
                 b.add_ground_shape(s)
 
     # ------------------------------------------------------------------ analysis

@@ -17,6 +17,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..checks import _RANGE_KEYS, RANGES, _range_kind, range_problems  # noqa: F401
 from ..errors import ModelError
 from ..model.builder import GLOBAL_KEYS, LOCAL_KEYS
 
@@ -52,11 +53,15 @@ def joint_keys(jtype=None) -> tuple:
         extra += [par.name for par in cls.parameters if par.name not in extra]
     return JOINT_KEYS + tuple(extra)
 DRIVER_KEYS = ("name", "kind", "joint", "body", "coordinate", "law")
-SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color"),
-              "cylinder": ("type", "radius", "length", "center", "axis", "color"),
-              "sphere": ("type", "radius", "center", "color"),
-              "capsule": ("type", "radius", "length", "center", "axis", "color"),
-              "mesh": ("type", "file", "vertices", "faces", "scale", "center", "p", "color")}
+SHAPE_KEYS = {"box": ("type", "size", "center", "p", "color", "role"),
+              "cylinder": ("type", "radius", "length", "center", "axis", "color", "role"),
+              "sphere": ("type", "radius", "center", "color", "role"),
+              "capsule": ("type", "radius", "length", "center", "axis", "color", "role"),
+              "mesh": ("type", "file", "mesh", "vertices", "faces", "scale", "center", "p",
+                       "color", "role")}
+#: what a shape is for: drawn only (visual) or the body's collision geometry (collision);
+#: a body with visual shapes is drawn with those only (docs/import.md)
+SHAPE_ROLES = ("visual", "collision")
 SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",),
                   "capsule": ("radius", "length"), "mesh": ()}
 #: the directory of the model file being read: mesh files are relative to it
@@ -326,7 +331,8 @@ def _relabel(P, path, prefix: str, message: str, fields: Optional[dict] = None) 
 
 
 # ============================================================================ shapes and laws
-def _shape(P, path, value) -> bool:
+def _shape(P, path, value, owner: Optional[str] = None) -> bool:
+    """Check a shape mapping; ``owner`` (e.g. "body 'arm'") names its body in mesh errors."""
     n0 = len(P)
     if not _mapping(P, path, value, ("type",) + tuple(sorted({k for v in SHAPE_KEYS.values()
                                                              for k in v} - {"type"})),
@@ -362,14 +368,20 @@ def _shape(P, path, value) -> bool:
                 P.add(tuple(path) + (key,), "zero-length vector; give a direction")
     if "color" in value:
         _color(P, tuple(path) + ("color",), value["color"])
+    if "role" in value and value["role"] not in SHAPE_ROLES:
+        P.add(tuple(path) + ("role",), f"expected one of {', '.join(SHAPE_ROLES)}, got "
+                                       f"{_describe(value['role'])}")
+    if "mesh" in value and not (isinstance(value["mesh"], str) and value["mesh"]):
+        P.add(tuple(path) + ("mesh",), f"expected a mesh name, got {_describe(value['mesh'])}")
     if kind == "mesh" and len(P) == n0:
-        _mesh(P, tuple(path), value)
+        _mesh(P, tuple(path), value, owner)
     return len(P) == n0
 
 
-def _mesh(P, path, value) -> None:
+def _mesh(P, path, value, owner: Optional[str] = None) -> None:
     """A mesh shape: its file (relative to the model file) found and read, or its inline
-    vertices and faces checked (spatialmbd.meshes); the file becomes an absolute path."""
+    vertices and faces checked (spatialmbd.meshes); the file becomes an absolute path. A mesh
+    of a sidecar (.npz) is named in errors with its body (``owner``) and the file."""
     from ..meshes import mesh_arrays, resolve_file
     try:
         if isinstance(value.get("file"), str):
@@ -377,7 +389,13 @@ def _mesh(P, path, value) -> None:
         elif "file" in value:
             P.add(path + ("file",), f"expected a file name, got {_describe(value['file'])}")
             return
-        mesh_arrays(value, _render(path))
+        what = _render(path) + (f" ({value['type']} of {owner})" if owner else "")
+        V, _ = mesh_arrays(value, what)
+        high = RANGES["length"][1]
+        if V.size and float(np.max(np.abs(V))) > high:
+            k = int(np.argmax(np.max(np.abs(V), axis=1)))
+            raise ModelError(f"{what}.vertices[{k}]: {V[k].tolist()} m is out of range for a "
+                             f"length (|x| <= {high:g} m); check the mesh and its scale")
     except ModelError as exc:
         message = str(exc)
         prefix = _render(path)
@@ -466,33 +484,6 @@ def _law(P, path, value):
 
 
 # ============================================================================ ranges
-#: magnitude limits checked at load time (SI units), so that values that cannot be meant
-#: (1e300 m, a mass of 5e-324 kg) are errors naming their place instead of failures deep in
-#: a run; see docs/reliability.md. (key -> (smallest non-zero |x|, largest |x|, unit))
-RANGES = {
-    "length": (1e-100, 1e6, "m"),
-    "velocity": (1e-100, 1e6, "m/s"),
-    "angular_velocity": (1e-100, 1e6, "rad/s"),
-    "gravity": (1e-100, 1e4, "m/s^2"),
-    "mass": (1e-12, 1e12, "kg"),
-    "inertia": (1e-100, 1e12, "kg m^2"),
-    "number": (1e-100, 1e12, ""),
-}
-_RANGE_KEYS = {"position": "length", "points": "length", "center": "length", "size": "length",
-               "radius": "length", "length": "length", "natural_length": "length",
-               "velocity": "velocity", "angular_velocity": "angular_velocity",
-               "angular_velocity_local": "angular_velocity", "gravity": "gravity",
-               "mass": "mass", "inertia": "inertia"}
-_RANGE_KEYS.update({k: "length" for k in ("point", "point2", "point_i", "point_j")})
-
-
-def _range_kind(path: tuple, key, kind: str) -> str:
-    """The quantity a value at path + (key,) is checked as (RANGES), given its parent's:
-    the nearest key naming one (a point's name under "points" names none)."""
-    return _RANGE_KEYS.get(key, kind) if isinstance(key, str) and not (
-        path and path[-1] == "points") else kind
-
-
 def range_of(path) -> tuple:
     """(low, high) of RANGES for the value at a model-file path (a tuple of keys): a finite
     non-zero value x passes the range check when low <= |x| <= high."""
@@ -504,29 +495,9 @@ def range_of(path) -> tuple:
 
 def _range_checks(P, data) -> None:
     """Record every finite number outside RANGES (by the nearest key naming a quantity)."""
-    stack = [(data, (), "number")]
-    while stack:
-        value, path, kind = stack.pop()
-        if isinstance(value, dict):
-            for k, v in value.items():
-                stack.append((v, path + (k,), _range_kind(path, k, kind)))
-        elif isinstance(value, list):
-            stack.extend((v, path + (k,), kind) for k, v in enumerate(value))
-        elif _is_number(value) and _finite(value) and value != 0:
-            low, high, unit = RANGES[kind]
-            size = abs(float(value))
-            what = {"number": "a number", "inertia": "an inertia",
-                    "angular_velocity": "an angular velocity"}.get(kind, f"a {kind}")
-            if size > high or size < low:
-                P.range_paths.append(tuple(path))
-            if size > high:
-                P.add(path, f"{_short(value)}{' ' + unit if unit else ''} is out of range for "
-                            f"{what} (|x| <= {high:g}{' ' + unit if unit else ''}); check the "
-                            "value and its units")
-            elif size < low:
-                P.add(path, f"{_short(value)}{' ' + unit if unit else ''} is too small for "
-                            f"{what} (|x| >= {low:g}{' ' + unit if unit else ''}, or 0); check "
-                            "the value and its units")
+    for path, message in range_problems(data):
+        P.range_paths.append(tuple(path))
+        P.add(path, message)
 
 
 def _plain(value, P=None, path=()):

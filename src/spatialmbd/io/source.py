@@ -280,9 +280,11 @@ def _decode(raw: bytes, source) -> str:
 
 
 def _plain_input(value):
-    """Python input (dicts with tuples / NumPy values) as the plain types a file gives."""
+    """Python input (dicts with tuples / NumPy values) as the plain types a file gives; the
+    numeric arrays of a mesh (``vertices``, ``faces``) stay arrays (checked as a mesh)."""
     if isinstance(value, dict):
-        return {k: _plain_input(v) for k, v in value.items()}
+        return {k: v if k in ("vertices", "faces") and isinstance(v, np.ndarray)
+                and v.dtype.kind in "fiu" else _plain_input(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [_plain_input(v) for v in value]
     if isinstance(value, np.ndarray):

@@ -41,9 +41,36 @@ def _state(obj) -> dict:
     raise TypeError(f"expected a Model or a ModelBuilder, not {type(obj).__name__}")
 
 
-def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None) -> dict:
+def _shapes(shapes, P, path, meshes) -> list:
+    """Shapes as plain values. Inline mesh arrays: kept as arrays (``meshes="arrays"``, for a
+    model loaded in memory), moved into a sidecar (``meshes`` a MeshStore) or written as lists
+    (None)."""
+    out = []
+    for k, shape in enumerate(shapes):
+        if isinstance(shape, dict) and shape.get("type") == "mesh":
+            if meshes == "arrays" and shape.get("vertices") is not None:
+                rest = _plain({key: v for key, v in shape.items()
+                               if key not in ("vertices", "faces")}, P, tuple(path) + (k,))
+                rest.update(vertices=np.asarray(shape["vertices"]),
+                            faces=np.asarray(shape.get("faces")))
+                out.append(rest)
+                continue
+            if meshes is not None and meshes != "arrays":
+                ref = meshes.reference(shape)
+                if ref is not None:
+                    out.append(_plain(ref, P, tuple(path) + (k,)))
+                    continue
+        out.append(_plain(shape, P, tuple(path) + (k,)))
+    return out
+
+
+def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None, *,
+                  meshes=None) -> dict:
     """The model file content of a Model or ModelBuilder (and an analysis) as a plain dict.
 
+    meshes: how inline mesh arrays are written: None, as lists; a :class:`.sidecar.MeshStore`,
+    the large ones as references into its sidecar; ``"arrays"``, kept as NumPy arrays (a dict
+    for :func:`load_model` in memory, not for a file).
     Raises ModelFileError listing everything that cannot be written (user motion laws, user
     forces, other Python objects).
     """
@@ -70,7 +97,8 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         if spec.vectors:
             d["vectors"] = {str(k): _floats(v) for k, v in spec.vectors.items()}
         if spec.shapes:
-            d["shapes"] = _plain(list(spec.shapes), P, ("bodies", len(bodies), "shapes"))
+            d["shapes"] = _shapes(list(spec.shapes), P, ("bodies", len(bodies), "shapes"),
+                                  meshes)
         if spec.color is not None:
             d["color"] = spec.color
         bodies.append(d)
@@ -120,7 +148,7 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
     if forces:
         out["forces"] = forces
     if s["ground_shapes"]:
-        out["ground_shapes"] = _plain(list(s["ground_shapes"]), P, ("ground_shapes",))
+        out["ground_shapes"] = _shapes(list(s["ground_shapes"]), P, ("ground_shapes",), meshes)
     if len(P):
         raise P.error(heading=f"model {s['name']!r} cannot be written to a model file")
     if analysis is not None:
@@ -198,25 +226,36 @@ def _json_value(value, indent: int) -> str:
     return json.dumps(value, allow_nan=False)
 
 
-def save_model(model_or_builder, path, analysis=None, *, header: Optional[str] = None) -> Path:
+def save_model(model_or_builder, path, analysis=None, *, header: Optional[str] = None,
+               meshes: str = "sidecar") -> Path:
     """Write a Model or ModelBuilder (and an analysis) to ``path``: YAML (.yaml/.yml) or JSON
     (.json). header: a comment written at the top of YAML files (ignored for JSON).
+    meshes: "sidecar" (default): inline meshes of SIDECAR_MIN_VERTICES vertices or more go to
+    ``<stem>.meshes.npz`` next to the file, referenced by name (:mod:`.sidecar`); "inline":
+    every mesh written into the model file as lists.
 
-    The file is written atomically (a temporary file in the same directory, then os.replace).
-    Raises ModelFileError if the model holds Python callables (user laws, user forces).
+    The files are written atomically (a temporary file in the same directory, then os.replace;
+    the sidecar first). Raises ModelFileError if the model holds Python callables (user laws,
+    user forces).
     """
+    from .sidecar import MeshStore, sidecar_path
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in YAML_SUFFIXES + JSON_SUFFIXES:
         raise ModelFileError([f"unsupported file extension {path.suffix!r}; use .yaml, .yml "
                               "or .json"], path)
-    data = model_to_dict(model_or_builder, analysis)
+    if meshes not in ("sidecar", "inline"):
+        raise ValueError(f"meshes must be 'sidecar' or 'inline', got {meshes!r}")
+    store = MeshStore(sidecar_path(path)) if meshes == "sidecar" else None
+    data = model_to_dict(model_or_builder, analysis, meshes=store)
     try:
         text = _yaml_text(data, header) if suffix in YAML_SUFFIXES else \
             _json_value(data, 0) + "\n"
     except ValueError as exc:       # NaN / inf in JSON
         raise ModelFileError([str(exc)], path,
                              heading=f"cannot write {str(path)!r}") from None
+    if store is not None and store.shapes:
+        store.write()
     directory = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
     try:

@@ -24,7 +24,8 @@ shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x,
              as a cylinder and two spheres), ``{"type": "mesh", "vertices": (n, 3), "faces":
              (m, 3)}`` or ``{"type": "mesh", "file": path}`` (optional "scale", "center", "p";
              :mod:`spatialmbd.meshes`; embedded as flat vertex and index lists); each may carry
-             its own ``"color"``.
+             its own ``"color"``; a shape with ``"role": "collision"`` is not drawn when its
+             body has shapes with ``"role": "visual"``.
 ``joints``   optional list of ``{"name", "type", "body": index or -1 (ground), "point_local"}``.
 ``springs``  optional list of force elements drawn between two attachment points:
              ``{"name", "kind": "spring" | "damper" | "spring_damper" | "link", "body_i",
@@ -189,10 +190,14 @@ def _capsule(shape: dict, what: str) -> list:
 
 
 def _shapes(shapes: Any, what: str) -> list:
+    """Normalised shapes; a body with shapes of ``role: visual`` is drawn with those only (its
+    collision shapes would be drawn over them)."""
     if shapes is None:
         return []
     if isinstance(shapes, dict):
         shapes = [shapes]
+    if any(isinstance(s, dict) and s.get("role") == "visual" for s in shapes):
+        shapes = [s for s in shapes if not (isinstance(s, dict) and s.get("role") == "collision")]
     out = []
     for i, s in enumerate(shapes):
         parts = _capsule(s, f"{what}[{i}]") if isinstance(s, dict) and s.get("type") == \

@@ -1,22 +1,20 @@
-"""The ``spatialmbd sweep`` command (registered by :func:`spatialmbd.cli.build_parser`).
+"""`spatialmbd sweep`: a parameter sweep of a model file (spatialmbd.sweep does the work).
 
     spatialmbd sweep model.yaml --param bodies.link.mass=1:10:10 \\
         --output 'max(link.z)' --output 'period(link.wx)' --scheduler tcp://host:8786 -o sweep.nc
 """
 from __future__ import annotations
 
-import json
 import pathlib
 import sys
 
-import numpy as np
+from . import common
 
 SWEEP_SUFFIXES = (".nc", ".csv", ".parquet")
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
-def add_parser(command, add_analysis_options) -> None:
-    """Add the ``sweep`` sub-command through the CLI's ``command`` helper."""
+def add_parser(command) -> None:
     p = command("sweep", "run a parameter sweep of a model file (serial, processes or Dask)",
                 "Run MODEL once per member of a parameter sweep and write one labelled result "
                 "(.nc: netCDF with one dimension per parameter; .csv/.parquet: a tidy table), "
@@ -59,7 +57,7 @@ def add_parser(command, add_analysis_options) -> None:
                         "call (methods auto, standard, baumgarte, projection, recursive; "
                         "rk45, dop853 or rk4; fully compiled models without drivers)")
     p.add_argument("--chunk-size", type=int, metavar="N", help="members per task")
-    add_analysis_options(p)
+    common.add_analysis_options(p)
     p.add_argument("-o", "--out", action="append", metavar="FILE",
                    help="result file .nc, .csv or .parquet (repeatable; default "
                         "<model stem>_sweep.nc)")
@@ -71,7 +69,7 @@ def add_parser(command, add_analysis_options) -> None:
 
 
 def _params(args, usage_error):
-    from .params import grid, latin_hypercube, parse_range
+    from ..sweep.params import grid, latin_hypercube, parse_range
     values = {}
     for item in args.param:
         if "=" not in item:
@@ -95,24 +93,24 @@ def _params(args, usage_error):
 
 
 def cmd_sweep(args) -> int:
-    from .. import cli
-    from .core import save_result, sweep
+    from ..sweep.core import save_result, sweep
+    from ..sweep.plot import summary_plot
     model_path = pathlib.Path(args.model)
-    model, analysis = cli._load(args.model)
-    analysis, notes = cli._apply_overrides(analysis, args)
-    space = _params(args, cli.UsageError)
+    model, analysis = common.load(args.model)
+    analysis, notes = common.apply_overrides(analysis, args)
+    space = _params(args, common.UsageError)
     outs = [pathlib.Path(o) for o in (args.out or [])] or \
         [pathlib.Path(model_path.stem + "_sweep.nc")]
     for out in outs:
         if out.suffix.lower() not in SWEEP_SUFFIXES:
-            raise cli.UsageError(f"output file {str(out)!r}: the name must end in .nc, .csv "
-                                 "or .parquet")
+            raise common.UsageError(f"output file {str(out)!r}: the name must end in .nc, .csv "
+                                    "or .parquet")
         if not (out.parent if str(out.parent) else pathlib.Path(".")).is_dir():
-            raise cli.UsageError(f"output file {str(out)!r}: directory does not exist")
+            raise common.UsageError(f"output file {str(out)!r}: directory does not exist")
     plot = None if (args.plot or "").lower() == "none" else \
         pathlib.Path(args.plot) if args.plot else outs[0].with_suffix(".png")
     if plot is not None and plot.suffix.lower() not in PLOT_SUFFIXES:
-        raise cli.UsageError(f"--plot {str(plot)!r}: use .png, .svg or .pdf")
+        raise common.UsageError(f"--plot {str(plot)!r}: use .png, .svg or .pdf")
     if not args.quiet:
         for note in notes:
             print(f"note: {note}")
@@ -136,57 +134,3 @@ def cmd_sweep(args) -> int:
         msgs = ds["message"].values.ravel()[ds["status"].values.ravel() != "success"]
         print(f"warning: {failed} member(s) failed; first: {msgs[0]}", file=sys.stderr)
     return 1 if failed == n else 0
-
-
-def summary_plot(ds, path) -> pathlib.Path:
-    """One panel per scalar output against the first parameter (one line per value of the
-    other grid parameters, at most eight; points and samples as markers); failed members as
-    red crosses on the axis."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from .core import to_dataframe
-    names = json.loads(ds.attrs["parameters"])
-    outputs = [o for o in json.loads(ds.attrs["outputs"]) if "time" not in ds[o].dims]
-    series = [o for o in json.loads(ds.attrs["outputs"]) if "time" in ds[o].dims]
-    panels = outputs + series[:2]
-    if not panels:
-        panels = ["status"]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(6.4, 2.6 * len(panels)), squeeze=False)
-    table = to_dataframe(ds[[v for v in ds.data_vars if "time" not in ds[v].dims]])
-    x = names[0]
-    grid = ds.attrs.get("space") == "grid"
-    for ax, name in zip(axes[:, 0], panels):
-        if name in series:
-            da = ds[name].stack(member=names) if grid else ds[name]
-            for k in range(min(8, da.sizes["member"])):
-                ax.plot(ds["time"], da.isel(member=k), lw=1)
-            ax.set_xlabel("time [s]")
-            ax.set_ylabel(name)
-            continue
-        ok = table["status"] == "success"
-        if name == "status":
-            ax.plot(table[x], ok.astype(int), "o")
-        elif grid and len(names) > 1:
-            others = names[1:]
-            for key, part in list(table[ok].groupby(others))[:8]:
-                label = ", ".join(f"{n}={v:g}" for n, v in
-                                  zip(others, key if isinstance(key, tuple) else (key,)))
-                ax.plot(part[x], part[name], "o-", ms=3, label=label)
-        else:
-            ax.plot(table[x][ok], table[name][ok], "o-" if grid else "o", ms=3)
-        bad = table[~ok]
-        if len(bad):
-            ax.plot(bad[x], np.zeros(len(bad)), "x", color="red", label="failed")
-        ax.set_xlabel(x)
-        ax.set_ylabel(name)
-        ax.grid(True, alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=7)
-    fig.suptitle(f"sweep of {ds.attrs.get('model', 'model')}: {ds.attrs['n_members']} members, "
-                 f"{ds.attrs['n_failed']} failed", fontsize=10)
-    fig.tight_layout()
-    path = pathlib.Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

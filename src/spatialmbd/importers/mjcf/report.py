@@ -1,0 +1,70 @@
+"""What an import left out: one :class:`LeftOut` per feature (kind, element, detail), counted
+per kind for the short summary the CLI prints (``left out: 7 actuators, 6 joint limits``)."""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+
+__all__ = ["LeftOut", "KINDS", "summary", "details", "UNSUPPORTED_KINDS"]
+
+#: kind -> (singular, plural) of the summary
+KINDS = {
+    "actuator": ("actuator", "actuators"),
+    "tendon": ("tendon", "tendons"),
+    "contact pair": ("contact pair", "contact pairs"),
+    "flex": ("flex object", "flex objects"),
+    "armature": ("armature value", "armature values"),
+    "frictionloss": ("friction loss value", "friction loss values"),
+    "joint spring": ("spring/damper of a slide, ball or combined joint",
+                     "springs/dampers of slide, ball or combined joints"),
+    "joint combination": ("joint combination", "joint combinations"),
+    "equality": ("equality constraint", "equality constraints"),
+    "joint limit": ("joint limit", "joint limits"),
+    "colliding geom": ("colliding geom", "colliding geoms"),
+    "keyframe": ("keyframe", "keyframes"),
+}
+#: kinds with no exact counterpart (an error with strict=True); the others (limits,
+#: collisions, keyframes) act only when reached, touching or chosen, and are never an error
+UNSUPPORTED_KINDS = ("actuator", "tendon", "contact pair", "flex", "armature", "frictionloss",
+                     "joint spring", "joint combination", "equality")
+
+
+@dataclass(frozen=True)
+class LeftOut:
+    """A feature of the MJCF/URDF file not in the imported model.
+
+    kind: one of :data:`KINDS`; element: the MuJoCo element's name (made unique as in the
+    model); detail: why, or what it was.
+    """
+
+    kind: str
+    element: str
+    detail: str = ""
+
+    @property
+    def unsupported(self) -> bool:
+        """Whether it has no exact counterpart (strict imports refuse it)."""
+        return self.kind in UNSUPPORTED_KINDS
+
+    def __str__(self) -> str:
+        text = f"{KINDS.get(self.kind, (self.kind,))[0]} {self.element!r}"
+        return f"{text} ({self.detail})" if self.detail else text
+
+
+def summary(items) -> str:
+    """``"7 actuators, 7 armature values, 6 joint limits"`` (in the order of KINDS)."""
+    counts = Counter(item.kind for item in items)
+    order = list(KINDS) + sorted(k for k in counts if k not in KINDS)
+    parts = []
+    for kind in order:
+        n = counts.get(kind, 0)
+        if n:
+            one, many = KINDS.get(kind, (kind, kind + "s"))
+            parts.append(f"{n} {one if n == 1 else many}")
+    return ", ".join(parts)
+
+
+def details(items) -> list:
+    """One line per left-out feature, grouped by kind."""
+    order = {kind: k for k, kind in enumerate(KINDS)}
+    return [str(item) for item in sorted(items, key=lambda i: order.get(i.kind, len(order)))]
