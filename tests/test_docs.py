@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
 RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
-             "couplers.md", "sliding-joints.md", "rolling.md")
+             "couplers.md", "sliding-joints.md", "rolling.md", "joint-limits-friction.md")
 
 
 def _mkdocs(config: Path, site: Path):
@@ -73,6 +73,10 @@ def test_worked_examples_of_the_pages_run(tmp_path, monkeypatch):
     assert spaces["outputs.md"]["out"].attrs["units"]["spiral.torque"] == "N m"
     assert spaces["contact.md"]["ratio"] == pytest.approx(0.7885, abs=2e-3)   # with gravity
     assert spaces["contact.md"]["error"] < 1e-6
+    door = spaces["joint-limits-friction.md"]           # touch: 1.4 = 2 t - (T / I) t^2 / 2
+    a = 0.3 / (1.35 + 20 * 0.45 ** 2)
+    assert door["touch"] == pytest.approx((2 - np.sqrt(4 - 2 * a * 1.4)) / a, abs=1e-9)
+    assert door["energy_error"] < 1e-6
     lean = spaces["rolling.md"]["lean"]                # the bicycle pushed at 4.6 m/s recovers
     assert np.degrees(lean.max()) == pytest.approx(6.6, abs=0.05)
     assert np.abs(lean[-100:]).max() < 0.25 * lean.max()

@@ -114,3 +114,20 @@ def test_andrews_squeezer_under_a_multistep_integrator_with_projection(integrato
     err = models.andrews_coordinates(theta) - np.asarray(ref["angles_rad"])
     err = (err + np.pi) % (2 * np.pi) - np.pi
     assert np.abs(err).max() < 5e-6
+
+
+def test_door_closer_example_shuts_the_door_against_its_frame():
+    """examples/door_closer.yaml with its own settings: the closer swings the door onto the
+    frame stop (a located touch), where it comes to rest pressed by the closer's preload
+    (20 N m/rad x 0.2 rad = 4 N m, give or take the hinge friction), and the energy balance closes."""
+    from spatialmbd.outputs import force_outputs
+    model, analysis = load_model(Path(__file__).resolve().parents[1] / "examples"
+                                 / "door_closer.yaml")
+    res = analysis.run(model)
+    assert res.success, res.message
+    assert len(res.contact_log) >= 1
+    stop = force_outputs(res, "frame")
+    assert stop["active"][-1] == 1.0
+    assert 4.0 - 0.3 - 1e-3 <= stop["force"][-1] <= 4.0 + 0.3 + 1e-3
+    assert abs(res.v[-1, 0, 5]) < 1e-3
+    assert np.abs(res.energy()["error"]).max() < 1e-5

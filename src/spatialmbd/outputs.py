@@ -448,7 +448,7 @@ def _force_group(model, element):
 def _force_kind(g):
     """The QUANTITIES key of a force group: its type, "*" (another type, one element), or
     None (another type with several elements: they cannot be told apart)."""
-    if g.name in QUANTITIES:
+    if g.name in QUANTITIES or hasattr(g, "output_columns"):
         return g.name
     return "*" if g.n == 1 else None
 
@@ -468,6 +468,8 @@ def _force(results, model, element: str, states=None) -> dict:
                          f"{g.name!r} when the model has several of them")
     if kind == "contact":
         return _contact(results, g.names[i])
+    if hasattr(g, "output_columns"):       # a type that evaluates its own columns
+        return g.output_columns(results, i)
     cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
     for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
@@ -740,8 +742,9 @@ def output_units(results, requests=None) -> dict:
                 units[f"{req.prefix}.{n}"] = u
                 units[f"{req.prefix}.{n}_rate"] = u + "/s"
         elif req.kind == "force":
-            g, _ = _force_group(model, req.of)
-            for n, u in QUANTITIES[_force_kind(g) or "*"].items():
+            g, i = _force_group(model, req.of)
+            table = g.units(i) if hasattr(g, "units") else QUANTITIES[_force_kind(g) or "*"]
+            for n, u in table.items():
                 units[f"{req.prefix}.{n}"] = u
         elif req.kind == "driver":
             g, _, _ = model.element(req.of)

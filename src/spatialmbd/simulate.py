@@ -368,8 +368,8 @@ def _recursive_applies(model, integrator, integrator_options, step, atol, events
         return False
     if integrator_options and np.ndim(integrator_options.get("atol", 0.0)) != 0:
         return False
-    from .forces.contact.memory import contact_groups
-    if contact_groups(model):                 # contact memory: restart events at every touch
+    from .forces.contact.memory import impact_groups
+    if impact_groups(model):                  # impact memory: restart events at every touch
         return False
     from .dynamics.recursive import FREE
     try:
@@ -660,12 +660,12 @@ def _stateful(model) -> str:
 def _contact_memory(model, eom, compiled, t0, y0):
     """The impact-velocity memory of the contact elements for this run (None without
     contacts): restart events at every first touch (:mod:`.forces.contact.memory`)."""
-    from .forces.contact.memory import ContactMemory, contact_groups
-    if not contact_groups(model):
+    from .forces.contact.memory import ContactMemory, impact_groups
+    if not impact_groups(model):
         return None
     if not compiled:
         from .forces.contact.laws import C_LAW, HERTZ
-        hyst = [g.element[k] for g in contact_groups(model) for k in range(g.n)
+        hyst = [g.element[k] for g in impact_groups(model) for k in range(g.n)
                 if g.param[k, C_LAW] > HERTZ]
         if hyst:
             raise ModelError(f"forces[{hyst[0]!r}]: a hysteresis contact law needs the impact "

@@ -270,14 +270,15 @@ class BatchSetup:
 
     @staticmethod
     def _check_model(model):
-        from ..forces.contact.memory import contact_groups
+        from ..forces.contact.memory import impact_groups
         python = [g.name for g in model.force_groups if not g.compiled]
         if python:
             raise ModelError(f"batch integration: model {model.name!r} has force elements "
                              f"evaluated in Python ({', '.join(python)}); use "
                              "engine='simulate'")
-        if contact_groups(model):
-            raise ModelError(f"batch integration: model {model.name!r} has contact elements, "
+        if impact_groups(model):
+            raise ModelError(f"batch integration: model {model.name!r} has contact elements "
+                             "(or joint limits with a hysteresis law), "
                              "whose impact memory simulate() keeps by events between steps; "
                              "use engine='simulate'")
         timed = [g.name for g in model.force_groups if g.time_dependent]

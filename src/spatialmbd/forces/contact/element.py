@@ -223,8 +223,9 @@ def _pairing(name, a, b):
                      f"{', '.join(pairs)}")
 
 
-def _law_params(spec, radii, kinds):
-    """(law id, K, n, c, vmin, mu_d, mu_s, v_s, v_eps, c_v) of a spec (checked)."""
+def law_params(spec, radii, kinds):
+    """(law id, K, n, c, vmin) and the friction columns (:func:`friction_params`) of a spec
+    (checked): the columns C_LAW .. C_RELAX of the contact table."""
     name, p = spec.name, spec.params
     law = p.get("law", "hunt_crossley")
     if law not in L.NORMAL_LAWS:
@@ -251,7 +252,15 @@ def _law_params(spec, radii, kinds):
         if key in p and not (law == "linear" if key == "damping" else law in L.HYSTERESIS):
             raise _err(name, key, f"not a parameter of the {law} law")
     vmin = _number(name, "min_impact_velocity", p.get("min_impact_velocity", 1e-3), 0.0, True)
-    fr = p.get("friction", "none" if not any(k in p for k in ("mu", "mu_dynamic")) else
+    return (L.NORMAL_LAWS.index(law), K, n, c, vmin) + friction_params(name, p)
+
+
+def friction_params(name, p, default="none"):
+    """(mu_d, mu_s, v_s, v_eps, c_v, lugre, sigma_0, sigma_1, relaxation) -- the columns
+    C_MUD .. C_RELAX -- of the friction keys of a spec's parameters ``p`` (checked, errors
+    naming forces[name].key); ``default``: the law when neither ``friction`` nor a ``mu`` is
+    given. Shared by the contact and the joint-friction elements."""
+    fr = p.get("friction", default if not any(k in p for k in ("mu", "mu_dynamic")) else
                "coulomb")
     if fr not in L.FRICTION_LAWS:
         raise _err(name, "friction", f"unknown friction law {fr!r}; valid: "
@@ -287,8 +296,7 @@ def _law_params(spec, radii, kinds):
                 raise _err(name, key, f"a parameter of the lugre friction law, not of {fr!r}")
     if fr in ("viscous", "coulomb", "stribeck", "lugre"):
         cv = _number(name, "viscous", p.get("viscous", 0.0), 0.0)
-    return (L.NORMAL_LAWS.index(law), K, n, c, vmin, mud, mus, vs, veps, cv,
-            float(fr == "lugre"), sigma0, sigma1, relax)
+    return (mud, mus, vs, veps, cv, float(fr == "lugre"), sigma0, sigma1, relax)
 
 
 def _hertz_stiffness(spec, radii, kinds):
@@ -321,6 +329,10 @@ class Contact(ForceType):
     name = "contact"
     kernel = staticmethod(kernel)
     n_param = L.N_COLUMNS
+    #: the impact-velocity memory (.memory): every instance records its touches
+    records_impacts = True
+    details_kernel = staticmethod(details)
+    n_details = len(DETAIL_COLUMNS)
     required = ("body_i", "body_j", "shape_i", "shape_j")
     parameters = {"body_i": "body", "body_j": "body", "shape_i": "any", "shape_j": "any",
                   "law": "string", "stiffness": "number", "exponent": "number",
@@ -365,7 +377,7 @@ class Contact(ForceType):
         if swap:
             sh, bodies = sh[::-1], bodies[::-1]
         (ki, ci, Ai, rad_i, li, hi), (kj, cj, Aj, rad_j, lj, hj) = sh
-        law = _law_params(spec, (rad_i, rad_j), (ki, kj))
+        law = law_params(spec, (rad_i, rad_j), (ki, kj))
         row = np.zeros(L.N_COLUMNS)
         row[geo.C_PAIR] = pair
         row[geo.C_RI], row[geo.C_RJ] = rad_i, rad_j
@@ -434,6 +446,9 @@ class Contact(ForceType):
                              f"{-g[k]:.4g} m at the initial configuration (instance "
                              f"{self.names[k]!r}; more than half the shape size "
                              f"{self.size[k]:.4g} m); move the bodies apart")
+
+    def needs_memory(self) -> np.ndarray:
+        return np.ones(self.n, dtype=bool)
 
     def state_rows(self) -> np.ndarray:
         """The LuGre contacts carry their bristle deflection z as an internal state."""

@@ -1,4 +1,5 @@
-"""The run-time memory of the contacts: the impact velocity of each contact instance.
+"""The run-time memory of the contacts: the impact velocity of each contact instance (and of
+each joint limit with a hysteresis law, :mod:`..joint_limit`).
 
 The hysteresis laws need the approach speed v0 at first touch. It is per-run data: it lives
 in the force table's law column 0 of the run's own compiled System (a work array, cloned for
@@ -20,6 +21,16 @@ def contact_groups(model) -> list:
     return [g for g in model.force_groups if isinstance(g, Contact)]
 
 
+def impact_groups(model) -> list:
+    """The force groups with an impact-velocity memory: the contacts, and any group that
+    declares ``records_impacts`` (a joint limit with a hysteresis law) and has an instance
+    that ``needs_memory()``. Such a group provides ``table()`` (its own force table), a
+    compiled ``details_kernel(S, G, out)`` whose columns 0 and 1 are the gap and its rate,
+    and ``n_details``."""
+    return [g for g in model.force_groups if getattr(g, "records_impacts", False)
+            and np.any(g.needs_memory())]
+
+
 class ContactMemory:
     """The touch events of the contacts of ``model`` for one run on ``system`` (whose force
     table's law column 0 holds the impact speeds)."""
@@ -34,7 +45,7 @@ class ContactMemory:
         self.slots = []                     # (group, first row of it in the table)
         start = 0
         for g in table.groups:
-            if g in contact_groups(model):
+            if g in impact_groups(model):
                 self.slots.append((g, start))
             start += g.n
         self._key = None
@@ -51,13 +62,12 @@ class ContactMemory:
 
     def _all(self, t, y):
         if self._key is None or self._key[0] != t or not np.array_equal(self._key[1], y):
-            from .element import DETAIL_COLUMNS, details
             S = self._state(t, y).arrays()
             out = []
             for (g, s), table in zip(self.slots, self._tables):
                 table.law[:, 0] = self.flaw[s:s + g.n, 0]
-                d = np.empty((g.n, len(DETAIL_COLUMNS)))
-                details(S, table.G, d)
+                d = np.empty((g.n, g.n_details))
+                type(g).details_kernel(S, table.G, d)
                 out.append(d)
             self._details = out
             self._key = (t, np.array(y, copy=True))
@@ -86,7 +96,7 @@ class ContactMemory:
         caller makes them restart events on the gap falling through 0."""
         out = []
         for n_slot, (g, s) in enumerate(self.slots):
-            for k in range(g.n):
+            for k in np.flatnonzero(g.needs_memory()):
                 def gap(t, y, n_slot=n_slot, k=k):
                     return float(self._all(t, y)[n_slot][k, 0])
 

@@ -36,7 +36,7 @@ from ...jit import njit
 from ..base import ForceType, check_unknown, register
 from ..kernel_tools import add_wrench
 from . import laws as L
-from .element import _err, _law_params, _number, _vec
+from .element import _err, law_params, _number, _vec
 
 #: walls an element may have (a box: 6)
 MAX_WALLS = 6
@@ -223,7 +223,7 @@ class SphereSet(ForceType):
             wall_cols += list(nw / np.linalg.norm(nw))
             wall_cols += list(_vec(name, f"walls[{w}].point", wall.get("point"),
                                    (0.0, 0.0, 0.0)))
-        law_row = _law_params(dataclasses.replace(spec, params=dict(p, law=law)), (0.0, 0.0),
+        law_row = law_params(dataclasses.replace(spec, params=dict(p, law=law)), (0.0, 0.0),
                               ("sphere", "sphere"))
         rows = np.zeros((len(bodies), N_COLUMNS))
         rows[:, L.C_LAW:L.N_COLUMNS] = law_row

@@ -1,0 +1,243 @@
+"""Joint friction: a friction force or moment on a joint's coordinate, of constant level.
+
+The slip (``coordinate``) is the rate of the joint angle of a revolute or cylindrical joint
+(``angle``, rad/s), of the slide of a translational or cylindrical joint (``translation``,
+m/s), or the relative angular velocity omega_j - omega_i of a spherical joint (``rotation``,
+a vector, rad/s). A cylindrical joint needs ``coordinate``.
+
+The friction laws are the contact element's (:mod:`.contact.laws`) with the normal load
+replaced by a constant level F (MJCF ``frictionloss``: N on a translation, N m on an angle or
+a rotation), slip velocity v and slip speed s = |v|:
+
+* ``coulomb`` (default): Q = -F tanh(s / v_eps) v / s - c_v v, ``frictionloss`` F,
+  ``creep_velocity`` v_eps (default 1e-4), ``viscous`` c_v (default 0);
+* ``stribeck``: F(s) = F_d + (F_s - F_d) exp(-(s / v_s)^2) in place of F, with F_d =
+  ``frictionloss``, F_s = ``static_frictionloss``, v_s = ``stribeck_velocity``;
+* ``viscous``: Q = -c_v v only;
+* ``lugre``: bristles of stiffness sigma_0 (``bristle_stiffness``, N/m or N m/rad) and
+  damping sigma_1 (``bristle_damping``) with the deflection z (an internal state integrated
+  with the bodies), z' = v - sigma_0 s z / F(s), Q = -(sigma_0 z + sigma_1 z' + c_v v): a joint
+  loaded below the static level sticks with no creep (z settles at the load / sigma_0).
+
+Q is applied through the coordinate's exact Jacobian row D_x (g_ij = Q D_x^T, as the
+rotational spring-damper does; for ``rotation`` the moment Q on body j and -Q on body i). The
+regularized laws dissipate the power Q v <= 0; LuGre's bristles store sigma_0 z^2 / 2
+(``energy``), and the power Q v + sigma_0 z z' is what the friction dissipates, so the energy
+balance closes.
+
+The friction level proportional to the joint's reaction (pin radius x |radial reaction|,
+|normal reaction|, ball radius x |reaction|) is not provided: the reaction comes from the
+multipliers solved after the forces (docs/joint-limits-friction.md says what it needs).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ModelError
+from ..jit import njit
+from .base import ForceType, check_unknown, register
+from .contact import laws as L
+from .contact.element import friction_params
+from .joint_limit import joint_coordinate_kind
+from .kernel_tools import ANGLE, ROTATION, TRANSLATION, add_coordinate_force, add_wrench
+from .kernel_tools import joint_coordinate
+
+C_KIND, C_LOAD = 0, 1
+COORDINATES = {"angle": ANGLE, "translation": TRANSLATION, "rotation": ROTATION}
+#: the details columns (:func:`details`)
+DETAIL_COLUMNS = ("slip_x", "slip_y", "slip_z", "friction_x", "friction_y", "friction_z",
+                  "bristle_x", "bristle_y", "bristle_z", "energy", "power")
+
+
+@njit(inline="always")
+def evaluate_friction(S, G, k, D):
+    """(v, Q, z, bristle energy, power) of instance k: the slip velocity v and the friction
+    Q (3-tuples; a scalar coordinate in component 0, its Jacobian row in D[0]), the LuGre
+    deflection z (its rate written into G.law[k, 3:])."""
+    p = G.param
+    if int(p[k, C_KIND]) == ROTATION:
+        w = S[3]
+        i, j = G.bi[k], G.bj[k]
+        v = (w[j, 0] - w[i, 0], w[j, 1] - w[i, 1], w[j, 2] - w[i, 2])
+    else:
+        v = (joint_coordinate(S, G, k, D, 0.0)[1], 0.0, 0.0)
+    load = p[k, C_LOAD]
+    if p[k, L.C_FRICTION] == L.LUGRE:
+        z = (G.law[k, 3], G.law[k, 4], G.law[k, 5])
+        Q, zd, pb, eb = L.lugre(p, k, load, v, z)
+        for c in range(3):
+            G.law[k, 3 + c] = zd[c]
+        return v, Q, z, eb, Q[0] * v[0] + Q[1] * v[1] + Q[2] * v[2] + pb
+    s = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    a, cv = L.friction_factor(p, k, load, s)
+    Q = (-(a + cv) * v[0], -(a + cv) * v[1], -(a + cv) * v[2])
+    return v, Q, (0.0, 0.0, 0.0), 0.0, Q[0] * v[0] + Q[1] * v[1] + Q[2] * v[2]
+
+
+@njit
+def kernel(S, G, k, g, energy, power, D):
+    """The friction's generalized force, the bristles' energy and the friction's power."""
+    _, Q, _, eb, pw = evaluate_friction(S, G, k, D)
+    energy[k] = eb
+    power[k] = pw
+    if int(G.param[k, C_KIND]) == ROTATION:
+        add_wrench(g, G.bj[k], 0.0, 0.0, 0.0, Q[0], Q[1], Q[2])
+        add_wrench(g, G.bi[k], 0.0, 0.0, 0.0, -Q[0], -Q[1], -Q[2])
+    else:
+        add_coordinate_force(g, G, k, D, Q[0])
+
+
+@njit
+def details(S, G, out):
+    """out[k] = the :data:`DETAIL_COLUMNS` of every instance k."""
+    D = np.zeros((1, 12))
+    for k in range(out.shape[0]):
+        v, Q, z, eb, pw = evaluate_friction(S, G, k, D)
+        for c in range(3):
+            out[k, c], out[k, 3 + c], out[k, 6 + c] = v[c], Q[c], z[c]
+        out[k, 9], out[k, 10] = eb, pw
+
+
+def _level(spec, key, required):
+    value = spec.params.get(key)
+    if value is None:
+        if required:
+            law = spec.params.get("friction", "coulomb")
+            raise ModelError(f"forces[{spec.name!r}].{key}: the {law} law needs a friction "
+                             "level (N, or N m on an angle or a rotation)")
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not (math.isfinite(x) and x >= 0.0):
+        raise ModelError(f"forces[{spec.name!r}].{key}: must be a finite number >= 0 (N or "
+                         f"N m), got {value!r}")
+    return x
+
+
+@register
+class JointFriction(ForceType):
+    """Joint friction: Coulomb, Stribeck, viscous or LuGre friction on a joint coordinate."""
+
+    name = "joint_friction"
+    kernel = staticmethod(kernel)
+    n_param = L.N_COLUMNS
+    required = ("joint",)
+    parameters = {"joint": "joint", "coordinate": "string", "friction": "string",
+                  "frictionloss": "number", "static_frictionloss": "number",
+                  "stribeck_velocity": "number", "creep_velocity": "number",
+                  "viscous": "number", "bristle_stiffness": "number",
+                  "bristle_damping": "number"}
+
+    def __init__(self, names, bi, bj, s_i, s_j, R_i, R_j, param, coordinates):
+        super().__init__(names)
+        self.bi = np.asarray(bi, dtype=np.intp)
+        self.bj = np.asarray(bj, dtype=np.intp)
+        self.s_i, self.s_j = np.asarray(s_i, float), np.asarray(s_j, float)
+        self.R_i, self.R_j = np.asarray(R_i, float), np.asarray(R_j, float)
+        self.param = np.asarray(param, dtype=float).reshape(-1, self.n_param)
+        self.coordinates = tuple(coordinates)
+
+    @classmethod
+    def validate(cls, spec, builder):
+        cls._row(spec, builder)
+
+    @classmethod
+    def _row(cls, spec, builder):
+        check_unknown(spec, cls.allowed)
+        joint, coordinate = joint_coordinate_kind(spec, builder,
+                                                  ("angle", "translation", "rotation"))
+        p = spec.params
+        law = p.get("friction", "coulomb")
+        if law not in ("coulomb", "stribeck", "viscous", "lugre"):
+            raise ModelError(f"forces[{spec.name!r}].friction: unknown friction law {law!r}; "
+                             "valid: coulomb, stribeck, viscous, lugre")
+        F = _level(spec, "frictionloss", law != "viscous")
+        Fs = _level(spec, "static_frictionloss", law == "stribeck")
+        if law in ("coulomb", "viscous") and Fs is not None:
+            raise ModelError(f"forces[{spec.name!r}].static_frictionloss: a parameter of the "
+                             f"stribeck and lugre laws, not of {law!r}")
+        if law == "viscous" and F is not None:
+            raise ModelError(f"forces[{spec.name!r}].frictionloss: the viscous law has only "
+                             "'viscous' (N s/m or N m s/rad)")
+        # the contact's friction parameters with the normal load 1: the mu are the levels
+        q = {key: p[key] for key in ("stribeck_velocity", "creep_velocity", "viscous",
+                                     "bristle_stiffness", "bristle_damping") if key in p}
+        q["friction"] = law
+        if Fs is not None:
+            q["mu_dynamic"], q["mu_static"] = F, Fs
+        elif F is not None:
+            q["mu"] = F
+        elif "stribeck_velocity" in p:
+            raise ModelError(f"forces[{spec.name!r}].stribeck_velocity: a parameter of the "
+                             "stribeck and lugre laws (with static_frictionloss)")
+        row = np.zeros(cls.n_param)
+        row[C_KIND] = COORDINATES[coordinate]
+        row[C_LOAD] = 1.0
+        row[L.C_MUD:] = friction_params(spec.name, q)
+        return joint, coordinate, row
+
+    @classmethod
+    def build(cls, specs, ctx):
+        cols = [[] for _ in range(7)]
+        coords = []
+        for spec in specs:
+            joint, coordinate, row = cls._row(spec, ctx.builder)
+            geom = ctx.joint_geometry(spec.params["joint"])
+            for c, value in enumerate((ctx.index[joint.body_i], ctx.index[joint.body_j],
+                                       geom.s_i[0], geom.s_j[0], geom.R_i[0], geom.R_j[0],
+                                       row)):
+                cols[c].append(value)
+            coords.append(coordinate)
+        return cls([s.name for s in specs], *cols, coords)
+
+    def state_rows(self) -> np.ndarray:
+        """The LuGre instances carry their bristle deflection z as an internal state."""
+        return self.param[:, L.C_FRICTION] == L.LUGRE
+
+    def columns(self):
+        return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,
+                    R_j=self.R_j, param=self.param)
+
+    def details(self, state, states=None) -> np.ndarray:
+        """(n, len(DETAIL_COLUMNS)) at ``state`` (states: (n, 3) LuGre deflections)."""
+        from .kernels import ForceTable
+        table = ForceTable([self], only_compiled=False)
+        if states is not None:
+            table.law[:, 3:6] = states
+        out = np.zeros((self.n, len(DETAIL_COLUMNS)))
+        details(state.arrays(), table.G, out)
+        return out
+
+    # ------------------------------------------------------------------------- outputs
+    #: output columns (spatialmbd.outputs); units on an angle or rotation / a translation
+    quantities = {"slip": ("rad/s", "m/s"), "friction": ("N m", "N"),
+                  "bristle": ("rad", "m"), "power": ("W", "W"), "energy": ("J", "J")}
+
+    def units(self, k) -> dict:
+        c = int(self.param[k, C_KIND] == TRANSLATION)
+        return {q: u[c] for q, u in self.quantities.items()}
+
+    def output_columns(self, results, k) -> dict:
+        """The :attr:`quantities` of instance k at the output times: the slip (the coordinate
+        rate; for ``rotation`` |omega_j - omega_i|), the friction Q (for ``rotation`` |Q|;
+        else signed, opposing the slip), the LuGre deflection (0 for the other laws), the
+        friction's power (<= 0 for the regularized laws) and the bristles' energy."""
+        from ..state import BodyState
+        from .kernels import states_by_group
+        z = getattr(results, "force_states", None)
+        nt = len(results.t)
+        out = np.zeros((nt, len(DETAIL_COLUMNS)))
+        for it in range(nt):
+            st = None if z is None else states_by_group(results.model.force_groups,
+                                                         z[it]).get(id(self))
+            state = BodyState.from_qv(results.q[it], results.v[it], results.t[it])
+            out[it] = self.details(state, st)[k]
+        if int(self.param[k, C_KIND]) == ROTATION:
+            slip, fr, br = (np.linalg.norm(out[:, c:c + 3], axis=1) for c in (0, 3, 6))
+        else:
+            slip, fr, br = out[:, 0], out[:, 3], out[:, 6]
+        return dict(slip=slip, friction=fr, bristle=br, power=out[:, 10], energy=out[:, 9])
