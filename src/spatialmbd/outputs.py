@@ -99,6 +99,10 @@ QUANTITIES = {
     "point_force": {"fx": "N", "fy": "N", "fz": "N", "power": "W"},
     "torque": {"mx": "N m", "my": "N m", "mz": "N m", "power": "W"},
     "user": {"power": "W"},
+    #: actuators (spatialmbd.forces.actuators): the joint coordinate q and rate, the command
+    #: used (clipped to ctrlrange), the effort gear * f on the joint and its power effort * q'
+    "actuator": {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s", "command": "-",
+                 "effort": "N | N m", "power": "W"},
     "bushing": {"dx": "m", "dy": "m", "dz": "m", "rx": "rad", "ry": "rad", "rz": "rad",
                 "fx": "N", "fy": "N", "fz": "N", "mx": "N m", "my": "N m", "mz": "N m",
                 "power": "W", "energy": "J"},
@@ -450,6 +454,8 @@ def _force_kind(g):
     None (another type with several elements: they cannot be told apart)."""
     if g.name in QUANTITIES:
         return g.name
+    if hasattr(g, "output_columns"):       # a type with outputs of its own (actuators)
+        return "own"
     return "*" if g.n == 1 else None
 
 
@@ -468,6 +474,8 @@ def _force(results, model, element: str, states=None) -> dict:
                          f"{g.name!r} when the model has several of them")
     if kind == "contact":
         return _contact(results, g.names[i])
+    if kind == "own":
+        return g.output_columns(results, i, _states(results) if states is None else states)
     cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
     for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
@@ -740,8 +748,9 @@ def output_units(results, requests=None) -> dict:
                 units[f"{req.prefix}.{n}"] = u
                 units[f"{req.prefix}.{n}_rate"] = u + "/s"
         elif req.kind == "force":
-            g, _ = _force_group(model, req.of)
-            for n, u in QUANTITIES[_force_kind(g) or "*"].items():
+            g, i = _force_group(model, req.of)
+            own = g.output_units(i) if _force_kind(g) == "own" else None
+            for n, u in (own or QUANTITIES[_force_kind(g) or "*"]).items():
                 units[f"{req.prefix}.{n}"] = u
         elif req.kind == "driver":
             g, _, _ = model.element(req.of)

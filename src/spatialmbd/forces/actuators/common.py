@@ -181,9 +181,6 @@ class ActuatorType(ForceType):
     n_param = N_PARAM
     required = ("joint",)
     command_key = "command"
-    #: output columns and their units (spatialmbd.outputs)
-    output_quantities = {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s",
-                         "command": "-", "effort": "N | N m", "power": "W"}
 
     def __init__(self, names, bi, bj, s_i, s_j, R_i, param, laws):
         super().__init__(names)
@@ -253,3 +250,27 @@ class ActuatorType(ForceType):
         out = np.empty((self.n, 5))
         details(state.arrays(), table.G, out)
         return out
+
+    # ---------------------------------------------------------------- outputs
+    def output_units(self, i) -> dict:
+        """{quantity: unit} of instance i's output columns (spatialmbd.outputs)."""
+        angle = self.param[i, COORD] == ANGLE
+        base, effort = ("rad", "N m") if angle else ("m", "N")
+        return {"coordinate": base, "coordinate_rate": base + "/s", "command": "-",
+                "effort": effort, "power": "W"}
+
+    def output_columns(self, results, i, states) -> dict:
+        """coordinate, coordinate_rate, command, effort, power of instance i at the output
+        times of ``results`` (the commands of sampled controllers from its control log)."""
+        from .controller import held_commands
+        nt = len(results.t)
+        cols = np.zeros((nt, 5))
+        held = held_commands(results, self)
+        for k, state in enumerate(states):
+            cols[k] = self.details(state, float(results.t[k]),
+                                   None if held is None else held[k])[i]
+        q = cols[:, 0]
+        if self.param[i, COORD] == ANGLE and nt:
+            q = np.unwrap(q)
+        return dict(coordinate=q, coordinate_rate=cols[:, 1], command=cols[:, 2],
+                    effort=cols[:, 3], power=cols[:, 4])
