@@ -29,7 +29,7 @@ YAML_SUFFIXES = (".yaml", ".yml")
 JSON_SUFFIXES = (".json",)
 
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
-            "ground_shapes", "analysis", "outputs", "contacts", "couplers")
+            "ground_shapes", "analysis", "outputs", "contacts", "couplers", "controls")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
              "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color",
              "density")
