@@ -114,3 +114,16 @@ def test_andrews_squeezer_under_a_multistep_integrator_with_projection(integrato
     err = models.andrews_coordinates(theta) - np.asarray(ref["angles_rad"])
     err = (err + np.pi) % (2 * np.pi) - np.pi
     assert np.abs(err).max() < 5e-6
+
+
+def test_robot_arm_servos_example_script_runs(tmp_path, capsys):
+    """The arm follows its trajectory (within the gravity droop m g l / kp of a PD servo, a
+    few degrees), the servos' work closes the energy balance, and the figure is written."""
+    import runpy
+    script = runpy.run_path(str(Path(__file__).resolve().parents[1] / "examples"
+                                / "robot_arm_servos.py"))
+    tracking, energy_error, res = script["main"](tmp_path)
+    assert res.status == "success"
+    assert tracking < np.radians(3.0)
+    assert energy_error < 1e-8 * np.abs(res.work).max()
+    assert (tmp_path / "robot_arm_servos.png").stat().st_size > 1000
