@@ -138,8 +138,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
     controllers: sampled controllers (:class:`.forces.actuators.controller.SampledController`:
         a Python function of t and joint coordinates, sampled at a fixed rate, whose commands
         the actuators hold; docs/actuators.md). Their sample times and the samples of
-        time-series commands are breakpoints the steps land on; results.control_log holds
-        the commands (t, values) per sample.
+        time-series commands are breakpoints the steps land on; results.control_log maps
+        each controlled actuator to its samples [t, command].
 
     Returns Results: status "success"; "event" (a terminal event stopped the run; its state is
     the last output); "failed" (with the cause, and a diagnosis at a singular
@@ -209,7 +209,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         messages.append(text)
     meth.setup(eom, redundant_rows)
 
-    control = _control_run(model, eom, controllers, t0, float(t_out[-1]), meth)
+    from .forces.actuators.controller import control_run
+    control = control_run(model, eom.system, controllers, t0, float(t_out[-1]), meth)
     n_q, n_v = 7 * nb, 6 * nb
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
@@ -285,8 +286,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
             messages=messages, settings=settings(), accelerations=accelerations)
         out.output_requests = requests
         out.contact_log = contact_memory.log if contact_memory is not None else []
-        out.control = control
-        out.control_log = control.log if control is not None else []
+        out.control_log = control.commands() if control is not None else {}
         if contact_memory is not None:            # evaluating the outputs rewound the memory
             contact_memory.restore(math.inf)
         return out
@@ -648,21 +648,6 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
         counters=Counters(steps=int(counters[1]), rejected=int(counters[2]),
                           nfev=int(counters[0]), wall_time=wall), last=last)
     return res, acc
-
-
-def _control_run(model, eom, controllers, t0, t_end, meth):
-    """The sampled controllers and time-series breakpoints of this run
-    (:class:`.forces.actuators.controller.ControlRun`), or None without either."""
-    from .forces.actuators.controller import ControlRun
-    if not controllers and not any(hasattr(g, "breakpoints") for g in model.force_groups):
-        return None
-    run = ControlRun(model, eom.system, controllers, t0, t_end)
-    if not run.active:
-        return None
-    if run.controllers and getattr(meth, "joint_coordinates", False):
-        raise ModelError("method 'recursive' does not run sampled controllers yet; use "
-                         "method 'projection' or 'standard'")
-    return run
 
 
 class _AtTime:

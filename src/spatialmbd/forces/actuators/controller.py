@@ -16,8 +16,8 @@ the sample kept.
 
 :class:`ControlRun` is the per-run part (built by ``simulate``): it writes the held commands
 into the run's own force table (law column 0 of the actuators; nothing is stored on the Model)
-and logs them, ``(t, commands)`` per sample, into ``results.control_log`` so outputs and
-accelerations can be evaluated at any output time afterwards.
+and logs them: ``results.control_log`` maps every controlled actuator to its samples [t,
+command], so outputs and accelerations can be evaluated at any output time afterwards.
 """
 from __future__ import annotations
 
@@ -73,7 +73,6 @@ class ControlRun:
     docstring): ``times`` (the breakpoints), ``action(t, y)``, ``start(t0, y0)``, ``log``."""
 
     def __init__(self, model, system, controllers, t0: float, t_end: float):
-        from ...rotations import normalize_p  # noqa: F401  (state assembly below)
         self.model, self.system, self.nb = model, system, model.nb
         self.controllers = list(controllers or ())
         for c in self.controllers:
@@ -206,31 +205,42 @@ class ControlRun:
             self.held[:] = held
             self._write()
 
-    def commands_at(self, group, times) -> np.ndarray:
-        """(nt, group.n) held commands of the group's instances at ``times`` (NaN where an
-        instance has no controller)."""
-        return _held(self.log, self.held_rows, self.rows, group, times)
+    def commands(self) -> dict:
+        """{actuator name: (n_samples, 2) array of [t, command]} of the samples so far (plain
+        data for ``results.control_log``)."""
+        names = [n for c in self.controllers for n in c.actuators]
+        t = np.array([tl for tl, _ in self.log])
+        values = np.array([v for _, v in self.log]).reshape(len(self.log), len(names))
+        return {n: np.column_stack([t, values[:, m]]) for m, n in enumerate(names)}
 
 
-def _held(log, held_rows, rows, group, times):
-    out = np.full((len(times), group.n), np.nan)
-    cols = [(k, m) for m, r in enumerate(held_rows)
-            for n, (g, k, row) in rows.items() if g is group and row == r]
-    if not cols or not log:
-        return out
-    t_log = np.array([t for t, _ in log])
-    values = np.array([v for _, v in log])
-    idx = np.searchsorted(t_log, np.asarray(times, dtype=float), side="right") - 1
-    for k, m in cols:
-        out[idx >= 0, k] = values[idx[idx >= 0], m]
-    return out
+def control_run(model, system, controllers, t0, t_end, method):
+    """The :class:`ControlRun` of a simulation (sampled controllers and time-series
+    breakpoints), or None without either."""
+    if not controllers and not any(hasattr(g, "breakpoints") for g in model.force_groups):
+        return None
+    run = ControlRun(model, system, controllers, t0, t_end)
+    if not run.active:
+        return None
+    if run.controllers and getattr(method, "joint_coordinates", False):
+        raise ModelError("method 'recursive' does not run sampled controllers yet; use "
+                         "method 'projection' or 'standard'")
+    return run
 
 
 def held_commands(results, group):
-    """(nt, group.n) held controller commands of the group at the results' output times, or
-    None when no controller commanded it."""
-    run = getattr(results, "control", None)
-    if run is None or not run.controllers:
+    """(nt, group.n) commands the sampled controllers held for the group's instances at the
+    output times of ``results`` (NaN for instances without a controller), or None when no
+    controller commanded the group."""
+    log = getattr(results, "control_log", None) or {}
+    names = [n for n in group.names if n in log]
+    if not names:
         return None
-    out = run.commands_at(group, results.t)
-    return None if np.all(np.isnan(out)) else out
+    out = np.full((len(results.t), group.n), np.nan)
+    for n in names:
+        samples = log[n]
+        idx = np.searchsorted(samples[:, 0], np.asarray(results.t, dtype=float),
+                              side="right") - 1
+        k = group.names.index(n)
+        out[idx >= 0, k] = samples[idx[idx >= 0], 1]
+    return out
