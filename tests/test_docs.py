@@ -12,7 +12,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
 RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
-             "couplers.md", "sliding-joints.md", "rolling.md", "joint-limits-friction.md")
+             "couplers.md", "sliding-joints.md", "rolling.md", "joint-limits-friction.md",
+             "actuators.md")
 
 
 def _mkdocs(config: Path, site: Path):
@@ -77,6 +78,9 @@ def test_worked_examples_of_the_pages_run(tmp_path, monkeypatch):
     a = 0.3 / (1.35 + 20 * 0.45 ** 2)
     assert door["touch"] == pytest.approx((2 - np.sqrt(4 - 2 * a * 1.4)) / a, abs=1e-9)
     assert door["energy_error"] < 1e-6
+    act = spaces["actuators.md"]                       # the PD step response, closed form
+    assert act["step_error"] < 1e-9 and act["energy_error"] < 1e-9
+    assert act["final_angle"] == pytest.approx(0.5, abs=0.01)   # the sampled controller
     lean = spaces["rolling.md"]["lean"]                # the bicycle pushed at 4.6 m/s recovers
     assert np.degrees(lean.max()) == pytest.approx(6.6, abs=0.05)
     assert np.abs(lean[-100:]).max() < 0.25 * lean.max()

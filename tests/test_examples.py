@@ -131,3 +131,16 @@ def test_door_closer_example_shuts_the_door_against_its_frame():
     assert 4.0 - 0.3 - 1e-3 <= stop["force"][-1] <= 4.0 + 0.3 + 1e-3
     assert abs(res.v[-1, 0, 5]) < 1e-3
     assert np.abs(res.energy()["error"]).max() < 1e-5
+
+
+def test_robot_arm_servos_example_script_runs(tmp_path, capsys):
+    """The arm follows its trajectory (within the gravity droop m g l / kp of a PD servo, a
+    few degrees), the servos' work closes the energy balance, and the figure is written."""
+    import runpy
+    script = runpy.run_path(str(Path(__file__).resolve().parents[1] / "examples"
+                                / "robot_arm_servos.py"))
+    tracking, energy_error, res = script["main"](tmp_path)
+    assert res.status == "success"
+    assert tracking < np.radians(3.0)
+    assert energy_error < 1e-8 * np.abs(res.work).max()
+    assert (tmp_path / "robot_arm_servos.png").stat().st_size > 1000

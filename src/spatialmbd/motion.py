@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
-from typing import Callable, ClassVar, Sequence
+from typing import Callable, ClassVar, Optional, Sequence
 
 import numpy as np
 
@@ -159,9 +159,134 @@ class UserFunction(MotionLaw):
         raise ModelError("a user-function motion law cannot be written to a model file")
 
 
+@dataclass
+class TimeSeries(MotionLaw):
+    """f(t) from samples (t_k, f_k): linear interpolation (f' the slope of the segment holding
+    t, f'' = 0) or a zero-order hold (``interpolation="zoh"``: f = f_k on [t_k, t_(k+1)),
+    f' = 0); f_0 before t_0, the last value after the last time. Give ``times`` and ``values``
+    or a CSV ``file`` with columns t, value (a header line is allowed). The times must be
+    strictly increasing and every number finite. The integrator of a simulation steps onto the
+    sample times (the jumps of f or f' are not integrated across)."""
+
+    file: Optional[str] = None
+    times: Optional[list] = None
+    values: Optional[list] = None
+    interpolation: str = "linear"
+    kind: ClassVar[str] = "time_series"
+
+    def __post_init__(self):
+        what = f"time series {self.file!r}" if self.file is not None else "time series"
+        if self.interpolation not in ("linear", "zoh"):
+            raise ModelError(f"{what}: interpolation must be 'linear' or 'zoh' (zero-order "
+                             f"hold), got {self.interpolation!r}")
+        if self.file is not None:
+            if self.times is not None or self.values is not None:
+                raise ModelError(f"{what}: give a file or times and values, not both")
+            t, f = read_series(self.file)
+        else:
+            if self.times is None or self.values is None:
+                raise ModelError("time series: give a CSV file (columns t, value) or times "
+                                 "and values")
+            try:
+                t = np.asarray(self.times, dtype=float).reshape(-1)
+                f = np.asarray(self.values, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                raise ModelError(f"{what}: times and values must be numbers") from None
+        _check_series(what, t, f)
+        self._t, self._f = t, f
+
+    @property
+    def breakpoints(self) -> np.ndarray:
+        """The sample times, where f (zoh) or f' (linear) jumps."""
+        return self._t
+
+    def sample(self, t: float):
+        tk, fk = self._t, self._f
+        k = int(np.searchsorted(tk, t, side="right")) - 1
+        if k < 0:
+            return float(fk[0]), 0.0
+        if k >= tk.size - 1:
+            return float(fk[-1]), 0.0
+        if self.interpolation == "zoh":
+            return float(fk[k]), 0.0
+        slope = (fk[k + 1] - fk[k]) / (tk[k + 1] - tk[k])
+        return float(fk[k] + slope * (t - tk[k])), float(slope)
+
+    @classmethod
+    def evaluate_many(cls, laws, t):
+        f = np.empty(len(laws))
+        fd = np.empty(len(laws))
+        for k, law in enumerate(laws):
+            f[k], fd[k] = law.sample(t)
+        return f, fd, np.zeros(len(laws))
+
+    def to_dict(self) -> dict:
+        out = {"type": self.kind}
+        if self.file is not None:
+            out["file"] = self.file
+        else:
+            out["times"], out["values"] = self._t.tolist(), self._f.tolist()
+        out["interpolation"] = self.interpolation
+        return out
+
+
+def read_series(file) -> tuple:
+    """(t (n,), value (n,)) of a CSV file with columns t, value (one optional header line)."""
+    import os
+    if not os.path.isfile(str(file)):
+        raise ModelError(f"time series file {file!r} not found (looked for "
+                         f"{os.path.abspath(str(file))}); give a path relative to the model "
+                         "file or an absolute one")
+    rows = []
+    with open(file, encoding="utf-8") as fh:
+        for n, line in enumerate(fh, start=1):
+            text = line.strip()
+            if not text or text.startswith("#"):
+                continue
+            parts = [p.strip() for p in text.split(",")]
+            try:
+                numbers = [float(p) for p in parts]
+            except ValueError:
+                if not rows and n == _first_line(file):
+                    continue                               # the header
+                raise ModelError(f"time series file {file!r}, line {n}: expected two numbers "
+                                 f"t, value; got {text!r}") from None
+            if len(numbers) != 2:
+                raise ModelError(f"time series file {file!r}, line {n}: expected two columns "
+                                 f"t, value; got {len(numbers)}")
+            rows.append(numbers)
+    if not rows:
+        raise ModelError(f"time series file {file!r}: no samples (expected lines t, value)")
+    data = np.array(rows)
+    return data[:, 0], data[:, 1]
+
+
+def _first_line(file) -> int:
+    with open(file, encoding="utf-8") as fh:
+        for n, line in enumerate(fh, start=1):
+            if line.strip() and not line.strip().startswith("#"):
+                return n
+    return 0
+
+
+def _check_series(what, t, f) -> None:
+    if t.size != f.size or t.size == 0:
+        raise ModelError(f"{what}: {t.size} times and {f.size} values; give one value per "
+                         "time (at least one)")
+    bad = np.flatnonzero(~np.isfinite(t) | ~np.isfinite(f))
+    if bad.size:
+        raise ModelError(f"{what}: sample {bad[0]} is not finite (t = {t[bad[0]]}, value = "
+                         f"{f[bad[0]]}); every time and value must be a finite number")
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size:
+        k = back[0]
+        raise ModelError(f"{what}: the times must increase strictly; t[{k + 1}] = {t[k + 1]} "
+                         f"follows t[{k}] = {t[k]}")
+
+
 LAWS: dict[str, type[MotionLaw]] = {cls.kind: cls for cls in
                                     (Constant, ConstantVelocity, Harmonic, SmoothStep, Polynomial,
-                                     UserFunction)}
+                                     TimeSeries, UserFunction)}
 
 
 def make_law(spec) -> MotionLaw:

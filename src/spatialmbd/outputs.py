@@ -99,6 +99,10 @@ QUANTITIES = {
     "point_force": {"fx": "N", "fy": "N", "fz": "N", "power": "W"},
     "torque": {"mx": "N m", "my": "N m", "mz": "N m", "power": "W"},
     "user": {"power": "W"},
+    #: actuators (spatialmbd.forces.actuators): the joint coordinate q and rate, the command
+    #: used (clipped to ctrlrange), the effort gear * f on the joint and its power effort * q'
+    "actuator": {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s", "command": "-",
+                 "effort": "N | N m", "power": "W"},
     "bushing": {"dx": "m", "dy": "m", "dz": "m", "rx": "rad", "ry": "rad", "rz": "rad",
                 "fx": "N", "fy": "N", "fz": "N", "mx": "N m", "my": "N m", "mz": "N m",
                 "power": "W", "energy": "J"},
@@ -448,7 +452,9 @@ def _force_group(model, element):
 def _force_kind(g):
     """The QUANTITIES key of a force group: its type, "*" (another type, one element), or
     None (another type with several elements: they cannot be told apart)."""
-    if g.name in QUANTITIES or hasattr(g, "output_columns"):
+    if hasattr(g, "output_columns"):       # a type with outputs of its own (limits, actuators)
+        return "own"
+    if g.name in QUANTITIES:
         return g.name
     return "*" if g.n == 1 else None
 
@@ -468,8 +474,8 @@ def _force(results, model, element: str, states=None) -> dict:
                          f"{g.name!r} when the model has several of them")
     if kind == "contact":
         return _contact(results, g.names[i])
-    if hasattr(g, "output_columns"):       # a type that evaluates its own columns
-        return g.output_columns(results, i)
+    if kind == "own":
+        return g.output_columns(results, i, _states(results) if states is None else states)
     cols = {q: np.zeros(nt) for q in QUANTITIES[kind]}
     for k, state in enumerate(_states(results) if states is None else states):
         t = float(results.t[k])
@@ -743,8 +749,8 @@ def output_units(results, requests=None) -> dict:
                 units[f"{req.prefix}.{n}_rate"] = u + "/s"
         elif req.kind == "force":
             g, i = _force_group(model, req.of)
-            table = g.units(i) if hasattr(g, "units") else QUANTITIES[_force_kind(g) or "*"]
-            for n, u in table.items():
+            own = g.output_units(i) if _force_kind(g) == "own" else None
+            for n, u in (own or QUANTITIES[_force_kind(g) or "*"]).items():
                 units[f"{req.prefix}.{n}"] = u
         elif req.kind == "driver":
             g, _, _ = model.element(req.of)

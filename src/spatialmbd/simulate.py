@@ -89,7 +89,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
              correct_initial: bool = True, hold=None, sparse: Optional[bool] = None,
              progress=False, t0: float = 0.0, outputs=None, budget=None,
              max_steps: Optional[int] = None, max_wall_time: Optional[float] = None,
-             events=None, event_tol: float = 1e-12, stream=None) -> Results:
+             events=None, event_tol: float = 1e-12, stream=None,
+             controllers=None) -> Results:
     """Forward dynamics of ``model`` from t0 to t_end.
 
     method: "auto" (default: "recursive" for an open tree of revolute, translational and
@@ -134,6 +135,12 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         run's status and counters), for ``stream.finish`` -- or use
         :func:`.io.stream.simulate_to_file`, which does both.
 
+    controllers: sampled controllers (:class:`.forces.actuators.controller.SampledController`:
+        a Python function of t and joint coordinates, sampled at a fixed rate, whose commands
+        the actuators hold; docs/actuators.md). Their sample times and the samples of
+        time-series commands are breakpoints the steps land on; results.control_log maps
+        each controlled actuator to its samples [t, command].
+
     Returns Results: status "success"; "event" (a terminal event stopped the run; its state is
     the last output); "failed" (with the cause, and a diagnosis at a singular
     position), "budget" or "interrupted" (Ctrl-C), each with everything computed until then.
@@ -150,7 +157,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
     auto = isinstance(method, str) and method.lower() == "auto"
     if auto:
         method = "projection"
-        if not method_options and _recursive_applies(model, integrator, integrator_options, step,
+        if not method_options and not controllers and _recursive_applies(model, integrator, integrator_options, step,
                                                      atol, events, budget, max_steps,
                                                      max_wall_time):
             method = "recursive"
@@ -202,6 +209,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         messages.append(text)
     meth.setup(eom, redundant_rows)
 
+    from .forces.actuators.controller import control_run
+    control = control_run(model, eom.system, controllers, t0, float(t_out[-1]), meth)
     n_q, n_v = 7 * nb, 6 * nb
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
@@ -243,6 +252,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         return y
 
     y0 = np.concatenate([q.reshape(-1), v.reshape(-1), np.zeros(n_z), [0.0]])  # [q, v, z, W]
+    if control is not None:
+        control.start(t0, y0)                      # the first samples of the controllers
     _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, model.n_eq)
     last_state = guards.LastState()
     rhs = last_state.wrap(rhs)
@@ -264,6 +275,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
                     integrator=integ.name, integrator_options=_integrator_options(integ),
                     correct_initial=correct_initial)
     eval_eom = eom if contact_memory is None else _AtTime(eom, contact_memory)
+    if control is not None:
+        eval_eom = _AtTime(eval_eom, control)
 
     def chunk_results(times, outputs, status, message, counters, wall, accelerations=None):
         out = Results.from_integration(
@@ -273,6 +286,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
             messages=messages, settings=settings(), accelerations=accelerations)
         out.output_requests = requests
         out.contact_log = contact_memory.log if contact_memory is not None else []
+        out.control_log = control.commands() if control is not None else {}
         if contact_memory is not None:            # evaluating the outputs rewound the memory
             contact_memory.restore(math.inf)
         return out
@@ -290,8 +304,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         stream.add(chunk_results(times, states, "running", "", {}, 0.0, acc))
     streaming = stream is not None
     fused = None
-    if _fused_eligible(eom, meth, integ, compiled, couplers, integ_events, limits, callback,
-                       n_z):
+    if control is None and _fused_eligible(eom, meth, integ, compiled, couplers, integ_events,
+                                           limits, callback, n_z):
         try:
             fused = _fused_run(eom, meth, integ, t0, y0, t_out, project,
                                emit if streaming else None,
@@ -308,7 +322,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         try:
             # rhs uses p / |p|, so the normalisation alone never changes it
             problem = ODEProblem(rhs=rhs, project=project, project_keeps_rhs=not meth.projects,
-                                 stages=stages, n_quadrature=1)   # W does not enter the rhs
+                                 stages=stages, n_quadrature=1,   # W does not enter the rhs
+                                 breaks=control)
             res = integ.integrate(problem, t0, y0, t_out, progress=callback,
                                   events=integ_events, event_tol=event_tol,
                                   sink=sink if streaming else None,
@@ -636,8 +651,9 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
 
 
 class _AtTime:
-    """The equations of motion with the contacts' impact-velocity memory set to what it was
-    at each evaluation time (the accelerations at the output times, after the run)."""
+    """The equations of motion with a run-time memory (the contacts' impact velocities, the
+    controllers' held commands) set to what it was at each evaluation time (the accelerations
+    at the output times, after the run)."""
 
     def __init__(self, eom, memory):
         self._eom, self._memory = eom, memory

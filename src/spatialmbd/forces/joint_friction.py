@@ -217,11 +217,11 @@ class JointFriction(ForceType):
     quantities = {"slip": ("rad/s", "m/s"), "friction": ("N m", "N"),
                   "bristle": ("rad", "m"), "power": ("W", "W"), "energy": ("J", "J")}
 
-    def units(self, k) -> dict:
+    def output_units(self, k) -> dict:
         c = int(self.param[k, C_KIND] == TRANSLATION)
         return {q: u[c] for q, u in self.quantities.items()}
 
-    def output_columns(self, results, k) -> dict:
+    def output_columns(self, results, k, states=None) -> dict:
         """The :attr:`quantities` of instance k at the output times: the slip (the coordinate
         rate; for ``rotation`` |omega_j - omega_i|), the friction Q (for ``rotation`` |Q|;
         else signed, opposing the slip), the LuGre deflection (0 for the other laws), the

@@ -271,12 +271,12 @@ class JointLimit(ForceType):
                   "force": ("N m", "N"), "active": ("-", "-"), "power": ("W", "W"),
                   "energy": ("J", "J")}
 
-    def units(self, k) -> dict:
+    def output_units(self, k) -> dict:
         """{quantity: unit} of instance k (rad-based unless a translation limit)."""
         c = int(self.param[k, C_KIND] == TRANSLATION)
         return {q: u[c] for q, u in self.quantities.items()}
 
-    def output_columns(self, results, k) -> dict:
+    def output_columns(self, results, k, states=None) -> dict:
         """The :attr:`quantities` of instance k at the output times: the coordinate and its
         rate, the penetration beyond the stop, the recorded impact velocity, the generalized
         force Q along the coordinate (N m or N; > 0 pushes towards larger x), active (0/1),

@@ -62,6 +62,10 @@ class ODEProblem:
         on them (e.g. the work W of the non-conservative forces). Implicit integrators leave
         their (zero) Jacobian columns out and keep them out of the Newton convergence test
         (their update is exact once the other components have converged).
+    breaks: optional time breakpoints -- an object with ``times`` (increasing, s) and
+        ``action(t, y)``: the steps land exactly on each time, where the action runs (it may
+        change rhs from then on: a zero-order-hold command) and the stepper restarts, so no
+        step with error control spans a jump of rhs (:func:`.driver.run`).
     """
 
     rhs: RHS
@@ -70,6 +74,7 @@ class ODEProblem:
     project_keeps_rhs: bool = False
     stages: Optional[Callable] = None
     n_quadrature: int = 0
+    breaks: Optional[object] = None
 
 
 @dataclass

@@ -19,6 +19,9 @@ local error estimate, a dense interpolant on [t, t_new]) -- and the *controller*
 * partial results on failure (the exceptions carry the time ``.t``; ``Integrator.integrate``
   turns them into a "failed" result with every output computed before).
 
+* **breakpoints** (``problem.breaks``): times the steps land on exactly (shortened like the
+  last step onto t_end), an action run there and the stepper restarted -- the sample times of
+  zero-order-hold commands, so no step with error control spans their jumps;
 * **restart events**: an event with a ``restart`` action (a callable (t, y)) ends the accepted
   step at its located time (outputs up to there come from the dense output), calls the action
   (which may change the right-hand side from then on, e.g. record an impact velocity), and
@@ -240,9 +243,18 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
     adaptive = not selfc and controller.adaptive
     land = not selfc and getattr(controller, "land_on_outputs", False)
     g_old = [float(e.function(t0, y0)) for e in evs]
+    breaks = getattr(problem, "breaks", None)
+    bps = [] if breaks is None else [float(tb) for tb in breaks.times if t0 < tb < t_end]
+    if bps and selfc:
+        raise SimulationError(f"{stepper.name} chooses its own steps and cannot land on the "
+                              "sample times of sampled controllers or time series; use an "
+                              "integrator of the package (rk45, dop853, rk4, ...)")
+    i_bp = 0
     t, y = t0, y0
+    def horizon():              # a stepper's start-up must not step over the next breakpoint
+        return bps[i_bp] if i_bp < len(bps) else t_end
     try:
-        h = stepper.start(problem, t0, y0, t_end, counters)
+        h = stepper.start(problem, t0, y0, horizon(), counters)
         if not adaptive and not selfc:
             h = controller.step
         elif h is not None:
@@ -255,15 +267,16 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             if selfc:
                 st = stepper.step(t, y, None)
             else:
+                t_lim = bps[i_bp] if i_bp < len(bps) else t_end
                 if land:
                     t_target = touts[k_out] if k_out < n_out else t_end
                     n_anchor += 1
-                    t_new = landing_time(anchor, t_target, h, n_anchor)
+                    t_new = landing_time(anchor, min(t_target, t_lim), h, n_anchor)
                 else:
-                    hs = end_step(t, h, t_end)
+                    hs = end_step(t, h, t_lim)
                     if adaptive and hs < min_step_size(t, span, min_step):
                         raise underflow_error(stepper.name, t, hs, last_cause)
-                    t_new = t_end if hs == t_end - t else t + hs
+                    t_new = t_lim if hs == t_lim - t else t + hs
                 st = stepper.step(t, y, t_new)
                 hs = st.h if st.h is not None else st.t_new - t
                 if st.failed is not None:
@@ -359,7 +372,13 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                 # the step ends there; the controller's next step size still comes from the
                 # error of the whole step
                 t_new, y_new = restart.t, restart.y
-                stepper.start(problem, t_new, y_new, t_end, counters)
+                stepper.start(problem, t_new, y_new, horizon(), counters)
+                if land:
+                    anchor, n_anchor = t_new, 0
+            if i_bp < len(bps) and t_new == bps[i_bp]:      # a breakpoint: act, restart
+                breaks.action(t_new, y_new)
+                i_bp += 1
+                stepper.start(problem, t_new, y_new, horizon(), counters)
                 if land:
                     anchor, n_anchor = t_new, 0
             if progress is not None:

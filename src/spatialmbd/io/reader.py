@@ -316,73 +316,11 @@ def _parse(P, data, default_name="model"):
         except _BUILD_ERRORS as exc:
             _relabel(P, path, f"couplers[{d['name']!r}]", str(exc))
 
-    # ------------------------------------------------------------------ forces
-    forces = _section(data, "forces")
-    if not _list(P, ("forces",), forces, "force elements"):
-        forces = []
-    valid_types = [t for t, cls in FORCE_TYPES.items() if cls.in_files]
-    for i, d in enumerate(forces):
-        path = ("forces", i)
-        if not isinstance(d, dict):
-            P.add(path, f"expected a mapping {{name, type, ...}}, got {_describe(d)}")
-            continue
-        ftype = d.get("type")
-        if "type" not in d:
-            P.add(path, "missing required key 'type' (force types: "
-                        + ", ".join(valid_types) + ")")
-            continue
-        if isinstance(ftype, str) and ftype in FORCE_TYPES and not FORCE_TYPES[ftype].in_files:
-            P.add(path + ("type",), f"{ftype} forces take a Python callable (or other Python "
-                                    "objects) and cannot be "
-                                    "described in a model file; add them in Python with "
-                                    f"ModelBuilder.add_force({ftype!r}, ...) after load_builder()")
-            continue
-        if not _member(ftype, FORCE_TYPES):
-            P.add(path + ("type",), f"unknown force type {_name(ftype)}"
-                                    f"{_suggest(ftype, valid_types)}; valid types: "
-                                    + ", ".join(valid_types))
-            continue
-        allowed = ("name", "type") + FORCE_TYPES[ftype].allowed()
-        required = ("name",) + tuple(FORCE_TYPES[ftype].required)
-        _mapping(P, path, d, allowed, required)
-        n0 = len(P)
-        complete = all(k in d for k in required)
-        if "name" in d:
-            _string(P, path + ("name",), d["name"], "a force name (string)")
-        params, refs_ok = {}, True
-        for key, val in d.items():
-            if key in ("name", "type") or key not in allowed:
-                continue
-            kind = FORCE_TYPES[ftype].parameters.get(key, "any")
-            where = path + (key,)
-            if kind == "body":
-                if _reference(P, where, val, declared_bodies, "body", (GROUND,)):
-                    refs_ok = refs_ok and (val in ok_bodies or val == GROUND)
-            elif kind == "joint":
-                if _reference(P, where, val, declared_joints, "joint"):
-                    refs_ok = refs_ok and val in ok_joints
-            elif kind == "point":
-                _vector(P, where, val, or_name=True)
-            elif kind == "vector":
-                _vector(P, where, val)
-            elif kind == "matrix":
-                _matrix(P, where, val)
-            elif kind == "string":
-                _string(P, where, val)
-            elif kind == "number":
-                _number(P, where, val)
-            elif kind == "law":
-                if not _is_number(val):
-                    val = _law(P, where, val)
-                else:
-                    _number(P, where, val)
-            params[key] = val
-        if len(P) != n0 or P.flagged(path) or not complete or not refs_ok:
-            continue
-        try:
-            b.add_force(ftype, d["name"], **params)
-        except _BUILD_ERRORS as exc:
-            _relabel(P, path, f"forces[{d['name']!r}]", str(exc))
+    # ------------------------------------------------------------------ forces, controls
+    refs = (declared_bodies, ok_bodies, declared_joints, ok_joints)
+    _force_section(P, b, data, "forces", FORCE_TYPES, refs)
+    # controls: the actuators (spatialmbd.forces.actuators), entries as in forces
+    _force_section(P, b, data, "controls", FORCE_TYPES, refs, actuators_only=True)
 
     # ------------------------------------------------------------------ contacts
     # contact elements (spatialmbd.forces.contact): {name, body_i, body_j, shape_i, shape_j,
@@ -441,6 +379,80 @@ def _parse(P, data, default_name="model"):
     if analysis is not None:
         analysis.outputs = _parse_outputs_section(P, data)
     return b, analysis
+
+
+def _force_section(P, b, data, section, FORCE_TYPES, refs, actuators_only=False):
+    """The entries {name, type, ...} of the ``forces:`` (or ``controls:``: actuator types
+    only) section into the builder; problems to P."""
+    declared_bodies, ok_bodies, declared_joints, ok_joints = refs
+    forces = _section(data, section)
+    if not _list(P, (section,), forces, "force elements" if section == "forces" else
+                 "actuators"):
+        forces = []
+    valid_types = [t for t, cls in FORCE_TYPES.items() if cls.in_files and
+                   (not actuators_only or hasattr(cls, "output_columns"))]
+    for i, d in enumerate(forces):
+        path = (section, i)
+        if not isinstance(d, dict):
+            P.add(path, f"expected a mapping {{name, type, ...}}, got {_describe(d)}")
+            continue
+        ftype = d.get("type")
+        if "type" not in d:
+            P.add(path, "missing required key 'type' (force types: "
+                        + ", ".join(valid_types) + ")")
+            continue
+        if isinstance(ftype, str) and ftype in FORCE_TYPES and not FORCE_TYPES[ftype].in_files:
+            P.add(path + ("type",), f"{ftype} forces take a Python callable (or other Python "
+                                    "objects) and cannot be "
+                                    "described in a model file; add them in Python with "
+                                    f"ModelBuilder.add_force({ftype!r}, ...) after load_builder()")
+            continue
+        if not _member(ftype, FORCE_TYPES) or ftype not in valid_types:
+            P.add(path + ("type",), f"unknown force type {_name(ftype)}"
+                                    f"{_suggest(ftype, valid_types)}; valid types: "
+                                    + ", ".join(valid_types))
+            continue
+        allowed = ("name", "type") + FORCE_TYPES[ftype].allowed()
+        required = ("name",) + tuple(FORCE_TYPES[ftype].required)
+        _mapping(P, path, d, allowed, required)
+        n0 = len(P)
+        complete = all(k in d for k in required)
+        if "name" in d:
+            _string(P, path + ("name",), d["name"], "a force name (string)")
+        params, refs_ok = {}, True
+        for key, val in d.items():
+            if key in ("name", "type") or key not in allowed:
+                continue
+            kind = FORCE_TYPES[ftype].parameters.get(key, "any")
+            where = path + (key,)
+            if kind == "body":
+                if _reference(P, where, val, declared_bodies, "body", (GROUND,)):
+                    refs_ok = refs_ok and (val in ok_bodies or val == GROUND)
+            elif kind == "joint":
+                if _reference(P, where, val, declared_joints, "joint"):
+                    refs_ok = refs_ok and val in ok_joints
+            elif kind == "point":
+                _vector(P, where, val, or_name=True)
+            elif kind == "vector":
+                _vector(P, where, val)
+            elif kind == "matrix":
+                _matrix(P, where, val)
+            elif kind == "string":
+                _string(P, where, val)
+            elif kind == "number":
+                _number(P, where, val)
+            elif kind == "law":
+                if not _is_number(val):
+                    val = _law(P, where, val)
+                else:
+                    _number(P, where, val)
+            params[key] = val
+        if len(P) != n0 or P.flagged(path) or not complete or not refs_ok:
+            continue
+        try:
+            b.add_force(ftype, d["name"], **params)
+        except _BUILD_ERRORS as exc:
+            _relabel(P, path, f"forces[{d['name']!r}]", str(exc))
 
 
 def _parse_outputs_section(P, data) -> list:

@@ -12,6 +12,7 @@ import contextvars
 import dataclasses
 import difflib
 import math
+import os
 import re
 from typing import Optional
 
@@ -29,7 +30,7 @@ YAML_SUFFIXES = (".yaml", ".yml")
 JSON_SUFFIXES = (".json",)
 
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
-            "ground_shapes", "analysis", "outputs", "contacts", "couplers")
+            "ground_shapes", "analysis", "outputs", "contacts", "couplers", "controls")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
              "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color",
              "density")
@@ -462,8 +463,19 @@ def _law(P, path, value):
     n0 = len(P)
     fields = {f.name: f for f in dataclasses.fields(LAWS[kind])}
     _mapping(P, path, value, ("type",) + tuple(fields))
+    value = dict(value)
     for key, val in value.items():
         if key not in fields:
+            continue
+        if key in ("file", "interpolation"):                # a time series' text fields
+            if _string(P, tuple(path) + (key,), val) and key == "file" \
+                    and _BASE_DIR.get() is not None and not os.path.isabs(val):
+                value[key] = os.path.join(_BASE_DIR.get(), val)   # relative to the model file
+            continue
+        if key in ("times", "values"):
+            if _list(P, tuple(path) + (key,), val, "numbers"):
+                for k, x in enumerate(val):
+                    _number(P, tuple(path) + (key, k), x)
             continue
         f = fields[key]
         if f.default is dataclasses.MISSING and f.default_factory is not dataclasses.MISSING:

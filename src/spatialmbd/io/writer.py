@@ -145,8 +145,13 @@ def model_to_dict(model_or_builder, analysis: Union[Analysis, dict, None] = None
         d.update({key: _plain(val, P, ("forces", k, key))
                   for key, val in spec.params.items() if val is not None})
         forces.append(d)
+    # actuators (types with outputs of their own, spatialmbd.forces.actuators) go to controls:
+    controls = [d for d in forces if hasattr(FORCE_TYPES[d["type"]], "output_columns")]
+    forces = [d for d in forces if not hasattr(FORCE_TYPES[d["type"]], "output_columns")]
     if forces:
         out["forces"] = forces
+    if controls:
+        out["controls"] = controls
     if s["ground_shapes"]:
         out["ground_shapes"] = _shapes(list(s["ground_shapes"]), P, ("ground_shapes",), meshes)
     if len(P):
@@ -189,7 +194,7 @@ _Dumper.add_representer(_Block, lambda dumper, data: dumper.represent_mapping(
 
 def _yaml_text(data: dict, header: Optional[str] = None) -> str:
     data = dict(data)
-    for key in ("bodies", "joints", "drivers", "couplers", "forces"):
+    for key in ("bodies", "joints", "drivers", "couplers", "forces", "controls"):
         if key in data:
             data[key] = [_Block(d) for d in data[key]]
     if "analysis" in data:

@@ -82,7 +82,8 @@ class ContactMemory:
     def restore(self, t) -> None:
         """Set the memory to what it was at time t (the last records at or before t), e.g. to
         re-evaluate the accelerations at an output time after the run."""
-        self.flaw[:, 0] = 0.0
+        for g, s in self.slots:              # its own rows only (others hold commands)
+            self.flaw[s:s + g.n, 0] = 0.0
         for tr, row, v0 in self.log:
             if tr <= t:
                 self.flaw[row, 0] = v0
