@@ -194,7 +194,8 @@ class ActuatorType(ForceType):
 
     @classmethod
     def coefficients(cls, spec):
-        raise NotImplementedError
+        """The gain/bias row of one spec (each actuator kind defines it)."""
+        raise TypeError(f"actuator type {cls.name!r} defines no coefficients(spec)")
 
     @classmethod
     def validate(cls, spec, builder):
