@@ -56,7 +56,7 @@ def b0_error(model, res, phi) -> float:
     return float(np.linalg.norm(tip - exact))
 
 
-def worker(n: int, t_end: float, methods, integrators, rtols, wall=WALL) -> list:
+def worker(n: int, t_end: float, methods, integrators, rtols, cap=WALL) -> list:
     from spatialmbd import models
     from spatialmbd.simulate import simulate
     model = models.n_four_bar(n).compile() if n else models.bricard().compile()
@@ -71,7 +71,7 @@ def worker(n: int, t_end: float, methods, integrators, rtols, wall=WALL) -> list
                     try:
                         res = simulate(model, t_end, method=method, integrator=integrator,
                                        rtol=rtol, atol=rtol * 1e-2, output_step=t_end / 200,
-                                       max_wall_time=wall)
+                                       max_wall_time=cap)
                         status, t_last, message = res.status, float(res.t[-1]), res.message
                         steps = int(res.counters.get("steps", 0))
                         evals = int(res.counters.get("nfev", 0))
