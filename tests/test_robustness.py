@@ -87,25 +87,50 @@ def flat_time(n):
 
 
 def test_singular_position_failure_is_diagnosed():
-    """The N-four-bar reaches its flat position; the projection method with rk45 at rtol 1e-10
-    cannot continue there and the message names the time, the rank deficiency, the joints and
-    the way out. (Whether a run at rtol near 1e-9 gets through depends on where its steps
-    happen to fall near the flat position -- rk45 and bdf4 both pass or stall there as the
-    tolerances change in their second digit; at 1e-10 and below they stall.)"""
-    model = models.n_four_bar(2).compile()
+    """A driver that tears the mechanism: the slider of a slider-crank pushed at constant speed
+    past the dead centre of its crank (where the crank would need an infinite rate). The run
+    stops there with its outputs up to the failure, and the message names the time, the rank
+    deficiency, the joints and the driver, and what to change. (This test used the N-four-bar
+    at rk45 rtol 1e-10, which stalled at its flat position; it passes it now -- B0 within
+    6.8e-6 m of the exact path after 1 s -- so it no longer serves as a failing case.)"""
+    from spatialmbd.motion import ConstantVelocity
+    b = models.slider_crank(driven=False)
+    b.add_driver("translation", "push", ConstantVelocity(rate=0.5), joint="D")
+    model = b.compile()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RedundantConstraintsWarning)
         res = simulate(model, 1.0, method="projection", integrator="rk45", rtol=1e-10,
                        atol=1e-12, output_step=0.01)
     assert res.status == "failed"
-    t_flat = flat_time(2)
-    assert t_flat - 0.02 < res.t[-1] <= t_flat          # outputs up to the failure
+    t_fail = float(res.message.split("t = ")[1].split(" s")[0])
+    assert 0.17 < t_fail < 0.19 and res.t[-1] <= t_fail < res.t[-1] + 0.01
     msg = res.message
     # one diagnosis for every failing run (spatialmbd.guards.singular_diagnosis)
-    assert "near rank deficiency 1" in msg and "rank 29 at the start" in msg
-    assert "O0" in msg and "method='penalty'" in msg
+    assert "near rank deficiency 1" in msg and "rank 18 at the start" in msg
+    assert "joint(s) A, B, C, D, push" in msg
+    assert "The driver(s) push take part in the dependency" in msg and "penalty" not in msg
     t_diag = float(msg.split("singular position near t = ")[1].split(" s")[0])
-    assert abs(t_diag - t_flat) < 1e-3
+    assert abs(t_diag - t_fail) < 1e-3
+
+
+def test_n_four_bar_passes_its_first_flat_position_at_tight_tolerance():
+    """The N-four-bar with projection and rk45 at rtol 1e-10 passes the flat position of
+    t = 0.714 s on the parallelogram branch (it used to stall there)."""
+    model = models.n_four_bar(2).compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RedundantConstraintsWarning)
+        res = simulate(model, 1.0, method="projection", integrator="rk45", rtol=1e-10,
+                       atol=1e-12, output_step=0.01)
+    assert res.status == "success" and res.t[-1] == 1.0, res.message
+    assert flat_time(2) < 1.0
+    k = model.body_index("crank0")
+    phi = np.unwrap(2 * np.arctan2(res.q[:, k, 6], res.q[:, k, 3]))
+    n, a = 2, 0.02                                  # the exact 1-DoF motion of the branch
+    inertia = (n + 1) * ((1 + a * a) / 12 + 0.25) + n
+    K = 9.81 * ((n + 1) / 2 + n)
+    exact = solve_ivp(lambda t, y: [y[1], K / inertia * math.sin(y[0])], (0.0, 1.0),
+                      [0.0, -1.0], rtol=1e-12, atol=1e-12)
+    assert phi[-1] < -np.pi / 2 and abs(phi[-1] - exact.y[0, -1]) < 1e-5
 
 
 def dead_centre_four_bar(n=1):

@@ -364,6 +364,9 @@ def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float
         weight = np.max(np.abs(U[:, list(lost)]), axis=1)
         rows = np.flatnonzero(weight > 0.1 * weight.max())
         joints = sorted({model.equation_labels[r][0] for r in rows})
+        drivers = sorted({model.equation_labels[r][0] for r in rows
+                          for g, off in zip(model.constraint_groups, model.group_offsets)
+                          if g.rheonomic and off <= r < off + g.size})
     except Exception:  # noqa: BLE001 - a diagnosis must never hide the original failure
         return None
     when = f"t = {t:.6g} s" if t_fail is None or abs(t_fail - t) < 1e-9 else \
@@ -372,9 +375,17 @@ def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float
              if strict < rank0 else
              f"near rank deficiency 1 (sigma_min / sigma_max = {ratio:.2g}"
              + (f", {ratio0:.2g} at the start" if ratio0 is not None else "") + ")")
-    return (f"singular position near {when}: the constraint Jacobian D has {state} "
+    head = (f"singular position near {when}: the constraint Jacobian D has {state} "
             f"(rank {rank0} at the start); dependent equations in joint(s) "
-            f"{', '.join(joints)}, whose multipliers are not unique there. Ways on: a "
+            f"{', '.join(joints)}, whose multipliers are not unique there. ")
+    if drivers:
+        return head + (f"The driver(s) {', '.join(drivers)} take part in the dependency: they "
+                       "prescribe a motion the mechanism cannot continue here (a dead point, "
+                       "e.g. a slider driven past the dead centre of its crank, where the "
+                       "crank would need an infinite rate); drive another joint, change the "
+                       "driver's motion law so that it stops or reverses there, or check the "
+                       "geometry of these joints")
+    return head + ("Ways on: a "
             "looser rtol (the step control stalls when a step ends within round-off of the "
             "singular position; the IFToMM N-four-bar passes its flat positions with "
             "projection and rk45 at rtol 1e-8), or method='penalty' or "

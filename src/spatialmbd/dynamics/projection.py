@@ -88,19 +88,20 @@ import math
 from ..rotations import rotate_p_scalar
 from ..jit import array_view, njit
 from .system import (_M, _P, _R, add_transpose_times, body_views, cons_views, copy_v, fill,
-                     row_times, schur_factor, schur_solve, schur_views, stage_state)  # noqa: E402
+                     row_times, schur_factor_solve, schur_views, stage_state)  # noqa: E402
 
 
 @njit
 def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx):
-    """dx = -D^T (D D^T)^-1 r over the kept rows (r = rhs_rows[keep]); False if D D^T is
-    singular."""
+    """dx = -D^T (D D^T)^-1 r over the kept rows (r = rhs_rows[keep]), regularised at a
+    singular position (:func:`.system.schur_factor_solve`: the components of r along the
+    near-dependent rows, which a first-order correction cannot remove, are left alone instead of
+    amplified); False if D D^T has no positive definite shift either."""
     keep = P[0]
-    if not schur_factor(M, R, P, False):
-        return False
     for k in range(keep.size):
         bs[k] = rhs_rows[keep[k]]
-    schur_solve(P, bs)
+    if not schur_factor_solve(M, R, P, False, bs):
+        return False
     fill(lam, 0.0)
     for k in range(keep.size):
         lam[keep[k]] = -bs[k]

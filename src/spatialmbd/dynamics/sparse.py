@@ -239,12 +239,22 @@ def factor(sym, Cx, Lx, x, drop_tol, dropped):
     before it in the elimination order; it is left out -- L_kk = inf, so it takes no part in
     the other rows and ``solve`` gives it 0 -- and marked dropped[k] = 1 (permuted index).
     Returns the number of rows left out."""
+    return factor_shifted(sym, Cx, Lx, x, drop_tol, dropped, 0.0)[0]
+
+
+@njit
+def factor_shifted(sym, Cx, Lx, x, drop_tol, dropped, shift):
+    """:func:`factor` of C + shift diag(C) (shift >= 0, relative). Returns (its result, the
+    smallest pivot over its diagonal entry): how close C is to singular (0 where a row was
+    dropped or the factorisation failed)."""
     Cp, Ci, Lp, Li, Rp, Rj, Rpos, perm = sym
     n = Lp.size - 1
     count = 0
+    ratio = 1.0
     for k in range(n):
         for p in range(Cp[k], Cp[k + 1]):
             x[Ci[p]] = Cx[p]
+        x[k] *= 1.0 + shift
         d = x[k]
         ckk = d
         x[k] = 0.0
@@ -260,13 +270,82 @@ def factor(sym, Cx, Lx, x, drop_tol, dropped):
             dropped[k] = 1
             Lx[Lp[k]] = np.inf
             count += 1
+            ratio = 0.0
             continue
         if not d > 0.0:
             for t in range(Rp[k], Rp[k + 1]):      # leave x clean
                 x[Rj[t]] = 0.0
-            return -1
+            return -1, 0.0
+        if d < ratio * ckk:
+            ratio = d / ckk
         Lx[Lp[k]] = math.sqrt(d)
-    return count
+    return count, ratio
+
+
+@njit
+def numeric_ratio(sym, Cx, Lx, x):
+    """:func:`numeric` returning the smallest pivot over its diagonal entry (-1 on a pivot <= 0
+    or NaN)."""
+    code, ratio = factor_shifted(sym, Cx, Lx, x, 0.0, x[:0], 0.0)
+    return ratio if code == 0 else -1.0
+
+
+@njit
+def multiply(sym, Cx, b, out):
+    """out = A b for A = P^T C P with C given by the values Cx of its upper triangle."""
+    Cp, Ci, Lp, Li, Rp, Rj, Rpos, perm = sym
+    n = Lp.size - 1
+    for k in range(n):
+        out[k] = 0.0
+    for j in range(n):
+        bj = b[perm[j]]
+        for p in range(Cp[j], Cp[j + 1]):
+            i = Ci[p]
+            out[perm[i]] += Cx[p] * bj
+            if i != j:
+                out[perm[j]] += Cx[p] * b[perm[i]]
+
+
+#: a pivot of the Cholesky factorisation at most this fraction of its diagonal entry marks the
+#: matrix as (nearly) singular: a singular position, where the multipliers are no longer unique
+#: but the accelerations are; the solve is then regularised (:func:`solve_regularised`)
+SINGULAR_PIVOT = 1e-8
+#: the relative diagonal shift of that regularisation
+TIKHONOV_SHIFT = 1e-12
+#: its iterations (iterated Tikhonov): the bias in a direction of relative eigenvalue s is
+#: (shift / (s + shift))^TIKHONOV_ITERATIONS
+TIKHONOV_ITERATIONS = 3
+
+
+@njit
+def solve_regularised(sym, Cx, Lx, x, y, b):
+    """b <- the iterated Tikhonov solution of A lam = b, A = P^T C P (values Cx), for a nearly
+    singular A: lam_0 = 0, lam_{i+1} = lam_i + (A + mu diag(A))^-1 (b - A lam_i), i <
+    TIKHONOV_ITERATIONS, mu = TIKHONOV_SHIFT.
+
+    In the eigendirections of A with relative eigenvalue s >> mu this is the exact solution to a
+    relative (mu / s)^2; in those with s << mu (the near-dependent rows of a singular position)
+    lam stays bounded, of order the residual / mu, instead of amplifying round-off and
+    constraint drift by 1 / s. The accelerations are unique where lam is not, and this keeps
+    them bounded and continuous through the singular position. Returns False if the shifted
+    matrix is not positive definite either (a NaN, a negative diagonal)."""
+    n = b.size
+    if factor_shifted(sym, Cx, Lx, x, 0.0, x[:0], TIKHONOV_SHIFT)[0] != 0:
+        return False
+    lam = np.zeros(n)
+    r = b.copy()
+    Ar = np.empty(n)
+    for it in range(TIKHONOV_ITERATIONS):
+        solve(sym, Lx, r, y)                      # r <- (A + mu diag A)^-1 r
+        for k in range(n):
+            lam[k] += r[k]
+        if it + 1 < TIKHONOV_ITERATIONS:
+            multiply(sym, Cx, lam, Ar)
+            for k in range(n):
+                r[k] = b[k] - Ar[k]
+    for k in range(n):
+        b[k] = lam[k]
+    return True
 
 
 @njit

@@ -299,6 +299,22 @@ def schur_factor(M, R, P, use_mass):
 
 
 @njit(inline="always")
+def schur_factor_solve(M, R, P, use_mass, b):
+    """b <- S^-1 b (or (D D^T)^-1 b): assemble, factorise and solve. Where S is nearly singular
+    (a pivot below :data:`.sparse.SINGULAR_PIVOT` of its diagonal: a singular position) the
+    regularised solve of :func:`.sparse.solve_regularised` is used instead -- bounded, minimum-
+    norm-like multipliers, and accelerations continuous through the singular position, decided
+    by compiled arithmetic that is the same on every processor. False if S has no positive
+    definite shift either."""
+    assemble_schur(M, R, P, use_mass)
+    ratio = spc.numeric_ratio(P[11], P[7], P[8], P[9])
+    if ratio > spc.SINGULAR_PIVOT:
+        spc.solve(P[11], P[8], b, P[10])
+        return True
+    return spc.solve_regularised(P[11], P[7], P[8], P[9], P[10], b)
+
+
+@njit(inline="always")
 def schur_solve(P, b):
     """b <- S^-1 b with the factor of :func:`schur_factor`."""
     spc.solve(P[11], P[8], b, P[10])
@@ -334,9 +350,8 @@ def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot):
         minv_all(M, g, u6)
         for k in range(keep.size):
             bs[k] = rg[keep[k]] - row_times(R, keep[k], u6)
-        if not schur_factor(M, R, P, True):
+        if not schur_factor_solve(M, R, P, True, bs):
             return False
-        schur_solve(P, bs)
         for k in range(keep.size):
             lam[keep[k]] = bs[k]
     finish(M, R, g, lam, t6, vdot)
