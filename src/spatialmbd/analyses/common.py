@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 
 from ..rank import left_null_space as _left_null_space
+from ..rank import nonunique_rows
 import scipy.sparse as sp
 
 from ..kinematics import apply_correction
@@ -86,6 +87,20 @@ def left_null_space(D: np.ndarray):
     if D.shape[0] == 0:
         return np.zeros((0, 0))
     return _left_null_space(D)
+
+
+def nonunique_joints(model, q, t: float = 0.0, exclude_rows=()) -> list:
+    """The elements whose reactions are not unique at q: every element with an equation that a
+    self-stress of D reaches (all the joints of a redundant loop), by the project's one rank
+    decision (:mod:`spatialmbd.rank`). exclude_rows: rows not to name (drivers, whose
+    uniqueness is reported separately)."""
+    if not model.n_eq:
+        return []
+    D = dense(model.assembler.evaluate(np.asarray(q, dtype=float).reshape(model.nb, 7), None,
+                                       t).D)
+    skip = set(int(r) for r in exclude_rows)
+    labels = model.equation_labels
+    return sorted({labels[r][0] for r in nonunique_rows(D) if int(r) not in skip})
 
 
 def potential_energy(model, q: np.ndarray, t: float, state=None) -> float:

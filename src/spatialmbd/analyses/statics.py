@@ -37,7 +37,7 @@ from ..kinematics import solve_positions
 from ..state import BodyState
 from .common import (central_jacobian, conservative_forces_only, default_step, dense,
                      describe_direction, driver_rows, driver_units, null_space, perturb,
-                     potential_energy, reactions_frame, results_object)
+                     nonunique_joints, potential_energy, reactions_frame, results_object)
 
 INTERNAL_FORCES = ("spring_damper", "rotational_spring_damper")
 
@@ -436,7 +436,8 @@ def static_equilibrium(model, q_guess=None, t: float = 0.0, *, tol: float = 1e-9
             residual = float(np.abs(loads(q, 1.0, t) + D.T @ lam).max())
     rows = driver_rows(model)
     res = results_object(model, [t], q[None], np.zeros((1, nb, 6)), np.zeros((1, nb, 6)),
-                         lam[None], settings={"analysis": "static"})
+                         lam[None], settings={"analysis": "static"},
+                         redundant_joints=nonunique_joints(model, q, t))
     return StaticResults(model=model, t=float(t), q=q, lam=lam,
                          efforts={n: float(lam[r]) for n, r in rows.items()},
                          reactions=res.reactions(), residual=residual,
@@ -526,7 +527,8 @@ def quasi_static(model, t: Optional[Sequence[float]] = None, *, t_end: Optional[
     import pandas as pd
     rows = driver_rows(model)
     res = results_object(model, t, Q, np.zeros((t.size, nb, 6)), np.zeros((t.size, nb, 6)),
-                         lam, settings={"analysis": "quasi_static"})
+                         lam, settings={"analysis": "quasi_static"},
+                         redundant_joints=nonunique_joints(model, Q[0], float(t[0])))
     efforts = pd.DataFrame({"t": t, **{n: lam[:, r] for n, r in rows.items()}})
     if not stable.all():
         messages.append(f"unstable equilibria at {int((~stable).sum())} of {t.size} times "
