@@ -12,7 +12,8 @@ import warnings
 import numpy as np
 
 from ..rank import left_null_space as _left_null_space
-from ..rank import nonunique_rows
+from ..rank import nonunique_rows, row_rank
+from ..rank import null_space as _null_space
 import scipy.sparse as sp
 
 from ..kinematics import apply_correction
@@ -71,14 +72,11 @@ def central_jacobian(fun, n: int, step: float, check: bool = True, what: str = "
 
 
 def null_space(D: np.ndarray, rtol: float = 1e-9):
-    """(orthonormal basis N (n, n - rank) of the null space of D, rank) by SVD."""
-    n = D.shape[1]
+    """(orthonormal basis N (n, n - rank) of the null space of D, rank), with the project's one
+    rank decision (:func:`spatialmbd.rank.row_rank`, relative row distance ``rtol``)."""
     if D.shape[0] == 0:
-        return np.eye(n), 0
-    _, s, Vt = np.linalg.svd(D)
-    tol = max(D.shape) * np.finfo(float).eps * (s[0] if s.size else 1.0) * 1e3
-    rank = int(np.sum(s > max(tol, rtol * (s[0] if s.size else 0.0))))
-    return Vt[rank:].T.copy(), rank
+        return np.eye(D.shape[1]), 0
+    return _null_space(D, row_rank(D, rtol))
 
 
 def left_null_space(D: np.ndarray):
