@@ -9,6 +9,7 @@ import numpy as np
 from ...errors import ModelError
 from ...model.builder import ModelBuilder
 from .geoms import GeomShapes, clean, role
+from .joint_elements import JointElements
 from .report import LeftOut
 
 
@@ -30,14 +31,10 @@ def urdf_links_without_inertial(text) -> set:
 
 
 def left_out_features(mujoco, m, body_name, jname) -> list:
-    """The features of the compiled model that the import leaves out (LeftOut items)."""
+    """The features of the compiled model that the import leaves out (LeftOut items) besides
+    those of :mod:`.joint_elements` (limits, friction loss, springs, actuators, tendons)."""
     OBJ, J = mujoco.mjtObj, mujoco.mjtJoint
     out = []
-    for t in range(m.ntendon):
-        out.append(LeftOut("tendon", _name(mujoco, m, OBJ.mjOBJ_TENDON, t, f"tendon{t}")))
-    for u in range(m.nu):
-        out.append(LeftOut("actuator", _name(mujoco, m, OBJ.mjOBJ_ACTUATOR, u, f"actuator{u}"),
-                           "actuator dynamics and forces"))
     for p in range(m.npair):
         out.append(LeftOut("contact pair", _name(mujoco, m, OBJ.mjOBJ_PAIR, p, f"pair{p}"),
                            "no contact here yet"))
@@ -50,17 +47,6 @@ def left_out_features(mujoco, m, body_name, jname) -> list:
         if np.any(m.dof_armature[dofs] != 0):
             out.append(LeftOut("armature", jname(j),
                                f"{float(np.max(m.dof_armature[dofs])):.6g} kg m^2"))
-        if np.any(m.dof_frictionloss[dofs] != 0):
-            out.append(LeftOut("frictionloss", jname(j),
-                               f"{float(np.max(m.dof_frictionloss[dofs])):.6g}"))
-        if m.jnt_limited[j]:
-            lo, hi = (float(x) for x in m.jnt_range[j])
-            out.append(LeftOut("joint limit", jname(j), f"range {lo:.6g} .. {hi:.6g}"))
-        springy = m.jnt_stiffness[j] != 0 or np.any(m.dof_damping[dofs] != 0)
-        if springy and int(m.jnt_type[j]) != int(J.mjJNT_HINGE):
-            out.append(LeftOut("joint spring", jname(j),
-                               f"{J(int(m.jnt_type[j])).name[6:].lower()} joint: only hinge "
-                               "springs map exactly"))
     for k in range(m.nkey):
         out.append(LeftOut("keyframe", _name(mujoco, m, OBJ.mjOBJ_KEY, k, f"key{k}"),
                            "the model starts from qpos0 (MuJoCo's reference configuration), "
@@ -171,6 +157,7 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
 
     # ----------------------------------------------------------------- joints
     single = {}                           # MuJoCo joint id -> our joint (one hinge or slide)
+    joint_of = {}                         # MuJoCo joint id -> (our joint, its type)
     for r in roots:
         jids = [j for b in members[r] for j in range(m.body_jntadr[b],
                                                      m.body_jntadr[b] + m.body_jntnum[b])
@@ -219,15 +206,8 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
                                     f"joints {names} of body {child!r}: this combination has "
                                     "no single joint type here"))
             continue
-        for j, jn, t in zip(jids, names, types):
-            k, c = float(m.jnt_stiffness[j]), float(m.dof_damping[m.jnt_dofadr[j]])
-            if t == int(J.mjJNT_HINGE) and len(jids) == 1 and (k != 0 or c != 0):
-                q0 = float(m.qpos0[m.jnt_qposadr[j]])
-                rest = float(m.qpos_spring[m.jnt_qposadr[j]]) - q0
-                builder.add_force("rotational_spring_damper", fresh(f"{jn}_spring"),
-                                  joint=joint_name, stiffness=k, damping=c, rest_angle=rest)
-            elif t == int(J.mjJNT_HINGE) and (k != 0 or c != 0):
-                left_out.append(LeftOut("joint spring", jn, "part of a combined joint"))
+        for j in jids:
+            joint_of[j] = (joint_name, builder.joints[joint_name].type)
 
     # ----------------------------------------------------------------- equality constraints
     def local(b, x_world):
@@ -241,6 +221,8 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
         if etype == int(EQ.mjEQ_JOINT) and m.eq_active0[e]:
             _joint_equality(m, e, ename, single, builder, fresh, left_out)
             continue
+        if etype == int(EQ.mjEQ_TENDON):
+            continue                      # JointElements.add_tendons
         if etype not in (int(EQ.mjEQ_CONNECT), int(EQ.mjEQ_WELD)):
             left_out.append(LeftOut("equality", ename, f"{EQ(etype).name[5:].lower()} "
                                     "equality: no exact coupling constraint here"))
@@ -273,6 +255,19 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
             # check below makes sure it is)
             geometry = {"point": np.asarray(x1, dtype=float).tolist()}
         builder.add_joint(kind, fresh(ename), bi, bj, **geometry)
+    # limits, friction loss, springs, actuators and fixed tendons on the joints
+    by_name = {body_name[r]: r for r in roots}
+
+    def local_of(body, x_world):
+        return np.asarray(x_world, dtype=float).tolist() if body == "ground" else \
+            local(by_name[body], x_world)
+
+    elements = JointElements(mujoco, m, d, builder, joint_of=joint_of, single=single,
+                             local_of=local_of, fresh=fresh, jname=jname, left_out=left_out,
+                             qref=m.qpos0, ctrl=np.zeros(m.nu))
+    elements.add_joint_features()
+    elements.add_actuators()
+    elements.add_tendons()
     # loop closures must hold at qpos0, or they would be assembled differently
     _check_equalities_hold(mujoco, m, d, left_out)
     return builder, groups, left_out, notes

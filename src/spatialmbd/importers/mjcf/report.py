@@ -10,13 +10,13 @@ __all__ = ["LeftOut", "KINDS", "summary", "details", "UNSUPPORTED_KINDS"]
 #: kind -> (singular, plural) of the summary
 KINDS = {
     "actuator": ("actuator", "actuators"),
+    "actuator force range": ("joint actuator force range", "joint actuator force ranges"),
     "tendon": ("tendon", "tendons"),
     "contact pair": ("contact pair", "contact pairs"),
     "flex": ("flex object", "flex objects"),
     "armature": ("armature value", "armature values"),
     "frictionloss": ("friction loss value", "friction loss values"),
-    "joint spring": ("spring/damper of a slide, ball or combined joint",
-                     "springs/dampers of slide, ball or combined joints"),
+    "joint spring": ("spring/damper of a combined joint", "springs/dampers of combined joints"),
     "joint combination": ("joint combination", "joint combinations"),
     "equality": ("equality constraint", "equality constraints"),
     "joint limit": ("joint limit", "joint limits"),
@@ -25,7 +25,7 @@ KINDS = {
 }
 #: kinds with no exact counterpart (an error with strict=True); the others (limits,
 #: collisions, keyframes) act only when reached, touching or chosen, and are never an error
-UNSUPPORTED_KINDS = ("actuator", "tendon", "contact pair", "flex", "armature", "frictionloss",
+UNSUPPORTED_KINDS = ("actuator", "actuator force range", "tendon", "contact pair", "flex", "armature", "frictionloss",
                      "joint spring", "joint combination", "equality")
 
 
