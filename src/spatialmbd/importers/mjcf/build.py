@@ -209,6 +209,22 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
         for j in jids:
             joint_of[j] = (joint_name, builder.joints[joint_name].type)
 
+    # ----------------------------------------------------------------- joint elements
+    # limits, friction loss, springs and dampers, actuators (fixed tendons: after equalities)
+    by_name = {body_name[r]: r for r in roots}
+
+    def local_of(body, x_world):
+        if body == "ground":
+            return np.asarray(x_world, dtype=float).tolist()
+        c, R = frames[by_name[body]]
+        return clean(R.T @ (np.asarray(x_world, dtype=float) - c))
+
+    elements = JointElements(mujoco, m, d, builder, joint_of=joint_of, single=single,
+                             local_of=local_of, fresh=fresh, jname=jname, left_out=left_out,
+                             qref=m.qpos0, ctrl=np.zeros(m.nu))
+    elements.add_joint_features()
+    elements.add_actuators()
+
     # ----------------------------------------------------------------- equality constraints
     def local(b, x_world):
         root = int(m.body_weldid[b])
@@ -255,19 +271,7 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
             # check below makes sure it is)
             geometry = {"point": np.asarray(x1, dtype=float).tolist()}
         builder.add_joint(kind, fresh(ename), bi, bj, **geometry)
-    # limits, friction loss, springs, actuators and fixed tendons on the joints
-    by_name = {body_name[r]: r for r in roots}
-
-    def local_of(body, x_world):
-        return np.asarray(x_world, dtype=float).tolist() if body == "ground" else \
-            local(by_name[body], x_world)
-
-    elements = JointElements(mujoco, m, d, builder, joint_of=joint_of, single=single,
-                             local_of=local_of, fresh=fresh, jname=jname, left_out=left_out,
-                             qref=m.qpos0, ctrl=np.zeros(m.nu))
-    elements.add_joint_features()
-    elements.add_actuators()
-    elements.add_tendons()
+    elements.add_tendons()              # fixed tendons held by tendon equalities
     # loop closures must hold at qpos0, or they would be assembled differently
     _check_equalities_hold(mujoco, m, d, left_out)
     return builder, groups, left_out, notes

@@ -303,9 +303,7 @@ class JointElements:
         t, t2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
         if t2 >= 0:
             return "between two tendons"
-        poly = np.asarray(m.eq_data[e][:5], dtype=float)
-        if np.any(poly[1:] != 0):
-            return "polycoef of higher order with one tendon"
+        poly = np.asarray(m.eq_data[e][:5], dtype=float)   # one tendon: only a0 acts
         adr, num = int(m.tendon_adr[t]), int(m.tendon_num[t])
         if num != 2 or any(int(m.wrap_type[w]) != int(self.mujoco.mjtWrap.mjWRAP_JOINT)
                            for w in range(adr, adr + num)):
