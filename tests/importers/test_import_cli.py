@@ -246,3 +246,23 @@ def test_sidecar_is_a_plain_numpy_archive(arm, tmp_path):
     with np.load(tmp_path / "arm.meshes.npz") as archive:
         assert archive["tetra.vertices"].dtype == np.float32       # MuJoCo's own numbers
         assert archive["tetra.faces"].dtype == np.int32
+
+
+def test_keyframe_option_starts_from_the_keyframe(tmp_path, capsys):
+    xml = tmp_path / "swing.xml"
+    xml.write_text("""<mujoco><worldbody><body name="arm"><joint name="h" type="hinge"
+        axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"
+        contype="0" conaffinity="0"/></body></worldbody>
+      <actuator><motor name="m" joint="h"/></actuator>
+      <keyframe><key name="kick" qpos="0.5" qvel="2" ctrl="0.3"/></keyframe></mujoco>""")
+    out = tmp_path / "swing.yaml"
+    assert main(["import", str(xml), "--keyframe", "kick", "-q", "-o", str(out)]) == 0
+    builder = load_builder(out)[0]
+    arm = builder.bodies["arm"]
+    assert np.linalg.norm(arm.omega) == pytest.approx(2.0)            # qvel about the hinge
+    assert arm.r[2] == pytest.approx(-0.15 * np.sin(0.5))               # rotated by qpos 0.5
+    assert builder.forces["m"].params["command"] == 0.3
+    assert main(["import", str(xml), "-q", "-o", str(out)]) == 0      # default: qpos0, at rest
+    assert np.linalg.norm(load_builder(out)[0].bodies["arm"].omega) == 0
+    assert main(["run", str(xml), "--keyframe", "nope", "--t-end", "0.01", "-q"]) == 2
+    assert "keyframe 'nope'" in capsys.readouterr().err

@@ -20,6 +20,7 @@ mujoco = pytest.importorskip("mujoco")
 
 from test_real_robots import ROBOTS, assets  # noqa: E402,F401 (the wheel's fixture)
 
+from spatialmbd.errors import ModelError  # noqa: E402
 from spatialmbd.importers import read_mjcf  # noqa: E402
 from spatialmbd.simulate import simulate  # noqa: E402
 
@@ -73,16 +74,18 @@ LEG = """<mujoco model="leg"><compiler angle="radian" autolimits="true"/>
 </mujoco>"""
 
 
-def mujoco_run(m, t_end, times, ctrl=None, armature_zero=True, h=H):
+def mujoco_run(m, t_end, times, ctrl=None, armature_zero=True, h=H, key=None):
     """MuJoCo RK4 at step h: body centres of mass (len(times), nbody, 3) at ``times``
     (multiples of h); ctrl(t) -> (nu,) commands, evaluated at the middle of each step (the
     reference of a step's RK4 stages, second order as ours). Armature set to 0 (ours has
-    none)."""
+    none). key: the name of a keyframe to start from."""
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     m.opt.timestep = h
     if armature_zero:
         m.dof_armature[:] = 0.0
     d = mujoco.MjData(m)
+    if key is not None:
+        mujoco.mj_resetDataKeyframe(m, d, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, key))
     mujoco.mj_forward(m, d)
     marks = {int(round(t / h)): k for k, t in enumerate(times)}
     out = np.zeros((len(times), m.nbody, 3))
@@ -98,14 +101,14 @@ def mujoco_run(m, t_end, times, ctrl=None, armature_zero=True, h=H):
     return out
 
 
-def compare(imported, t_end, ctrl=None, n_out=50, h=H):
+def compare(imported, t_end, ctrl=None, n_out=50, h=H, key=None):
     """(largest |centre of mass difference| (m), the motion's size (m), results); MuJoCo at
     step h."""
     model = imported.builder.compile()
     t = np.linspace(0.0, t_end, n_out + 1)
     res = simulate(model, t_end, t_eval=t, integrator="rk45", rtol=1e-10, atol=1e-12)
     assert res.status == "success", res.message
-    X = mujoco_run(imported.mj_model, t_end, t, ctrl, h=h)
+    X = mujoco_run(imported.mj_model, t_end, t, ctrl, h=h, key=key)
     m = imported.mj_model
     err, size = 0.0, 0.0
     for k, ids in enumerate(imported.groups.values()):
@@ -149,6 +152,27 @@ def test_arm_with_servos_tracking_matches_mujoco():
     assert size > 0.2
     assert not limit_active(res, imported)
     assert err < 1e-6, err
+
+
+def test_arm_from_a_keyframe_matches_mujoco():
+    # the keyframe's qpos is the assembly, its qvel the initial velocities, its ctrl the
+    # servos' references (held), all measured by MuJoCo from qpos0; a second keyframe is noted
+    xml = ARM.replace("</mujoco>", '<keyframe><key name="swing" qpos="0.4 -0.7 1.1" '
+                      'qvel="1.5 -2 0.5" ctrl="0.9 -0.2 0.6"/><key name="rest"/></keyframe>'
+                      "</mujoco>")
+    imported = read_mjcf(xml, keyframe="swing")
+    assert [(x.kind, x.element) for x in imported.left_out] == [("keyframe", "rest")]
+    limit = imported.builder.forces["j2_limit"].params
+    assert (limit["lower"], limit["upper"]) == pytest.approx((-2.5 + 0.7, 2.5 + 0.7))
+    servo = imported.builder.forces["s1"]      # about qpos 0.4: general with b0 = -kp 0.4
+    assert servo.type == "general" and servo.params["command"] == 0.9
+    assert servo.params["bias"] == pytest.approx([-60 * 0.4, -60, -4])
+    err, size, res = compare(imported, 1.0, key="swing")
+    assert size > 0.2
+    assert not limit_active(res, imported)
+    assert err < 1e-6, err
+    with pytest.raises(ModelError, match=r"keyframe 'nope'.*keyframes: swing, rest"):
+        read_mjcf(xml, keyframe="nope")
 
 
 def test_legged_chain_with_slides_matches_mujoco():

@@ -116,19 +116,21 @@ def _check_ranges(builder) -> None:
 
 
 def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
-              name: Optional[str] = None) -> MJCFImport:
+              name: Optional[str] = None, keyframe: Optional[str] = None) -> MJCFImport:
     """Compile an MJCF or URDF file (or XML text) with MuJoCo and build the spatialmbd model.
 
     source: path of a .xml (MJCF) or .urdf file, or the XML text. strict: raise a ModelError
     naming every feature with no exact counterpart (True), or leave them out, listed in
     ``left_out`` and counted in one MJCFImportWarning (False, the default). name: the model name
-    (default: the file name). Every failure (of the file, of MuJoCo's compiler, of the
+    (default: the file name). keyframe: the name of a keyframe to start from (its qpos is the
+    assembled configuration, its qvel the initial velocities, its ctrl the actuators'
+    commands); default: qpos0 at rest, commands 0. Every failure (of the file, of MuJoCo's compiler, of the
     reader's checks on the result) is a ModelError.
     """
     mujoco = mujoco_module()
     m, stem, text = compile_model(source)
-    d = run_forward(mujoco, m)               # qpos = qpos0: the reference configuration
-    builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name)
+    d = run_forward(mujoco, m, keyframe)     # qpos0, or the keyframe's qpos, qvel and ctrl
+    builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name, keyframe)
     unsupported = [item for item in left_out if item.unsupported]
     if strict and unsupported:
         raise ModelError("MJCF/URDF features with no exact counterpart in spatialmbd: "
@@ -144,6 +146,7 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
                       mj_model=m)
 
 
-def import_mjcf(source, *, strict: bool = False, name: Optional[str] = None) -> ModelBuilder:
+def import_mjcf(source, *, strict: bool = False, name: Optional[str] = None,
+                keyframe: Optional[str] = None) -> ModelBuilder:
     """The ModelBuilder of an MJCF/URDF file (see :func:`read_mjcf`)."""
-    return read_mjcf(source, strict=strict, name=name).builder
+    return read_mjcf(source, strict=strict, name=name, keyframe=keyframe).builder

@@ -216,6 +216,11 @@ class JointElements:
         isotropic rotational stiffness exactly (J_l^-T theta = theta); its damper -c w_rel is
         the viscous joint_friction on the rotation, exactly."""
         spec = self.builder.joints[ours]
+        adr = int(self.m.jnt_qposadr[j])
+        if k != 0 and np.abs(self.qref[adr:adr + 4] - self.m.qpos_spring[adr:adr + 4]).max() > 0:
+            self.leave("joint spring", jn, "ball joint spring: its reference (qpos0) is not "
+                       "the assembled configuration (the keyframe's)")
+            k = 0.0
         if np.ptp(dampings) != 0:
             self.leave("joint spring", jn, f"ball joint with unequal dampings "
                        f"{dampings.tolist()} (only an isotropic damper maps)")
