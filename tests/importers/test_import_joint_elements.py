@@ -189,3 +189,16 @@ def test_actuators_that_do_not_map_are_left_out_with_the_reason():
     assert imported.builder.forces["plain"].params == {"joint": "h", "coordinate": "angle",
                                                         "gear": 3.0}
     assert math.isfinite(imported.builder.compile().nb)
+
+
+def test_degenerate_limit_and_joint_force_clamp_are_left_out_once():
+    # a margin that closes the range leaves the limit out with the stop's own error; a
+    # joint's actuatorfrcrange (the clamp of its actuators' sum) is reported once
+    imported = read_mjcf(pendulum('range="0 1" margin="0.5" actuatorfrcrange="-1 1"',
+                                  '<actuator><motor name="a" joint="h"/>'
+                                  '<motor name="b" joint="h"/></actuator>'))
+    items = {(x.kind, x.element): x.detail for x in imported.left_out}
+    assert "must be less than upper" in items[("joint limit", "h")]
+    assert list(items).count(("actuator force range", "h")) == 1
+    assert [x.kind for x in imported.left_out].count("actuator force range") == 1
+    assert sorted(imported.builder.forces) == ["a", "b"]

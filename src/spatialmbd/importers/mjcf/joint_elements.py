@@ -16,6 +16,7 @@ the load a0 scaled by (1 - d).
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -149,9 +150,12 @@ class JointElements:
             return
         stiffness, damping = soft_spring(self.mujoco, m, m.jnt_solref[j], m.jnt_solimp[j],
                                          self._inertia(j))
-        self.builder.add_force("joint_limit", self.fresh(f"{jn}_limit"), joint=ours,
-                               lower=lower, upper=upper, law="linear", stiffness=stiffness,
-                               damping=damping)
+        try:
+            self.builder.add_force("joint_limit", self.fresh(f"{jn}_limit"), joint=ours,
+                                   lower=lower, upper=upper, law="linear",
+                                   stiffness=stiffness, damping=damping)
+        except ModelError as exc:          # e.g. a range of zero width (margins included)
+            self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: {exc}")
 
     def _friction(self, j) -> None:
         m, jn = self.m, self.jname(j)
@@ -242,6 +246,7 @@ class JointElements:
         its constant command ctrl (0 unless a keyframe gives one)."""
         m, OBJ = self.m, self.mujoco.mjtObj
         off = _disabled(self.mujoco, m, "mjDSBL_ACTUATION")
+        clamped = set()
         for u in range(m.nu):
             name = self.mujoco.mj_id2name(m, OBJ.mjOBJ_ACTUATOR, u) or f"actuator{u}"
             if off:
@@ -266,7 +271,8 @@ class JointElements:
             if self.ctrl[u] != 0:
                 spec[key] = float(self.ctrl[u])
             self.builder.add_force(kind, self.fresh(re_name(name)), **spec)
-            if joint is not None and m.jnt_actfrclimited[j]:
+            if joint is not None and m.jnt_actfrclimited[j] and j not in clamped:
+                clamped.add(j)
                 lo, hi = (float(x) for x in m.jnt_actfrcrange[j])
                 self.leave("actuator force range", self.jname(j),
                            f"the joint's actuatorfrcrange {lo:.6g} .. {hi:.6g} (the sum of "
@@ -331,5 +337,4 @@ class JointElements:
 
 def re_name(name: str) -> str:
     """An MJCF name as ours (``.`` and spaces -> ``_``)."""
-    import re
     return re.sub(r"[.\s]", "_", name)
