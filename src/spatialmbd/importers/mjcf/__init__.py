@@ -29,7 +29,8 @@ detail) in ``MJCFImport.left_out``, with one :class:`MJCFImportWarning` that cou
 (``left out: 6 armature values, 5 joint limits, 9 colliding geoms``). ``strict=True`` instead
 raises a ModelError naming every left-out feature with no counterpart (armature, tendons,
 actuators with dynamics, ...); joint limits, collisions and keyframes act only when reached,
-touching or chosen, and are never an error. The default is ``strict=False``, as in ``spatialmbd import``.
+touching or chosen, and are never an error. The default is ``strict=False``, as in
+``spatialmbd import``.
 
 The imported values are checked with the model-file reader's range rules (a mass or position
 of 1e300 is refused here, not after the file is written).
@@ -124,8 +125,8 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
     ``left_out`` and counted in one MJCFImportWarning (False, the default). name: the model name
     (default: the file name). keyframe: the name of a keyframe to start from (its qpos is the
     assembled configuration, its qvel the initial velocities, its ctrl the actuators'
-    commands); default: qpos0 at rest, commands 0. Every failure (of the file, of MuJoCo's compiler, of the
-    reader's checks on the result) is a ModelError.
+    commands); default: qpos0 at rest, commands 0. Every failure (of the file, of MuJoCo's
+    compiler, of the reader's checks on the result) is a ModelError.
     """
     mujoco = mujoco_module()
     m, stem, text = compile_model(source)

@@ -25,8 +25,9 @@ KINDS = {
 }
 #: kinds with no exact counterpart (an error with strict=True); the others (limits,
 #: collisions, keyframes) act only when reached, touching or chosen, and are never an error
-UNSUPPORTED_KINDS = ("actuator", "actuator force range", "tendon", "contact pair", "flex", "armature", "frictionloss",
-                     "joint spring", "joint combination", "equality")
+UNSUPPORTED_KINDS = ("actuator", "actuator force range", "tendon", "contact pair", "flex",
+                     "armature", "frictionloss", "joint spring", "joint combination",
+                     "equality")
 
 
 @dataclass(frozen=True)
