@@ -34,7 +34,7 @@ ARM = """<mujoco model="arm"><compiler angle="radian" meshdir="."/>
     <default class="collision"><geom group="3"/></default></default>
   <worldbody>
     <body name="upper"><joint name="shoulder" type="hinge" axis="0 1 0" armature="0.1"
-        limited="true" range="-1 1" frictionloss="0.2"/>
+        limited="true" range="-7 7" frictionloss="0.2"/>
       <geom class="visual" type="mesh" mesh="tetra" material="red"/>
       <geom class="collision" type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
       <body name="lower" pos="0.3 0 0"><joint name="elbow" type="hinge" axis="0 1 0"
@@ -42,8 +42,9 @@ ARM = """<mujoco model="arm"><compiler angle="radian" meshdir="."/>
         <geom class="visual" type="mesh" mesh="tetra" rgba="0 0 1 1"/>
         <geom class="collision" type="box" pos="0.1 0 0" size="0.1 0.02 0.02"/>
       </body></body></worldbody>
-  <actuator><motor name="m1" joint="shoulder"/><position name="m2" joint="elbow" kp="10"/>
-  </actuator></mujoco>"""
+  <tendon><fixed name="tl"><joint joint="elbow" coef="1"/></fixed></tendon>
+  <actuator><motor name="m1" tendon="tl"/>
+    <general name="m2" joint="elbow" dyntype="filter" dynprm="0.1"/></actuator></mujoco>"""
 
 
 @pytest.fixture
@@ -59,14 +60,14 @@ def test_import_succeeds_by_default_with_a_short_summary(arm, tmp_path, capsys):
     out = tmp_path / "arm.yaml"
     assert main(["import", str(arm), "-o", str(out)]) == 0
     err = capsys.readouterr().err
-    summary = ("left out of arm.xml: 2 actuators, 1 armature value, 1 friction loss value, "
-               "2 joint limits, 2 colliding geoms")
+    summary = ("left out of arm.xml: 2 actuators, 1 tendon, 1 armature value, 1 joint limit, "
+               "2 colliding geoms")
     assert summary in err, err
     assert len(err.splitlines()) == 1 and "'m1'" not in err        # counts, not names
     assert main(["import", str(arm), "-o", str(out), "--verbose"]) == 0
     err = capsys.readouterr().err
     for line in ("actuator 'm1'", "actuator 'm2'", "armature value 'shoulder' (0.1 kg m^2)",
-                 "joint limit 'elbow' (range -2 .. 2)", "friction loss value 'shoulder'"):
+                 "joint limit 'shoulder' (range -7 .. 7 rad is a turn or more", "tendon 'tl'"):
         assert line in err, (line, err)
     assert main(["import", str(arm), "-o", str(out), "--lenient", "-q"]) == 0  # accepted
     assert capsys.readouterr().err == ""
@@ -78,7 +79,7 @@ def test_strict_refuses_with_exit_status_2(arm, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "actuator 'm1'" in err and "armature value 'shoulder'" in err
     assert "Traceback" not in err and not out.exists()
-    with pytest.raises(ModelError, match="friction loss value 'shoulder'"):
+    with pytest.raises(ModelError, match="tendon 'tl'"):
         read_mjcf(arm, strict=True)
 
 
@@ -86,11 +87,15 @@ def test_left_out_is_structured(arm):
     with pytest.warns(UserWarning, match="left out: 2 actuators"):
         imported = read_mjcf(arm)
     kinds = [x.kind for x in imported.left_out]
-    assert kinds.count("actuator") == 2 and kinds.count("joint limit") == 2
+    assert kinds.count("actuator") == 2 and kinds.count("joint limit") == 1
     limit = next(x for x in imported.left_out if x.element == "shoulder" and
                  x.kind == "joint limit")
-    assert limit.detail == "range -1 .. 1" and not limit.unsupported
-    assert imported.summary.startswith("2 actuators, 1 armature value")
+    assert limit.detail.startswith("range -7 .. 7 rad") and not limit.unsupported
+    assert imported.summary.startswith("2 actuators, 1 tendon, 1 armature value")
+    # what maps is imported: the elbow's limit, the shoulder's friction loss
+    forces = imported.builder.forces
+    assert forces["elbow_limit"].type == "joint_limit"
+    assert forces["shoulder_friction"].params["frictionloss"] == 0.2
 
 
 # ------------------------------------------------------------------------------ sidecar
@@ -177,7 +182,7 @@ def test_run_info_plot_animate_accept_mjcf(arm, tmp_path, capsys):
     assert "actuator 'm1'" in capsys.readouterr().err
     assert main(["info", str(arm), "--verbose"]) == 0
     captured = capsys.readouterr()
-    assert "upper" in captured.out and "joint limit 'elbow'" in captured.err
+    assert "upper" in captured.out and "joint limit 'shoulder'" in captured.err
     png = tmp_path / "arm.png"
     assert main(["plot", str(arm), "--t-end", "0.05", "-y", "upper.z", "-o", str(png),
                  "--quiet"]) == 0
@@ -241,3 +246,23 @@ def test_sidecar_is_a_plain_numpy_archive(arm, tmp_path):
     with np.load(tmp_path / "arm.meshes.npz") as archive:
         assert archive["tetra.vertices"].dtype == np.float32       # MuJoCo's own numbers
         assert archive["tetra.faces"].dtype == np.int32
+
+
+def test_keyframe_option_starts_from_the_keyframe(tmp_path, capsys):
+    xml = tmp_path / "swing.xml"
+    xml.write_text("""<mujoco><worldbody><body name="arm"><joint name="h" type="hinge"
+        axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"
+        contype="0" conaffinity="0"/></body></worldbody>
+      <actuator><motor name="m" joint="h"/></actuator>
+      <keyframe><key name="kick" qpos="0.5" qvel="2" ctrl="0.3"/></keyframe></mujoco>""")
+    out = tmp_path / "swing.yaml"
+    assert main(["import", str(xml), "--keyframe", "kick", "-q", "-o", str(out)]) == 0
+    builder = load_builder(out)[0]
+    arm = builder.bodies["arm"]
+    assert np.linalg.norm(arm.omega) == pytest.approx(2.0)            # qvel about the hinge
+    assert arm.r[2] == pytest.approx(-0.15 * np.sin(0.5))               # rotated by qpos 0.5
+    assert builder.forces["m"].params["command"] == 0.3
+    assert main(["import", str(xml), "-q", "-o", str(out)]) == 0      # default: qpos0, at rest
+    assert np.linalg.norm(load_builder(out)[0].bodies["arm"].omega) == 0
+    assert main(["run", str(xml), "--keyframe", "nope", "--t-end", "0.01", "-q"]) == 2
+    assert "keyframe 'nope'" in capsys.readouterr().err

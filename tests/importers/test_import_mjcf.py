@@ -189,7 +189,7 @@ BAD = """<mujoco><worldbody>
       <geom name="gb" type="box" size=".1 .1 .1"/><site name="sb"/></body></body>
   </worldbody>
   <tendon><spatial name="cable" stiffness="10"><site site="sa"/><site site="sb"/></spatial></tendon>
-  <actuator><motor name="motor_a" joint="ja"/></actuator>
+  <actuator><motor name="motor_a" tendon="cable"/></actuator>
   <equality><joint name="couple" joint1="ja" joint2="jb" polycoef="0 1 0.5 0 0"/></equality>
   <contact><pair name="touch" geom1="ga" geom2="gb"/></contact>
 </mujoco>"""
@@ -207,13 +207,14 @@ def test_unsupported_features_are_named():
         imported = read_mjcf(BAD)                                      # the default
     messages = " ".join(str(w.message) for w in record)
     assert ("left out: 1 actuator, 1 tendon, 1 contact pair, 1 armature value, 1 equality "
-            "constraint, 1 joint limit, 2 colliding geoms") in messages, messages
+            "constraint, 2 colliding geoms") in messages, messages
     kinds = {(x.kind, x.element) for x in imported.left_out}
-    assert {("tendon", "cable"), ("actuator", "motor_a"), ("joint limit", "ja"),
+    assert {("tendon", "cable"), ("actuator", "motor_a"),
             ("colliding geom", "ga"), ("colliding geom", "gb"), ("equality", "couple"),
             ("contact pair", "touch"), ("armature", "ja")} == kinds
     assert "polycoef" in next(x.detail for x in imported.left_out if x.kind == "equality")
     assert list(imported.builder.joints) == ["ja", "jb"]
+    assert imported.builder.forces["ja_limit"].type == "joint_limit"     # imported now
 
 
 def test_hinge_spring_damper_imported_exactly():

@@ -67,7 +67,8 @@ def import_options(args, path) -> dict:
         return {}
     return dict(strict=bool(getattr(args, "strict", False)),
                 verbose=bool(getattr(args, "verbose", False)),
-                quiet=bool(getattr(args, "quiet", False)))
+                quiet=bool(getattr(args, "quiet", False)),
+                keyframe=getattr(args, "keyframe", None))
 
 
 def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True) -> None:
@@ -75,21 +76,26 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
     g = parser.add_argument_group("MJCF/URDF import" + (" (when the input is a .xml or .urdf "
                                                         "file)" if model_files else ""))
     g.add_argument("--strict", action="store_true",
-                   help="refuse features with no exact counterpart (actuators, tendons, "
-                        "armature, friction loss, ...) instead of leaving them out")
+                   help="refuse features with no counterpart (armature, tendons, actuators "
+                        "with dynamics, ...) instead of leaving them out")
     g.add_argument("--verbose", action="store_true",
                    help="list every feature left out, not only their counts")
+    g.add_argument("--keyframe", metavar="NAME",
+                   help="start from the file's keyframe NAME (its qpos, qvel and ctrl) "
+                        "instead of qpos0 at rest")
     g.add_argument("--lenient", action="store_true", help=argparse.SUPPRESS)   # the default
 
 
-def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool = False):
-    """ModelBuilder of an MJCF/URDF file. What is left out is summarised on stderr in one
-    line (counts per kind; every feature with ``verbose``); ``strict``: refused instead."""
+def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool = False,
+                keyframe=None):
+    """ModelBuilder of an MJCF/URDF file (from its keyframe ``keyframe`` if given). What is
+    left out is summarised on stderr in one line (counts per kind; every feature with
+    ``verbose``); ``strict``: refused instead."""
     from ..importers import read_mjcf
     from ..importers.mjcf.report import details
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        imported = read_mjcf(path, strict=strict)
+        imported = read_mjcf(path, strict=strict, keyframe=keyframe)
     if imported.left_out and not (quiet and not verbose):
         err(f"note: left out of {pathlib.Path(path).name}: {imported.summary}"
             + ("" if verbose else " (--verbose lists them; --strict refuses those with no "

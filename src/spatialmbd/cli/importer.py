@@ -18,7 +18,7 @@ def cmd_import(args) -> int:
         raise common.UsageError(f"output file {str(out)!r}: directory {str(out.parent)!r} "
                                 "does not exist")
     builder = common.import_file(src, strict=args.strict, verbose=args.verbose,
-                                 quiet=args.quiet)
+                                 quiet=args.quiet, keyframe=args.keyframe)
     from ..io.modelfile import save_model
     from ..io.sidecar import sidecar_path
     sidecar = sidecar_path(out)

@@ -16,17 +16,21 @@ model and builds the equivalent :class:`~spatialmbd.model.builder.ModelBuilder` 
   body).  Several joints in one body map when they form a joint of ours exactly: two hinges
   through one point with perpendicular axes -> universal, three or more hinges through one point
   spanning space -> spherical, hinge + slide on one axis -> cylindrical.
-  Hinge stiffness / damping -> a rotational_spring_damper (exact: tau = -k (q - q_spring) - c qdot).
+* what acts on the joints (:mod:`.joint_elements`): hinge, slide and ball springs and dampers
+  (exact), limits -> joint_limit and friction loss -> joint_friction (MuJoCo's soft constraints
+  mapped through solref/solimp), motor/position/velocity/general actuators (exact, command 0),
+  fixed two-joint tendons held by a tendon equality -> couplers.
 * equality constraints: connect -> spherical, weld -> fixed (both exact: MuJoCo's soft loop
   closure becomes a rigid one); joint equalities a0 + a1 x -> couplers.
 * gravity: ``opt.gravity`` (zero when gravity is disabled).
 
 What has no counterpart is left out and listed (:class:`.report.LeftOut`: kind, element,
 detail) in ``MJCFImport.left_out``, with one :class:`MJCFImportWarning` that counts them per kind
-(``left out: 7 actuators, 6 joint limits, 23 colliding geoms``). ``strict=True`` instead raises
-a ModelError naming every feature with no exact counterpart (actuators, tendons, armature,
-friction loss, ...); joint limits, collisions and keyframes act only when reached, touching or
-chosen, and are never an error. The default is ``strict=False``, as in ``spatialmbd import``.
+(``left out: 6 armature values, 5 joint limits, 9 colliding geoms``). ``strict=True`` instead
+raises a ModelError naming every left-out feature with no counterpart (armature, tendons,
+actuators with dynamics, ...); joint limits, collisions and keyframes act only when reached,
+touching or chosen, and are never an error. The default is ``strict=False``, as in
+``spatialmbd import``.
 
 The imported values are checked with the model-file reader's range rules (a mass or position
 of 1e300 is refused here, not after the file is written).
@@ -113,19 +117,21 @@ def _check_ranges(builder) -> None:
 
 
 def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
-              name: Optional[str] = None) -> MJCFImport:
+              name: Optional[str] = None, keyframe: Optional[str] = None) -> MJCFImport:
     """Compile an MJCF or URDF file (or XML text) with MuJoCo and build the spatialmbd model.
 
     source: path of a .xml (MJCF) or .urdf file, or the XML text. strict: raise a ModelError
     naming every feature with no exact counterpart (True), or leave them out, listed in
     ``left_out`` and counted in one MJCFImportWarning (False, the default). name: the model name
-    (default: the file name). Every failure (of the file, of MuJoCo's compiler, of the
-    reader's checks on the result) is a ModelError.
+    (default: the file name). keyframe: the name of a keyframe to start from (its qpos is the
+    assembled configuration, its qvel the initial velocities, its ctrl the actuators'
+    commands); default: qpos0 at rest, commands 0. Every failure (of the file, of MuJoCo's
+    compiler, of the reader's checks on the result) is a ModelError.
     """
     mujoco = mujoco_module()
     m, stem, text = compile_model(source)
-    d = run_forward(mujoco, m)               # qpos = qpos0: the reference configuration
-    builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name)
+    d = run_forward(mujoco, m, keyframe)     # qpos0, or the keyframe's qpos, qvel and ctrl
+    builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name, keyframe)
     unsupported = [item for item in left_out if item.unsupported]
     if strict and unsupported:
         raise ModelError("MJCF/URDF features with no exact counterpart in spatialmbd: "
@@ -141,6 +147,7 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
                       mj_model=m)
 
 
-def import_mjcf(source, *, strict: bool = False, name: Optional[str] = None) -> ModelBuilder:
+def import_mjcf(source, *, strict: bool = False, name: Optional[str] = None,
+                keyframe: Optional[str] = None) -> ModelBuilder:
     """The ModelBuilder of an MJCF/URDF file (see :func:`read_mjcf`)."""
-    return read_mjcf(source, strict=strict, name=name).builder
+    return read_mjcf(source, strict=strict, name=name, keyframe=keyframe).builder

@@ -9,6 +9,7 @@ import numpy as np
 from ...errors import ModelError
 from ...model.builder import ModelBuilder
 from .geoms import GeomShapes, clean, role
+from .joint_elements import JointElements
 from .report import LeftOut
 
 
@@ -29,15 +30,11 @@ def urdf_links_without_inertial(text) -> set:
     return {link.get("name") for link in root.iter("link") if link.find("inertial") is None}
 
 
-def left_out_features(mujoco, m, body_name, jname) -> list:
-    """The features of the compiled model that the import leaves out (LeftOut items)."""
+def left_out_features(mujoco, m, body_name, jname, keyframe=None) -> list:
+    """The features of the compiled model that the import leaves out (LeftOut items) besides
+    those of :mod:`.joint_elements` (limits, friction loss, springs, actuators, tendons)."""
     OBJ, J = mujoco.mjtObj, mujoco.mjtJoint
     out = []
-    for t in range(m.ntendon):
-        out.append(LeftOut("tendon", _name(mujoco, m, OBJ.mjOBJ_TENDON, t, f"tendon{t}")))
-    for u in range(m.nu):
-        out.append(LeftOut("actuator", _name(mujoco, m, OBJ.mjOBJ_ACTUATOR, u, f"actuator{u}"),
-                           "actuator dynamics and forces"))
     for p in range(m.npair):
         out.append(LeftOut("contact pair", _name(mujoco, m, OBJ.mjOBJ_PAIR, p, f"pair{p}"),
                            "no contact here yet"))
@@ -50,21 +47,13 @@ def left_out_features(mujoco, m, body_name, jname) -> list:
         if np.any(m.dof_armature[dofs] != 0):
             out.append(LeftOut("armature", jname(j),
                                f"{float(np.max(m.dof_armature[dofs])):.6g} kg m^2"))
-        if np.any(m.dof_frictionloss[dofs] != 0):
-            out.append(LeftOut("frictionloss", jname(j),
-                               f"{float(np.max(m.dof_frictionloss[dofs])):.6g}"))
-        if m.jnt_limited[j]:
-            lo, hi = (float(x) for x in m.jnt_range[j])
-            out.append(LeftOut("joint limit", jname(j), f"range {lo:.6g} .. {hi:.6g}"))
-        springy = m.jnt_stiffness[j] != 0 or np.any(m.dof_damping[dofs] != 0)
-        if springy and int(m.jnt_type[j]) != int(J.mjJNT_HINGE):
-            out.append(LeftOut("joint spring", jname(j),
-                               f"{J(int(m.jnt_type[j])).name[6:].lower()} joint: only hinge "
-                               "springs map exactly"))
     for k in range(m.nkey):
+        if keyframe is not None and mujoco.mj_id2name(m, OBJ.mjOBJ_KEY, k) == keyframe:
+            continue                                      # the one the model starts from
         out.append(LeftOut("keyframe", _name(mujoco, m, OBJ.mjOBJ_KEY, k, f"key{k}"),
+                           f"the model starts from {keyframe!r}" if keyframe is not None else
                            "the model starts from qpos0 (MuJoCo's reference configuration), "
-                           "at rest"))
+                           "at rest (CLI: --keyframe NAME)"))
     if not m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
         for g in range(m.ngeom):
             if role(m, g) == "collision" and m.body_weldid[m.geom_bodyid[g]] != 0:
@@ -75,8 +64,10 @@ def left_out_features(mujoco, m, body_name, jname) -> list:
     return out
 
 
-def build(mujoco, m, d, stem, text, name=None) -> tuple:
-    """(builder, groups, left_out (LeftOut list), notes (strings)) of the compiled model."""
+def build(mujoco, m, d, stem, text, name=None, keyframe=None) -> tuple:
+    """(builder, groups, left_out (LeftOut list), notes (strings)) of the compiled model in
+    the configuration and with the velocities and commands of ``d`` (qpos0 at rest, or a
+    keyframe's)."""
     OBJ, J, EQ = mujoco.mjtObj, mujoco.mjtJoint, mujoco.mjtEq
     body_name = {}
     used = {"ground", "world"}
@@ -97,7 +88,7 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
         used.add(name)
         return name
 
-    left_out = left_out_features(mujoco, m, body_name, jname)
+    left_out = left_out_features(mujoco, m, body_name, jname, keyframe)
     notes = []
     # URDF links without <inertial>: MuJoCo fills their mass from the geoms at its default
     # density (1000 kg/m^3), an assumption the file does not make -- say so
@@ -157,8 +148,14 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
             if m.site_bodyid[s] in ids:
                 points[_name(mujoco, m, OBJ.mjOBJ_SITE, s, f"site{s}")] = clean(
                     R.T @ (np.asarray(d.site_xpos[s]) - c))
+        # the group's velocity (a keyframe's qvel): MuJoCo's (omega, v) at the root body's
+        # centre of mass (mjOBJ_BODY: at xipos, world axes), moved to the group's
+        motion = np.zeros(6)
+        mujoco.mj_objectVelocity(m, d, OBJ.mjOBJ_BODY, r, motion, 0)
+        omega = clean(motion[:3])
+        rdot = clean(motion[3:] + np.cross(motion[:3], c - np.asarray(d.xipos[r])))
         builder.add_body(body_name[r], total, inertia, r=c.tolist(), A=R, points=points,
-                         shapes=shapes)
+                         shapes=shapes, rdot=rdot, omega=omega)
         groups[body_name[r]] = list(ids)
     for g in geoms_of.get(0, []):
         if geoms.visible(g):
@@ -171,6 +168,7 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
 
     # ----------------------------------------------------------------- joints
     single = {}                           # MuJoCo joint id -> our joint (one hinge or slide)
+    joint_of = {}                         # MuJoCo joint id -> (our joint, its type)
     for r in roots:
         jids = [j for b in members[r] for j in range(m.body_jntadr[b],
                                                      m.body_jntadr[b] + m.body_jntnum[b])
@@ -219,15 +217,24 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
                                     f"joints {names} of body {child!r}: this combination has "
                                     "no single joint type here"))
             continue
-        for j, jn, t in zip(jids, names, types):
-            k, c = float(m.jnt_stiffness[j]), float(m.dof_damping[m.jnt_dofadr[j]])
-            if t == int(J.mjJNT_HINGE) and len(jids) == 1 and (k != 0 or c != 0):
-                q0 = float(m.qpos0[m.jnt_qposadr[j]])
-                rest = float(m.qpos_spring[m.jnt_qposadr[j]]) - q0
-                builder.add_force("rotational_spring_damper", fresh(f"{jn}_spring"),
-                                  joint=joint_name, stiffness=k, damping=c, rest_angle=rest)
-            elif t == int(J.mjJNT_HINGE) and (k != 0 or c != 0):
-                left_out.append(LeftOut("joint spring", jn, "part of a combined joint"))
+        for j in jids:
+            joint_of[j] = (joint_name, builder.joints[joint_name].type)
+
+    # ----------------------------------------------------------------- joint elements
+    # limits, friction loss, springs and dampers, actuators (fixed tendons: after equalities)
+    by_name = {body_name[r]: r for r in roots}
+
+    def local_of(body, x_world):
+        if body == "ground":
+            return np.asarray(x_world, dtype=float).tolist()
+        c, R = frames[by_name[body]]
+        return clean(R.T @ (np.asarray(x_world, dtype=float) - c))
+
+    elements = JointElements(mujoco, m, d, builder, joint_of=joint_of, single=single,
+                             local_of=local_of, fresh=fresh, jname=jname, left_out=left_out,
+                             qref=d.qpos, ctrl=d.ctrl)
+    elements.add_joint_features()
+    elements.add_actuators()
 
     # ----------------------------------------------------------------- equality constraints
     def local(b, x_world):
@@ -239,8 +246,10 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
         ename = _name(mujoco, m, OBJ.mjOBJ_EQUALITY, e, f"equality{e}")
         etype = int(m.eq_type[e])
         if etype == int(EQ.mjEQ_JOINT) and m.eq_active0[e]:
-            _joint_equality(m, e, ename, single, builder, fresh, left_out)
+            _joint_equality(m, e, ename, single, builder, fresh, left_out, d.qpos)
             continue
+        if etype == int(EQ.mjEQ_TENDON):
+            continue                      # JointElements.add_tendons
         if etype not in (int(EQ.mjEQ_CONNECT), int(EQ.mjEQ_WELD)):
             left_out.append(LeftOut("equality", ename, f"{EQ(etype).name[5:].lower()} "
                                     "equality: no exact coupling constraint here"))
@@ -273,15 +282,17 @@ def build(mujoco, m, d, stem, text, name=None) -> tuple:
             # check below makes sure it is)
             geometry = {"point": np.asarray(x1, dtype=float).tolist()}
         builder.add_joint(kind, fresh(ename), bi, bj, **geometry)
+    elements.add_tendons()              # fixed tendons held by tendon equalities
     # loop closures must hold at qpos0, or they would be assembled differently
     _check_equalities_hold(mujoco, m, d, left_out)
     return builder, groups, left_out, notes
 
 
-def _joint_equality(m, e, ename, single, builder, fresh, left_out) -> None:
+def _joint_equality(m, e, ename, single, builder, fresh, left_out, qref) -> None:
     """MJCF <equality><joint joint1 joint2 polycoef="a0 a1 0 0 0">: MuJoCo's
-    q1 - q1_ref = a0 + a1 (q2 - q2_ref), exactly our coupler q1 - a1 q2 = a0 (joint coordinates
-    measured from the reference configuration, which is ours as assembled)."""
+    q1 - q1_0 = a0 + a1 (q2 - q2_0) (q_0: qpos0), exactly our coupler
+    x1 - a1 x2 = a0 + a1 s2 - s1 with x = q - qref measured from the assembly and
+    s = qref - q_0 (0 unless a keyframe is the assembly)."""
     j1, j2 = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
     poly = np.asarray(m.eq_data[e][:5], dtype=float)
     if j2 < 0:
@@ -296,9 +307,10 @@ def _joint_equality(m, e, ename, single, builder, fresh, left_out) -> None:
         left_out.append(LeftOut("equality", ename, "joint equality: its joints must each be a "
                                 "single hinge or slide"))
         return
+    s1, s2 = (float(qref[m.jnt_qposadr[j]] - m.qpos0[m.jnt_qposadr[j]]) for j in (j1, j2))
     try:
         builder.add_coupler("coupler", fresh(ename), single[j1], single[j2], c1=1.0,
-                            c2=-float(poly[1]), c0=float(poly[0]))
+                            c2=-float(poly[1]), c0=float(poly[0]) + float(poly[1]) * s2 - s1)
     except ModelError as exc:
         left_out.append(LeftOut("equality", ename, f"joint equality: {exc}"))
 

@@ -142,11 +142,22 @@ def compile_model(source) -> tuple:
     return model, (path.stem if path is not None else None), text
 
 
-def run_forward(mujoco, model):
-    """MjData at qpos0 after mj_forward, without MuJoCo's log file; failures as ModelError."""
+def run_forward(mujoco, model, keyframe=None):
+    """MjData at qpos0 (or at the keyframe named ``keyframe``: its qpos, qvel and ctrl) after
+    mj_forward, without MuJoCo's log file; failures as ModelError."""
+    key = -1
+    if keyframe is not None:
+        key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, str(keyframe))
+        if key < 0:
+            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, k) or f"#{k}"
+                     for k in range(model.nkey)]
+            raise ModelError(f"keyframe {keyframe!r}: the file has no keyframe of that name "
+                             f"(keyframes: {', '.join(names) or 'none'})")
     try:
         with no_log_file(mujoco):
             data = mujoco.MjData(model)
+            if key >= 0:
+                mujoco.mj_resetDataKeyframe(model, data, key)
             mujoco.mj_forward(model, data)
     except Exception as exc:  # noqa: BLE001
         raise ModelError(f"MuJoCo could not evaluate the model at its reference configuration: "

@@ -1,5 +1,5 @@
 """What an import left out: one :class:`LeftOut` per feature (kind, element, detail), counted
-per kind for the short summary the CLI prints (``left out: 7 actuators, 6 joint limits``)."""
+per kind for the short summary the CLI prints (``left out: 6 armature values, 5 joint limits``)."""
 from __future__ import annotations
 
 from collections import Counter
@@ -10,13 +10,13 @@ __all__ = ["LeftOut", "KINDS", "summary", "details", "UNSUPPORTED_KINDS"]
 #: kind -> (singular, plural) of the summary
 KINDS = {
     "actuator": ("actuator", "actuators"),
+    "actuator force range": ("joint actuator force range", "joint actuator force ranges"),
     "tendon": ("tendon", "tendons"),
     "contact pair": ("contact pair", "contact pairs"),
     "flex": ("flex object", "flex objects"),
     "armature": ("armature value", "armature values"),
     "frictionloss": ("friction loss value", "friction loss values"),
-    "joint spring": ("spring/damper of a slide, ball or combined joint",
-                     "springs/dampers of slide, ball or combined joints"),
+    "joint spring": ("spring/damper of a combined joint", "springs/dampers of combined joints"),
     "joint combination": ("joint combination", "joint combinations"),
     "equality": ("equality constraint", "equality constraints"),
     "joint limit": ("joint limit", "joint limits"),
@@ -25,8 +25,9 @@ KINDS = {
 }
 #: kinds with no exact counterpart (an error with strict=True); the others (limits,
 #: collisions, keyframes) act only when reached, touching or chosen, and are never an error
-UNSUPPORTED_KINDS = ("actuator", "tendon", "contact pair", "flex", "armature", "frictionloss",
-                     "joint spring", "joint combination", "equality")
+UNSUPPORTED_KINDS = ("actuator", "actuator force range", "tendon", "contact pair", "flex",
+                     "armature", "frictionloss", "joint spring", "joint combination",
+                     "equality")
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,7 @@ class LeftOut:
 
 
 def summary(items) -> str:
-    """``"7 actuators, 7 armature values, 6 joint limits"`` (in the order of KINDS)."""
+    """``"2 actuators, 6 armature values, 5 joint limits"`` (in the order of KINDS)."""
     counts = Counter(item.kind for item in items)
     order = list(KINDS) + sorted(k for k in counts if k not in KINDS)
     parts = []
