@@ -201,3 +201,23 @@ def test_mode_shape_scene():
     c, s = np.cos(0.05), np.sin(0.05)
     Ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])           # 0.05 rad about global y
     np.testing.assert_allclose(A1, Ry @ A0, atol=1e-12)
+
+
+def test_scene_draws_distance_constraints_as_links_and_no_contact_as_a_spring():
+    """A pendulum on a string (spherical-spherical: a distance constraint) is drawn as a link
+    between its points; a contact element (the journal-bearing clearance of the slider-crank)
+    and a joint limit are not drawn as coil springs."""
+    b = ModelBuilder("string_pendulum", gravity=(0, 0, -9.81))
+    b.add_body("bob", 1.0, (0.01, 0.01, 0.01), r=(0.0, 0.0, -1.0))
+    b.add_joint("spherical_spherical", "string", "ground", "bob", point=(0, 0, 0),
+                point2=(0, 0, -1.0))
+    scene = static_scene(b.compile())
+    (link,) = scene["springs"]
+    assert link["kind"] == "link" and link["name"] == "string"
+    assert link["body_i"] == -1 and link["body_j"] == 0
+    np.testing.assert_allclose(link["point_i"], [0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(link["point_j"], [0, 0, 0], atol=1e-12)   # the bob's centre
+    crank = models.slider_crank_clearance()
+    crank.add_force("joint_limit", "stop", joint="A", lower=-1.0, upper=1.0, law="linear",
+                    stiffness=1e3)
+    assert static_scene(crank.compile())["springs"] == []

@@ -78,11 +78,26 @@ def static_scene(model) -> dict:
 
 
 def _springs(model) -> list:
-    """Two-point force elements (spring_damper) as viewer springs: body -1 is the ground."""
+    """Two-point force elements drawn as springs (their type's ``drawn_as``: spring_damper)
+    and distance constraints drawn as links (spherical-spherical, spherical-revolute), as
+    viewer springs: body -1 is the ground. Contacts, limits, friction and actuators are not
+    springs and are not drawn as such."""
     out = []
+    for g in getattr(model, "constraint_groups", ()):
+        if getattr(type(g), "drawn_as", "") != "link":
+            continue
+        geo = g.geometry
+        for n, name in enumerate(g.names):
+            bi, bj = int(g.body_i[n]), int(g.body_j[n])
+            out.append({"name": name, "kind": "link",
+                        "body_i": -1 if bi >= model.nb else bi,
+                        "point_i": [float(x) for x in geo.s_i[n]],
+                        "body_j": -1 if bj >= model.nb else bj,
+                        "point_j": [float(x) for x in geo.s_j[n]]})
     for g in getattr(model, "force_groups", ()):
-        if not all(hasattr(g, key) for key in ("bi", "bj", "s_i", "s_j")):
-            continue                         # not a two-point element
+        if getattr(type(g), "drawn_as", "") != "spring" or not all(
+                hasattr(g, key) for key in ("bi", "bj", "s_i", "s_j")):
+            continue
         stiffness = np.broadcast_to(np.asarray(getattr(g, "k", 1.0), dtype=float), (g.n,))
         damping = np.broadcast_to(np.asarray(getattr(g, "c", 0.0), dtype=float), (g.n,))
         for n, name in enumerate(g.names):

@@ -155,6 +155,9 @@ class ConstraintType:
     #: without slip (constraints.rolling): their kernel writes phi = nu = 0, so position solves
     #: carry them with zero residual and the velocity and acceleration levels use them in full
     velocity_rows: ClassVar[tuple[int, ...]] = ()
+    #: how the viewer draws an instance: "link" (a rod between the joint points on body i and
+    #: body j: a distance constraint), or "" (a joint marker)
+    drawn_as: ClassVar[str] = ""
     #: the compiled kernel of one instance, kernel(S, G, k, row, out) (None: override evaluate)
     kernel: ClassVar[Optional[Callable]] = None
 

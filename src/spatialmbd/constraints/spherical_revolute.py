@@ -22,6 +22,7 @@ def kernel(S, G, k, row, out):
 @register
 class SphericalRevolute(ConstraintType):
     name = "spherical_revolute"
+    drawn_as = "link"
     n_eq = 2
     eq_labels = ("normal", "distance")
     inputs = frozenset({"point", "axis", "point2"})

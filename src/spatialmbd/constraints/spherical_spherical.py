@@ -20,6 +20,7 @@ def kernel(S, G, k, row, out):
 @register
 class SphericalSpherical(ConstraintType):
     name = "spherical_spherical"
+    drawn_as = "link"
     n_eq = 1
     eq_labels = ("distance",)
     inputs = frozenset({"point", "point2"})

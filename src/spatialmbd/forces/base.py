@@ -34,6 +34,10 @@ class ForceType(abc.ABC):
     parameters: ClassVar[dict] = {}
     required: ClassVar[tuple] = ()
     in_files: ClassVar[bool] = True
+    #: how the viewer draws an instance between its two attachment points (``bi``/``s_i``,
+    #: ``bj``/``s_j``): "spring" (a coil), or "" (not drawn: contacts draw their shapes,
+    #: joint-coordinate elements sit on their joint)
+    drawn_as: ClassVar[str] = ""
     #: the compiled kernel of one instance (see :mod:`.kernels`); None: evaluate in Python
     kernel: ClassVar = None
     #: number of numeric parameters the kernel reads from the table's param columns

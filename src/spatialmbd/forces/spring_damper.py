@@ -64,6 +64,7 @@ def kernel(S, G, k, g, energy, power, D):
 @register
 class SpringDamper(ForceType):
     name = "spring_damper"
+    drawn_as = "spring"
     kernel = staticmethod(kernel)
     n_param = 6
     required = ("body_i", "body_j")
