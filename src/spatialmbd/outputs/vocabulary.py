@@ -302,6 +302,3 @@ def column_units(columns: Iterable[str], units: Optional[dict] = None) -> dict:
         elif last in known and "." in c:
             out[c] = known[last]
     return out
-
-
-# ============================================================================ xarray

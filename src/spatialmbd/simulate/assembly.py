@@ -79,6 +79,3 @@ def _state_events(events, nb):
             return float(user(t, state))
         out.append(Event(g, terminal=ev.terminal, direction=ev.direction, name=ev.name))
     return out
-
-
-#: above this many entries of D the dense rank analysis (SVD) is not attempted

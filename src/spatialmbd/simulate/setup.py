@@ -88,6 +88,7 @@ def _recursive_applies(model, integrator, integrator_options, step, atol, events
     return not table.n_states and not table.has_laws
 
 
+#: above this many entries of D the dense rank analysis (SVD) is not attempted
 DENSE_MOBILITY_MAX = 4_000_000
 
 

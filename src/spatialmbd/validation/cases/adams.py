@@ -219,6 +219,3 @@ def chrono_model_case(name: str, full: bool) -> CaseResult:
                       f"); {entry['model']}; Chrono's tolerances from {entry['chrono_test']}; "
                       f"{CONVENTIONS[name]}")
     return case
-
-
-# ------------------------------------------------------------------------------ free bodies

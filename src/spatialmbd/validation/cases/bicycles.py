@@ -197,6 +197,3 @@ def case_basu_mandal_bicycle(full: bool) -> CaseResult:
                       "roll, pitch of the rear frame, steer, wheel angles; the accelerations "
                       "are read back the same way")
     return case
-
-
-# ------------------------------------------------------------------------------ invariants

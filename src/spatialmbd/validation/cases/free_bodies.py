@@ -172,6 +172,3 @@ def case_heavy_top_nutation(full: bool) -> CaseResult:
                       f"{np.degrees(np.arccos(ref['u1'])):.2f} deg, period "
                       f"{ref['nutation_period_s']:.6f} s ({periods:.1f} periods run)")
     return case
-
-
-# ------------------------------------------------------------------------------ kinematics

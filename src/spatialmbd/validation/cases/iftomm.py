@@ -235,7 +235,3 @@ def case_robot_arm(full: bool) -> CaseResult:
     _violation_check(case, res)
     case.notes.append(f"damper work {res.work[-1]:.4g} J over {res.t[-1]:g} s")
     return case
-
-
-#: name -> case function(full) (the ADAMS cases are expanded in run_validation)
-# ------------------------------------------------------------------------------ contact
