@@ -38,7 +38,7 @@ _OPTIONS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 
 _PKG = os.path.dirname(os.path.abspath(__file__))
 #: the sources of compiled code (and of everything it calls), relative to the package
-HOT_PATH = ("jit.py", "rotations.py", "state.py", "broadphase.py", "constraints", "forces",
+HOT_PATH = ("jit.py", "rotations", "state.py", "broadphase.py", "constraints", "forces",
             "dynamics", "integrators", "sweep/batch/kernels.py")
 
 
