@@ -75,7 +75,7 @@ import pathlib
 # atomic writing lives in the core layer (spatialmbd.atomic); re-exported here
 from ...atomic import STALE_SECONDS, _Staged, atomic_write, clean_stale_temporaries  # noqa: F401
 from .csv_file import _CSVSink, write_csv
-from .hdf5_file import _H5Sink, _json, _metadata, write_hdf5  # noqa: F401
+from .hdf5_file import _Encoder, _H5Sink, _json, _metadata, write_hdf5  # noqa: F401
 from .reading import load_results, read_results
 from .table import (CHUNK_ROWS, CSV_SUFFIXES, FORMAT_NAME, FORMAT_VERSION,  # noqa: F401
                     HDF5_SUFFIXES, LoadedResults, column_units_of, iter_table, results_kind,
