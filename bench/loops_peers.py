@@ -10,7 +10,7 @@ tables, reused from it (``peers.sweep``, ``peers.best_of``, ``peers.ours_runner`
 ``peers.best_rows``, ``peers.per_call``), on the closed-loop models of ``spatialmbd.models``.
 
 Problems (geometry, masses, inertias, joints, initial velocities, gravity and force elements
-exactly as in src/spatialmbd/models.py; every peer model is generated from the same
+exactly as in src/spatialmbd/models/; every peer model is generated from the same
 ``ModelBuilder``, never retyped):
 
 * ``four_bar``: ``four_bar()`` (RSSR, spherical coupler joints, crank_speed=None: no driver),
@@ -21,7 +21,7 @@ exactly as in src/spatialmbd/models.py; every peer model is generated from the s
   (N = 2) / 0.720 s (N = 8) the cranks are horizontal, a singular position where the branch is
   not determined and where spatialmbd's rk45 at tight tolerances stalls (its step underflows;
   see the notes). The span 0 .. 0.6 s is regular. Independent reference: every crank angle obeys
-  I phi'' = K sin phi (models.py), solved with SciPy DOP853 at rtol 1e-13.
+  I phi'' = K sin phi (models/iftomm.py), solved with SciPy DOP853 at rtol 1e-13.
 * ``bricard``: ``bricard()`` (IFToMM A04; 6 revolute joints, Gruebler 0 DoF, moves with 1 DoF,
   one redundant equation everywhere), released at rest, gravity -y; 1 s.
 * ``flyball``: ``flyball_governor()`` (IFToMM A05): kinematically an open tree (shaft revolute,

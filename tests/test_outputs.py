@@ -437,7 +437,7 @@ def test_cli_plot_against_any_column(tmp_path, capsys):
 
 def test_progress_lines_in_logs_and_bar_on_terminals(monkeypatch):
     import io
-    from spatialmbd import simulate as sim
+    from spatialmbd.simulate import progress as sim
     clock = [0.0]
     monkeypatch.setattr(sim.time, "perf_counter", lambda: clock[0])
     log = io.StringIO()

@@ -469,7 +469,7 @@ def test_ctrl_c_during_the_hdf5_write_is_honoured(tmp_path, pendulum, monkeypatc
     res = simulate(pendulum, 1.0, output_step=1e-3)
     target = tmp_path / "r.h5"
     target.write_text("previous")
-    monkeypatch.setattr(results_io, "WRITE_BLOCK", 4096)
+    monkeypatch.setattr(results_io.hdf5_file, "WRITE_BLOCK", 4096)
     real_open = open
     writes = []
 
@@ -493,7 +493,7 @@ def test_ctrl_c_during_the_hdf5_write_is_honoured(tmp_path, pendulum, monkeypatc
         fh = real_open(path, mode, *args, **kwargs)
         return Slow(fh) if mode == "wb" else fh
 
-    monkeypatch.setattr(results_io, "open", fake_open, raising=False)
+    monkeypatch.setattr(results_io.hdf5_file, "open", fake_open, raising=False)
     with pytest.raises(KeyboardInterrupt):
         results_io.write_hdf5(res, target)
     assert 3 <= len(writes) < 10
@@ -527,7 +527,7 @@ def test_chunked_table_equals_the_whole_table(tmp_path, monkeypatch):
     model, _ = load_model(ROOT / "examples" / "double_pendulum.yaml")
     res = simulate(model, 0.5, output_step=0.004)
     whole = results_io.to_dataframe(res)
-    monkeypatch.setattr(results_io, "_chunk_rows", lambda results: 30)
+    monkeypatch.setattr(results_io.table, "_chunk_rows", lambda results: 30)
     parts = list(results_io.iter_table(res))
     assert len(parts) == 5 and len(res.t) == 126
     chunked = pd.concat(parts, ignore_index=True)

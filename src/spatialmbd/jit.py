@@ -38,8 +38,8 @@ _OPTIONS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 
 _PKG = os.path.dirname(os.path.abspath(__file__))
 #: the sources of compiled code (and of everything it calls), relative to the package
-HOT_PATH = ("jit.py", "rotations.py", "state.py", "broadphase.py", "constraints", "forces",
-            "dynamics", "integrators", "sweep/batch.py")
+HOT_PATH = ("jit.py", "rotations", "state.py", "broadphase.py", "constraints", "forces",
+            "dynamics", "integrators", "sweep/batch/kernels.py")
 
 
 def hot_path_files() -> list:

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import spatialmbd.simulate as sim
+import spatialmbd.simulate.compiled as compiled_runs
 from spatialmbd.dynamics import fused
 from spatialmbd.io import load_model
 
@@ -15,13 +16,13 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 def _both(model, **kw):
     """(compiled-driver results, Python-driver results) of one run."""
-    sim.FUSED_RUNS = True
+    compiled_runs.FUSED_RUNS = True
     try:
         a = sim.simulate(model, **kw)
-        sim.FUSED_RUNS = False
+        compiled_runs.FUSED_RUNS = False
         b = sim.simulate(model, **kw)
     finally:
-        sim.FUSED_RUNS = True
+        compiled_runs.FUSED_RUNS = True
     return a, b
 
 
@@ -50,8 +51,8 @@ def test_slices_continue_the_same_step_sequence(monkeypatch):
     """A run cut into compiled calls of a few steps gives the one-call result exactly."""
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
     whole = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9, method="projection")
-    monkeypatch.setattr(sim, "FUSED_FIRST_SLICE", 3)
-    monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)        # then one step per call
+    monkeypatch.setattr(compiled_runs, "FUSED_FIRST_SLICE", 3)
+    monkeypatch.setattr(compiled_runs, "FUSED_SLICE_SECONDS", 1e-9)  # then one step per call
     sliced = sim.simulate(model, 2.0, rtol=1e-7, atol=1e-9, method="projection")
     assert sliced.counters["steps"] == whole.counters["steps"]
     assert np.array_equal(sliced.q, whole.q) and np.array_equal(sliced.vdot, whole.vdot)
@@ -59,8 +60,8 @@ def test_slices_continue_the_same_step_sequence(monkeypatch):
 
 def test_ctrl_c_between_slices_keeps_the_outputs(monkeypatch):
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
-    monkeypatch.setattr(sim, "FUSED_FIRST_SLICE", 5)
-    monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)
+    monkeypatch.setattr(compiled_runs, "FUSED_FIRST_SLICE", 5)
+    monkeypatch.setattr(compiled_runs, "FUSED_SLICE_SECONDS", 1e-9)
     real, calls = fused.dopri_steps, []
 
     def steps(*args):
@@ -83,11 +84,11 @@ def test_failed_compiled_run_is_rerun_by_the_python_driver(monkeypatch):
     monkeypatch.setattr(fused, "dopri_steps", lambda *a: (fused.RHS_FAILED, a[0], 0.0, a[4],
                                                           a[12]))
     res = sim.simulate(model, 0.5, method="projection")
-    sim.FUSED_RUNS = False
+    compiled_runs.FUSED_RUNS = False
     try:
         ref = sim.simulate(model, 0.5, method="projection")
     finally:
-        sim.FUSED_RUNS = True
+        compiled_runs.FUSED_RUNS = True
     assert res.status == "success" and np.array_equal(res.q, ref.q)
 
 
@@ -96,7 +97,7 @@ def test_runs_with_events_or_budgets_keep_the_python_driver(monkeypatch):
 
     def refuse(*args):
         raise AssertionError("the compiled driver was used")
-    monkeypatch.setattr(sim, "_fused_run", refuse)
+    monkeypatch.setattr(compiled_runs, "_fused_run", refuse)
     sim.simulate(model, 0.2, events=[lambda t, s: s.r[0, 2] + 0.5])
     sim.simulate(model, 0.2, integrator="rk45", atol=np.full(14, 1e-9))
     sim.simulate(model, 0.2, max_steps=10_000)
@@ -104,7 +105,7 @@ def test_runs_with_events_or_budgets_keep_the_python_driver(monkeypatch):
 
 def test_progress_is_reported_between_calls(monkeypatch):
     model, _ = load_model(EXAMPLES / "pendulum_ch15.yaml")
-    monkeypatch.setattr(sim, "FUSED_SLICE_SECONDS", 1e-9)
+    monkeypatch.setattr(compiled_runs, "FUSED_SLICE_SECONDS", 1e-9)
     seen = []
     res = sim.simulate(model, 1.0, progress=seen.append, method="projection")
     # the first call takes 64 steps, then (target ~0 s) one step per call

@@ -210,7 +210,7 @@ def test_interrupted_write_keeps_old_file(tmp_path, monkeypatch, pendulum_result
             raise Boom("disk full")
         group.create_dataset(name, data=arr)
 
-    monkeypatch.setattr(results_io, "_dataset", fail_later)
+    monkeypatch.setattr(results_io.hdf5_file, "_dataset", fail_later)
     with pytest.raises(Boom):
         save_results(pendulum_results, target)
     assert target.read_bytes() == before

@@ -177,8 +177,7 @@ class ConstraintType:
     def compiled(self) -> bool:
         """True when the group runs in the fused compiled dispatch (its kernel is part of it and
         evaluate is not overridden)."""
-        from .kernels import KIND_ID
-        return (KIND_ID.get(self.name, -1) >= 0 and type(self).kernel is not None
+        return (DISPATCH.kind_id.get(self.name, -1) >= 0 and type(self).kernel is not None
                 and type(self).evaluate is ConstraintType.evaluate)
 
     @classmethod
@@ -237,8 +236,7 @@ class ConstraintType:
 
     def evaluate(self, state: BodyState, t: float) -> ConstraintEval:
         """Phi, D, nu, gamma of every instance at the given state and time."""
-        from .kernels import evaluate_group
-        return evaluate_group(self, state, t)
+        return DISPATCH.evaluate_group(self, state, t)
 
     @staticmethod
     def _scleronomic(phi, D, gamma) -> ConstraintEval:
@@ -252,6 +250,22 @@ class ConstraintType:
 CONSTRAINT_TYPES: dict[str, type[ConstraintType]] = {}
 #: other accepted spellings -> name
 ALIASES: dict[str, str] = {}
+
+
+class Dispatch:
+    """The compiled dispatch of the package, installed by :mod:`.kernels` once it has been
+    generated (the registry sits below it and never imports it): ``kind_id`` (type name ->
+    kind number in the fused dispatch), ``evaluate_group(group, state, t)`` and
+    ``register_late(cls)`` (a compiled loop of its own for a type registered afterwards; None
+    until the dispatch is built)."""
+
+    def __init__(self):
+        self.kind_id: dict = {}
+        self.evaluate_group: Optional[Callable] = None
+        self.register_late: Optional[Callable] = None
+
+
+DISPATCH = Dispatch()
 
 
 def register(cls: type[ConstraintType]) -> type[ConstraintType]:
@@ -283,10 +297,8 @@ def register(cls: type[ConstraintType]) -> type[ConstraintType]:
     CONSTRAINT_TYPES[cls.name] = cls
     for alias in cls.aliases:
         ALIASES[alias] = cls.name
-    import sys
-    kernels = sys.modules.get(__package__ + ".kernels")
-    if getattr(kernels, "DISPATCH_BUILT", False):   # registered after the dispatch was made
-        kernels.register_late(cls)
+    if DISPATCH.register_late is not None:      # registered after the dispatch was made
+        DISPATCH.register_late(cls)
     return cls
 
 

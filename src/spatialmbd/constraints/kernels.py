@@ -32,6 +32,7 @@ import numpy as np
 
 from .. import jit
 from ..jit import njit
+from . import base
 from .base import CONSTRAINT_TYPES, ConstraintEval
 
 JointRows = namedtuple("JointRows", "bi bj s_i s_j R_i R_j param law coord")
@@ -172,5 +173,8 @@ def evaluate_group(group, state, t: float) -> ConstraintEval:
                           gamma.reshape(n, m))
 
 
-#: from here on, newly registered types go through register_late
-DISPATCH_BUILT = True
+# the types (constraints.base, below this module) reach the dispatch through this slot; from
+# here on, newly registered types go through register_late
+base.DISPATCH.kind_id = KIND_ID
+base.DISPATCH.evaluate_group = evaluate_group
+base.DISPATCH.register_late = register_late

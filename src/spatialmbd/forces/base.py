@@ -23,6 +23,19 @@ from ..state import BodyState
 PARAM_KINDS = ("body", "joint", "point", "vector", "matrix", "string", "number", "law", "any")
 
 
+class Dispatch:
+    """The compiled dispatch of the package, installed by :mod:`.kernels` once it has been
+    generated (this module sits below it and never imports it): ``kind_id`` (type name ->
+    kind number) and ``evaluate_group(group, state, t, states)``."""
+
+    def __init__(self):
+        self.kind_id: dict = {}
+        self.evaluate_group = None
+
+
+DISPATCH = Dispatch()
+
+
 class ForceType(abc.ABC):
     """A force-element type. Declares in its class body: ``name``; ``parameters``, a dict
     keyword -> kind (one of :data:`PARAM_KINDS`: how the model file writes it); ``required``,
@@ -46,8 +59,7 @@ class ForceType(abc.ABC):
     @property
     def compiled(self) -> bool:
         """True when the group runs in the fused compiled dispatch."""
-        from .kernels import KIND_ID
-        return type(self).kernel is not None and self.name in KIND_ID
+        return type(self).kernel is not None and self.name in DISPATCH.kind_id
 
     def columns(self) -> dict:
         """The force-table columns of the instances (compiled types): bi, bj (n,), s_i, s_j
@@ -77,8 +89,7 @@ class ForceType(abc.ABC):
         return out
 
     def _run(self, state, t, states=None):
-        from .kernels import evaluate_group
-        return evaluate_group(self, state, t, states)
+        return DISPATCH.evaluate_group(self, state, t, states)
 
     @classmethod
     def allowed(cls) -> tuple:

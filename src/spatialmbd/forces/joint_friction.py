@@ -37,10 +37,10 @@ import numpy as np
 
 from ..errors import ModelError
 from ..jit import njit
-from .base import ForceType, check_unknown, register
+from .base import check_unknown, register
 from .contact import laws as L
 from .contact.element import friction_params
-from .joint_limit import joint_coordinate_kind
+from .joint_coordinate import JointCoordinateForce, joint_coordinate_kind
 from .kernel_tools import ANGLE, ROTATION, TRANSLATION, add_coordinate_force, add_wrench
 from .kernel_tools import joint_coordinate
 
@@ -119,31 +119,17 @@ def _level(spec, key, required):
 
 
 @register
-class JointFriction(ForceType):
+class JointFriction(JointCoordinateForce):
     """Joint friction: Coulomb, Stribeck, viscous or LuGre friction on a joint coordinate."""
 
     name = "joint_friction"
     kernel = staticmethod(kernel)
     n_param = L.N_COLUMNS
-    required = ("joint",)
     parameters = {"joint": "joint", "coordinate": "string", "friction": "string",
                   "frictionloss": "number", "static_frictionloss": "number",
                   "stribeck_velocity": "number", "creep_velocity": "number",
                   "viscous": "number", "bristle_stiffness": "number",
                   "bristle_damping": "number"}
-
-    def __init__(self, names, bi, bj, s_i, s_j, R_i, R_j, param, coordinates):
-        super().__init__(names)
-        self.bi = np.asarray(bi, dtype=np.intp)
-        self.bj = np.asarray(bj, dtype=np.intp)
-        self.s_i, self.s_j = np.asarray(s_i, float), np.asarray(s_j, float)
-        self.R_i, self.R_j = np.asarray(R_i, float), np.asarray(R_j, float)
-        self.param = np.asarray(param, dtype=float).reshape(-1, self.n_param)
-        self.coordinates = tuple(coordinates)
-
-    @classmethod
-    def validate(cls, spec, builder):
-        cls._row(spec, builder)
 
     @classmethod
     def _row(cls, spec, builder):
@@ -180,27 +166,9 @@ class JointFriction(ForceType):
         row[L.C_MUD:] = friction_params(spec.name, q)
         return joint, coordinate, row
 
-    @classmethod
-    def build(cls, specs, ctx):
-        cols = [[] for _ in range(7)]
-        coords = []
-        for spec in specs:
-            joint, coordinate, row = cls._row(spec, ctx.builder)
-            geom = ctx.joint_geometry(spec.params["joint"])
-            for c, value in enumerate((ctx.index[joint.body_i], ctx.index[joint.body_j],
-                                       geom.s_i[0], geom.s_j[0], geom.R_i[0], geom.R_j[0],
-                                       row)):
-                cols[c].append(value)
-            coords.append(coordinate)
-        return cls([s.name for s in specs], *cols, coords)
-
     def state_rows(self) -> np.ndarray:
         """The LuGre instances carry their bristle deflection z as an internal state."""
         return self.param[:, L.C_FRICTION] == L.LUGRE
-
-    def columns(self):
-        return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,
-                    R_j=self.R_j, param=self.param)
 
     def details(self, state, states=None) -> np.ndarray:
         """(n, len(DETAIL_COLUMNS)) at ``state`` (states: (n, 3) LuGre deflections)."""

@@ -47,12 +47,12 @@ import math
 
 import numpy as np
 
-from ..constraints.base import CONSTRAINT_TYPES, canonical_name
 from ..errors import ModelError
 from ..jit import njit
-from .base import ForceType, check_unknown, register
+from .base import check_unknown, register
 from .contact import laws as L
 from .contact.element import law_params
+from .joint_coordinate import JointCoordinateForce, joint_coordinate_kind
 from .kernel_tools import ANGLE, CONE, TRANSLATION, add_coordinate_force, joint_coordinate
 
 #: parameter columns before the law's (C_LAW .. C_VMIN of :mod:`.contact.laws`)
@@ -101,35 +101,6 @@ def details(S, G, out):
         out[k, 5], out[k, 6], out[k, 7], out[k, 8] = Q, 1.0 if gap < 0.0 else 0.0, e, pw
 
 
-def joint_coordinate_kind(spec, builder, allowed=("angle", "translation", "cone")):
-    """(joint spec, coordinate name) of an element acting on a joint's coordinate: the joint
-    exists, its type has the coordinate (``coordinate`` required when it has two)."""
-    name = spec.name
-    joint = spec.params.get("joint")
-    if joint not in builder.joints:
-        raise ModelError(f"forces[{name!r}].joint: unknown joint {joint!r} (joints: "
-                         f"{', '.join(builder.joints) or 'none'})")
-    jtype = canonical_name(builder.joints[joint].type)
-    kinds = tuple(getattr(CONSTRAINT_TYPES.get(jtype), "driver_kinds", ()))
-    if jtype == "spherical":
-        kinds = tuple(k for k in allowed if k not in ("angle", "translation"))
-    kinds = tuple(k for k in kinds if k in allowed)
-    if not kinds:
-        raise ModelError(f"forces[{name!r}]: a {spec.type} acts on the coordinate of a "
-                         "revolute, translational, cylindrical, screw or spherical joint; "
-                         f"{joint!r} is a {jtype} joint")
-    coordinate = spec.params.get("coordinate")
-    if coordinate is None:
-        if len(kinds) > 1:
-            raise ModelError(f"forces[{name!r}].coordinate: joint {joint!r} is a {jtype} joint "
-                             f"with the coordinates {', '.join(kinds)}; say which")
-        coordinate = kinds[0]
-    if coordinate not in kinds:
-        raise ModelError(f"forces[{name!r}].coordinate: {coordinate!r} is not a coordinate of "
-                         f"the {jtype} joint {joint!r} (it has: {', '.join(kinds)})")
-    return builder.joints[joint], coordinate
-
-
 def _stop(spec, key):
     value = spec.params.get(key)
     if value is None:
@@ -156,13 +127,12 @@ def _axis(spec, key, default):
 
 
 @register
-class JointLimit(ForceType):
+class JointLimit(JointCoordinateForce):
     """Joint limit: a unilateral end stop on a joint coordinate with a contact law."""
 
     name = "joint_limit"
     kernel = staticmethod(kernel)
     n_param = L.C_VMIN + 1
-    required = ("joint",)
     parameters = {"joint": "joint", "coordinate": "string", "lower": "number",
                   "upper": "number", "axis_i": "vector", "axis_j": "vector", "law": "string",
                   "stiffness": "number", "exponent": "number", "damping": "number",
@@ -173,18 +143,8 @@ class JointLimit(ForceType):
     n_details = len(DETAIL_COLUMNS)
 
     def __init__(self, names, bi, bj, s_i, s_j, R_i, R_j, param, coordinates):
-        super().__init__(names)
+        super().__init__(names, bi, bj, s_i, s_j, R_i, R_j, param, coordinates)
         self.element = self.names
-        self.bi = np.asarray(bi, dtype=np.intp)
-        self.bj = np.asarray(bj, dtype=np.intp)
-        self.s_i, self.s_j = np.asarray(s_i, float), np.asarray(s_j, float)
-        self.R_i, self.R_j = np.asarray(R_i, float), np.asarray(R_j, float)
-        self.param = np.asarray(param, dtype=float).reshape(-1, self.n_param)
-        self.coordinates = tuple(coordinates)
-
-    @classmethod
-    def validate(cls, spec, builder):
-        cls._row(spec, builder)
 
     @classmethod
     def _row(cls, spec, builder):
@@ -227,29 +187,17 @@ class JointLimit(ForceType):
         return joint, coordinate, row
 
     @classmethod
-    def build(cls, specs, ctx):
-        cols = [[] for _ in range(8)]
-        coords = []
-        for spec in specs:
-            joint, coordinate, row = cls._row(spec, ctx.builder)
-            geom = ctx.joint_geometry(spec.params["joint"])
-            R_i, R_j = geom.R_i[0].copy(), geom.R_j[0].copy()
-            if coordinate == "cone":
-                R_i[:, 0] = _axis(spec, "axis_i", R_i[:, 0])
-                R_j[:, 0] = _axis(spec, "axis_j", R_j[:, 0])
-            for c, value in enumerate((ctx.index[joint.body_i], ctx.index[joint.body_j],
-                                       geom.s_i[0], geom.s_j[0], R_i, R_j, row)):
-                cols[c].append(value)
-            coords.append(coordinate)
-        return cls([s.name for s in specs], *cols[:7], coords)
+    def _triads(cls, spec, coordinate, geom):
+        """The joint's triads; a cone limit's axis_i / axis_j replace their first columns."""
+        R_i, R_j = geom.R_i[0].copy(), geom.R_j[0].copy()
+        if coordinate == "cone":
+            R_i[:, 0] = _axis(spec, "axis_i", R_i[:, 0])
+            R_j[:, 0] = _axis(spec, "axis_j", R_j[:, 0])
+        return R_i, R_j
 
     def needs_memory(self) -> np.ndarray:
         """The instances with a hysteresis law (they need the impact velocity)."""
         return self.param[:, L.C_LAW] > L.HERTZ
-
-    def columns(self):
-        return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,
-                    R_j=self.R_j, param=self.param)
 
     def table(self, memory=None):
         from .kernels import ForceTable

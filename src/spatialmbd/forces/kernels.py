@@ -31,6 +31,7 @@ import numpy as np
 from .. import jit
 from ..constraints.kernels import JointRows
 from ..jit import njit
+from . import base
 from .base import FORCE_TYPES
 
 
@@ -155,3 +156,8 @@ def evaluate_group(group, state, t: float, states=None):
 
 #: compiled loops of the force types registered from user code (name -> loop)
 _LATE: dict = {}
+
+
+# the types' groups (forces.base, below this module) reach the dispatch through this slot
+base.DISPATCH.kind_id = KIND_ID
+base.DISPATCH.evaluate_group = evaluate_group

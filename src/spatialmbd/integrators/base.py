@@ -33,7 +33,9 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..errors import SimulationError, SpatialMBDError
+from ..errors import SpatialMBDError
+from .controller import check_finite  # noqa: F401  (re-exported: simulate)
+from .driver import RunState, run
 
 RHS = Callable[[float, np.ndarray], np.ndarray]
 Projection = Callable[[float, np.ndarray], np.ndarray]
@@ -219,15 +221,6 @@ class Integrator(abc.ABC):
         """A fresh step-size controller (:mod:`.controllers`) for one run."""
 
 
-def check_finite(t: float, y: np.ndarray, what: str = "state") -> None:
-    """Raise SimulationError naming the time if ``y`` holds NaN or inf."""
-    if not np.all(np.isfinite(y)):
-        err = SimulationError(f"t = {t:.6g} s: non-finite {what} (NaN or inf); the motion "
-                              "became unbounded or a force law returned NaN")
-        err.t = t
-        raise err
-
-
 INTEGRATORS: dict[str, type[Integrator]] = {}
 
 
@@ -250,7 +243,3 @@ def get_integrator(spec, **options) -> Integrator:
                              + ", ".join(sorted(INTEGRATORS)))
         return INTEGRATORS[key](**options)
     raise TypeError(f"integrator must be a name or an Integrator, not {type(spec).__name__}")
-
-
-# the driver needs check_finite (through .controller), so it is imported last
-from .driver import RunState, run  # noqa: E402

@@ -25,9 +25,17 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..jit import njit
-from .base import check_finite
 
 EPS = float(np.finfo(float).eps)
+
+
+def check_finite(t: float, y: np.ndarray, what: str = "state") -> None:
+    """Raise SimulationError naming the time if ``y`` holds NaN or inf."""
+    if not np.all(np.isfinite(y)):
+        err = SimulationError(f"t = {t:.6g} s: non-finite {what} (NaN or inf); the motion "
+                              "became unbounded or a force law returned NaN")
+        err.t = t
+        raise err
 
 
 # ----------------------------------------------------------------------------- options

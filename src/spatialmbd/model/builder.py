@@ -21,6 +21,7 @@ from ..constraints import DRIVER_TYPES, JOINT_TYPES
 from ..constraints.drivers import COORDINATES
 from ..errors import ModelError
 from .. import rotations as rot
+from .model import register_builder
 from .specs import BodySpec, CouplerSpec, DriverSpec, ForceSpec, JointSpec
 
 GROUND = "ground"
@@ -402,3 +403,6 @@ class ModelBuilder:
             if name in table:
                 raise ModelError(f"duplicate name {name!r}: a {other} already has it; names of "
                                  "bodies, joints, drivers and forces must be unique")
+
+
+register_builder(ModelBuilder)

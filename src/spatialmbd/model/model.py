@@ -21,6 +21,16 @@ import numpy as np
 from ..errors import ModelError
 
 
+#: the builder class, registered by :mod:`.builder` (which sits above this module: builder ->
+#: compile -> model): Model.to_builder makes one
+_BUILDER: list = []
+
+
+def register_builder(cls) -> None:
+    """The class :meth:`Model.to_builder` returns (:class:`.builder.ModelBuilder`)."""
+    _BUILDER[:] = [cls]
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     name: str
@@ -120,9 +130,8 @@ class Model:
     def to_builder(self) -> Any:
         """A new ModelBuilder holding the same specs (for editing a copy or writing a file)."""
         import copy
-        from .builder import ModelBuilder
         s = self.builder_state
-        b = ModelBuilder(s["name"], s["gravity"])
+        b = _BUILDER[0](s["name"], s["gravity"])
         b.bodies = copy.deepcopy(s["bodies"])
         b.joints = copy.deepcopy(s["joints"])
         b.drivers = copy.deepcopy(s["drivers"])

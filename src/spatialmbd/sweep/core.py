@@ -27,13 +27,10 @@ import numpy as np
 from ..errors import ModelError
 from .outputs import Columns, parse_outputs
 from .params import ParameterSpace, as_space, plain_copy, set_path, split
+from .status import FAILED, SUCCESS, _describe
 
 __all__ = ["sweep", "SweepJob", "run_chunk", "to_dataframe", "save_result", "local_cluster",
            "QUIET_WORKERS"]
-
-FAILED = "failed"
-SUCCESS = "success"
-
 
 # --------------------------------------------------------------------------------- the job
 @dataclass
@@ -103,11 +100,6 @@ class SweepJob:
         if notes and status == SUCCESS:
             message = notes
         return status, message, vals, t
-
-
-def _describe(exc) -> str:
-    text = str(exc).strip() or repr(exc)
-    return f"{type(exc).__name__}: {text}"
 
 
 def run_chunk(job: SweepJob, values: np.ndarray) -> list:

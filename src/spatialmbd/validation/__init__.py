@@ -65,7 +65,7 @@ def run_validation(full: bool = False, out=None, cases: Optional[Iterable[str]] 
     every case with this method where it applies (the recursive method: tree models with the
     rk45 integrator), the case's own method elsewhere; each case notes the methods that ran.
     Returns the list of CaseResult (a failing case is reported, not raised)."""
-    from . import cases as case_module
+    from .cases import common as case_module      # the method of the whole suite
     from .cases import run_case
     names = list(cases) if cases is not None else list(CASE_NAMES)
     unknown = [n for n in names if n not in _cases()]

@@ -263,7 +263,6 @@ class ActuatorType(ForceType):
     def output_columns(self, results, i, states) -> dict:
         """coordinate, coordinate_rate, command, effort, power of instance i at the output
         times of ``results`` (the commands of sampled controllers from its control log)."""
-        from .controller import held_commands
         nt = len(results.t)
         cols = np.zeros((nt, 5))
         held = held_commands(results, self)
@@ -275,3 +274,21 @@ class ActuatorType(ForceType):
             q = np.unwrap(q)
         return dict(coordinate=q, coordinate_rate=cols[:, 1], command=cols[:, 2],
                     effort=cols[:, 3], power=cols[:, 4])
+
+
+def held_commands(results, group):
+    """(nt, group.n) commands the sampled controllers held for the group's instances at the
+    output times of ``results`` (NaN for instances without a controller), or None when no
+    controller commanded the group."""
+    log = getattr(results, "control_log", None) or {}
+    names = [n for n in group.names if n in log]
+    if not names:
+        return None
+    out = np.full((len(results.t), group.n), np.nan)
+    for n in names:
+        samples = log[n]
+        idx = np.searchsorted(samples[:, 0], np.asarray(results.t, dtype=float),
+                              side="right") - 1
+        k = group.names.index(n)
+        out[idx >= 0, k] = samples[idx[idx >= 0], 1]
+    return out

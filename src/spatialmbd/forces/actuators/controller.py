@@ -226,21 +226,3 @@ def control_run(model, system, controllers, t0, t_end, method):
         raise ModelError("method 'recursive' does not run sampled controllers yet; use "
                          "method 'projection' or 'standard'")
     return run
-
-
-def held_commands(results, group):
-    """(nt, group.n) commands the sampled controllers held for the group's instances at the
-    output times of ``results`` (NaN for instances without a controller), or None when no
-    controller commanded the group."""
-    log = getattr(results, "control_log", None) or {}
-    names = [n for n in group.names if n in log]
-    if not names:
-        return None
-    out = np.full((len(results.t), group.n), np.nan)
-    for n in names:
-        samples = log[n]
-        idx = np.searchsorted(samples[:, 0], np.asarray(results.t, dtype=float),
-                              side="right") - 1
-        k = group.names.index(n)
-        out[idx >= 0, k] = samples[idx[idx >= 0], 1]
-    return out

@@ -1,0 +1,90 @@
+"""Contact models: a slider-crank with a clearance joint and spheres in a box."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..model import ModelBuilder
+from ..motion import ConstantVelocity
+
+
+def slider_crank_clearance(clearance: float = 5e-4, crank_speed: float = 20.0,
+                           ideal: bool = False) -> ModelBuilder:
+    """Planar slider-crank whose rod-slider joint has radial clearance (the setting of much of
+    the clearance-joint literature, e.g. Flores et al., Kinematics and dynamics of multibody
+    systems with imperfect joints, 2008): crank 0.05 m (0.30 kg) driven at ``crank_speed``
+    rad/s about global z, connecting rod 0.12 m (0.21 kg), slider 0.14 kg along global x,
+    gravity -y. At the rod-slider pin a journal of radius 10 mm - ``clearance`` on the rod sits
+    in a 10 mm bearing on the slider: Lankarani-Nikravesh contact (K = 1e9 N/m^1.5, e = 0.9)
+    with Coulomb friction mu = 0.01. ``ideal`` puts a revolute joint there instead (the
+    reference). The journal starts centred; the contact force history is ``res.contacts()``.
+    """
+    L1, L2 = 0.05, 0.12
+    b = ModelBuilder("slider_crank_ideal" if ideal else "slider_crank_clearance",
+                     gravity=(0.0, -9.81, 0.0))
+    b.add_body("crank", 0.30, (1e-4, 1e-4, 1e-4), r=(L1 / 2, 0.0, 0.0),
+               omega=(0.0, 0.0, crank_speed), rdot=(0.0, crank_speed * L1 / 2, 0.0),
+               shapes=[{"type": "box", "size": [L1, 0.01, 0.01], "center": [0, 0, 0]}])
+    b.add_body("rod", 0.21, (2.5e-4, 2.5e-4, 2.5e-4), r=(L1 + L2 / 2, 0.0, 0.0),
+               rdot=(0.0, crank_speed * L1 / 2, 0.0),
+               omega=(0.0, 0.0, -crank_speed * L1 / L2),
+               shapes=[{"type": "box", "size": [L2, 0.008, 0.008], "center": [0, 0, 0]}])
+    b.add_body("slider", 0.14, (1e-4, 1e-4, 1e-4), r=(L1 + L2, 0.0, 0.0),
+               shapes=[{"type": "box", "size": [0.04, 0.025, 0.025], "center": [0, 0, 0]}])
+    b.add_joint("revolute", "A", "ground", "crank", point=(0, 0, 0), axis=(0, 0, 1))
+    b.add_joint("revolute", "B", "crank", "rod", point=(L1, 0, 0), axis=(0, 0, 1))
+    b.add_joint("translational", "guide", "ground", "slider", point=(L1 + L2, 0, 0),
+                axis=(1, 0, 0))
+    b.add_driver("angle", "motor", ConstantVelocity(rate=crank_speed), joint="A")
+    if ideal:
+        b.add_joint("revolute", "C", "rod", "slider", point=(L1 + L2, 0, 0), axis=(0, 0, 1))
+    else:
+        b.add_force("contact", "C", body_i="slider", body_j="rod",
+                    shape_i={"type": "bearing", "radius": 0.01, "axis": [0, 0, 1]},
+                    shape_j={"type": "journal", "radius": 0.01 - clearance,
+                             "center": [L2 / 2, 0, 0]},
+                    law="lankarani_nikravesh", stiffness=1e9, restitution=0.9,
+                    friction="coulomb", mu=0.01, creep_velocity=1e-4)
+    return b
+
+
+def spheres_in_box(n_side: int = 4, radius: float = 0.02, mass: float = 0.03,
+                   seed: int = 1) -> ModelBuilder:
+    """n_side^3 spheres poured into an open box: a lattice with a small random offset above a
+    floor and four walls (a ``sphere_set``: the pairs come from the broad phase), linear
+    contact K = 2e4 N/m with damping 2 N s/m and Coulomb friction mu = 0.3 regularised with a
+    creep velocity of 1 cm/s (a smaller one makes the sticking contacts stiff: the explicit
+    step must stay below about 3 v_eps m / (7 mu f_N))."""
+    rng = np.random.default_rng(seed)
+    step = 2.0 * radius + 0.004
+    half = n_side * step / 2.0 + 0.002
+    b = ModelBuilder("spheres_in_box", gravity=(0.0, 0.0, -9.81))
+    names = []
+    for i in range(n_side):
+        for j in range(n_side):
+            for k in range(n_side):
+                p = (-half + radius + 0.002 + i * step, -half + radius + 0.002 + j * step,
+                     radius + 0.01 + 1.5 * k * step)
+                p = tuple(np.array(p) + rng.uniform(-0.001, 0.001, 3))
+                names.append(b.add_body(f"s{i}{j}{k}", mass, (0.4 * mass * radius ** 2,) * 3,
+                                        r=p, shapes=[{"type": "sphere", "radius": radius}]))
+    walls = [{"normal": [0, 0, 1], "point": [0, 0, 0]},
+             {"normal": [1, 0, 0], "point": [-half, 0, 0]},
+             {"normal": [-1, 0, 0], "point": [half, 0, 0]},
+             {"normal": [0, 1, 0], "point": [0, -half, 0]},
+             {"normal": [0, -1, 0], "point": [0, half, 0]}]
+    b.add_force("sphere_set", "grains", bodies=names, radius=radius, walls=walls,
+                law="linear", stiffness=2e4, damping=2.0, mu=0.3, creep_velocity=1e-2)
+    return b
+
+
+EXAMPLES = {
+    "slider_crank_clearance": (slider_crank_clearance, {}, dict(
+        type="dynamic", t_end=2 * math.pi / 20.0, output_step=1e-3,
+        method={"name": "projection"}, integrator={"name": "rk45", "rtol": 1e-8,
+                                                   "atol": 1e-10})),
+    "spheres_in_box": (spheres_in_box, {}, dict(
+        type="dynamic", t_end=1.0, output_step=0.01, method={"name": "standard"},
+        integrator={"name": "rk45", "rtol": 1e-5, "atol": 1e-7})),
+}

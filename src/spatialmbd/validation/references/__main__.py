@@ -1,0 +1,4 @@
+"""``python -m spatialmbd.validation.references [--write]``."""
+from . import main
+
+raise SystemExit(main())
