@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from ..kinematics import describe_residual, minimum_norm_solve, newton_positions
+from .projection_kernels import project_positions, project_velocities
 
 
 @dataclass
@@ -71,14 +72,13 @@ def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assemb
                       system=None):
     """Positions satisfying Phi(q, t) = 0 by (14.12); returns (q, dx_total, iterations, phi0).
 
-    Without ``hold`` the compiled Newton iteration of :func:`.projection.project_positions` runs
+    Without ``hold`` the compiled Newton iteration of :func:`.projection_kernels.project_positions` runs
     (on ``system``, default a new one for the model); with held coordinates, or when D D^T is
     singular (redundant constraints), the iteration below with the least-squares
     pseudo-inverse."""
     q = np.array(q, dtype=float).reshape(model.nb, 7)
     sys_ = _system(model, system) if _free(hold) and model.n_eq else None
     if sys_ is not None and not sys_.python_groups:
-        from .projection import project_positions
         if sys_.table.has_drivers:
             sys_.table.set_time(t)
         y = np.concatenate([q.ravel(), np.zeros(6 * model.nb)])
@@ -112,12 +112,11 @@ def _correct_positions_lstsq(model, q, t, tol, max_iter, hold, assembler=None):
 def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None, system=None):
     """Velocities satisfying D v = nu by (14.19); returns (v, phidot_before, phidot_after).
 
-    Compiled (:func:`.projection.project_velocities`) without ``hold``; least squares otherwise
+    Compiled (:func:`.projection_kernels.project_velocities`) without ``hold``; least squares otherwise
     or when D D^T is singular."""
     v = np.array(v, dtype=float).reshape(-1)
     sys_ = _system(model, system) if _free(hold) and model.n_eq else None
     if sys_ is not None and not sys_.python_groups:
-        from .projection import project_velocities
         if sys_.table.has_drivers:
             sys_.table.set_time(t)
         y = np.concatenate([np.asarray(q, dtype=float).ravel(), v])

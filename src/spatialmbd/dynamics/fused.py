@@ -44,7 +44,7 @@ from ..integrators.pairs import (DP8, pair_dense, pair_error, pair_interpolate,
                                  pair_stages)
 from ..jit import njit
 from . import system as cs
-from .projection import project
+from .projection_kernels import project
 from .standard import rhs_standard, stages_standard
 
 __all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",

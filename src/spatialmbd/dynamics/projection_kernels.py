@@ -1,0 +1,119 @@
+"""The compiled coordinate projection (14.12, 14.19) that the projection method runs after every
+accepted step and the initial-condition correction (:mod:`.correction`) runs once: Newton on
+Phi(q, t) = 0 with dx = -D^T (D D^T)^-1 Phi over the kept rows, then the velocities onto
+D v = nu, on the sparse Cholesky machinery of the multipliers (:mod:`.algebra`), regularised at
+singular positions."""
+from __future__ import annotations
+
+import math
+
+from ..jit import array_view, njit
+from ..rotations import rotate_p_scalar
+from .algebra import (_M, _P, _R, add_transpose_times, body_views, cons_views, copy_v, fill,
+                     row_times, schur_factor_solve, schur_views, stage_state)  # noqa: E402
+
+
+@njit
+def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx):
+    """dx = -D^T (D D^T)^-1 r over the kept rows (r = rhs_rows[keep]), regularised at a
+    singular position (:func:`.system.schur_factor_solve`: the components of r along the
+    near-dependent rows, which a first-order correction cannot remove, are left alone instead of
+    amplified); False if D D^T has no positive definite shift either."""
+    keep = P[0]
+    for k in range(keep.size):
+        bs[k] = rhs_rows[keep[k]]
+    if not schur_factor_solve(M, R, P, False, bs):
+        return False
+    fill(lam, 0.0)
+    for k in range(keep.size):
+        lam[keep[k]] = -bs[k]
+    fill(dx, 0.0)
+    add_transpose_times(R, lam, dx)
+    return True
+
+
+@njit
+def project_positions(t, y, F, I, W, tol, max_it, dx_total):
+    """Positions onto Phi(q, t) = 0 by Newton-Raphson, dx = -D^T (D D^T)^-1 Phi (14.12) over
+    the kept rows, rotations applied exactly (p <- quat(dpi) (x) p); in place on y[:7 nb].
+
+    dx_total (6 nb,) accumulates the corrections. Returns (iterations, max |Phi| before, after);
+    iterations = -1 if D D^T is singular, -2 if Newton did not converge in max_it."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    nb = bo.mass.size
+    q = array_view(y, 0, (nb, 7))
+    M, R, P = _M(bo), _R(co), _P(sc)
+    it = 0
+    phi0 = -1.0
+    while True:
+        stage_state(t, y, 0.0, F, I, W)
+        err = 0.0
+        for a in range(co.phi.size):
+            err = max(err, abs(co.phi[a]))
+        if phi0 < 0.0:
+            phi0 = err
+        if err <= tol:
+            return it, phi0, err
+        if it == max_it or not math.isfinite(err):
+            return -2, phi0, err
+        if not dd_solve_correction(M, R, P, co.phi, sc.bs, co.lam, bo.t6):
+            return -1, phi0, err
+        for b in range(nb):
+            for c in range(3):
+                q[b, c] += bo.t6[6 * b + c]
+            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
+                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
+            for c in range(4):
+                q[b, 3 + c] = pn[c]
+        for j in range(6 * nb):
+            dx_total[j] += bo.t6[j]
+        it += 1
+
+
+@njit
+def _max_residual(R, v, nu):
+    out = 0.0
+    for a in range(nu.size):
+        out = max(out, abs(row_times(R, a, v) - nu[a]))
+    return out
+
+
+@njit
+def project_velocities(t, y, F, I, W):
+    """v <- v - D^T (D D^T)^-1 (D v - nu) (14.19) over the kept rows, in place on y.
+
+    Returns (ok, max |D v - nu| before, after) (all rows); ok False if D D^T is singular."""
+    stage_state(t, y, 0.0, F, I, W)
+    return _project_velocities_staged(y, F, I, W)
+
+
+@njit
+def _project_velocities_staged(y, F, I, W):
+    """:func:`project_velocities` with D and nu already evaluated at y's positions (as
+    :func:`project_positions` leaves them: its last evaluation is its convergence check)."""
+    bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    nb = bo.mass.size
+    copy_v(y, bo.v)
+    R = _R(co)
+    before = _max_residual(R, bo.v, co.nu)
+    if co.phi.size == 0:
+        return True, 0.0, 0.0
+    for a in range(co.rg.size):
+        co.rg[a] = row_times(R, a, bo.v) - co.nu[a]
+    if not dd_solve_correction(_M(bo), R, _P(sc), co.rg, sc.bs, co.lam, bo.t6):
+        return False, before, before
+    for j in range(6 * nb):
+        y[7 * nb + j] += bo.t6[j]
+    copy_v(y, bo.v)
+    return True, before, _max_residual(R, bo.v, co.nu)
+
+
+@njit
+def project(t, y, F, I, W, tol, max_it, dx_total):
+    """Both projections (the projection method's step); returns the position iterations, -1
+    if D D^T is singular, -2 if Newton did not converge."""
+    it, phi0, err = project_positions(t, y, F, I, W, tol, max_it, dx_total)
+    if it < 0:
+        return it
+    ok, before, after = _project_velocities_staged(y, F, I, W)   # D, nu at the final q
+    return it if ok else -1
