@@ -158,3 +158,186 @@ def test_communication_step_error_is_first_order(crank_fmu):
     assert errors[-1] > 1e3 * 1e-8                 # far above the integrator's error
 
 
+
+
+def test_parameter_sets_a_model_value(crank_fmu):
+    """bodies.slider.mass set in fmpy before initialisation = the model with that mass."""
+    h = 0.01
+    run = fmpy_run(crank_fmu, h, start_values={"bodies.slider.mass": 3.0})
+    heavy = zoh_reference(h, masses={"slider": 3.0}, rtol=1e-12, atol=1e-14)
+    light = zoh_reference(h, rtol=1e-12, atol=1e-14)
+    angle_heavy = joint_coordinates(heavy, "A")["angle"]
+    assert np.abs(run["A.angle"] - angle_heavy).max() < 1e-7
+    assert np.abs(joint_coordinates(light, "A")["angle"] - angle_heavy).max() > 1e-2
+
+
+def test_compiled_joint_outputs_match_spatialmbd_outputs():
+    """The co-simulation's compiled joint coordinates (fmi.joint_kernel) = outputs.
+    joint_coordinates on every state of a run (revolute A, translational D)."""
+    model = crank_model({"type": "time_series", "times": TABLE_T.tolist(),
+                         "values": TABLE_U.tolist()})
+    res = simulate(model, t_end=T_END, method="projection", output_step=0.01, **TOL)
+    names = ["A.angle", "A.angle_rate", "D.translation", "D.translation_rate"]
+    sim = CoSimulation(model, outputs=names)
+    values = []
+    for k in range(len(res.t)):                      # set the state, evaluate the outputs
+        sim.y[:7 * model.nb] = res.q[k].reshape(-1)
+        sim.y[7 * model.nb:13 * model.nb] = res.v[k].reshape(-1)
+        sim.t = float(res.t[k])
+        values.append(sim._evaluate())
+    values = np.array(values)
+    for m, name in enumerate(names):
+        joint, coordinate = name.split(".")
+        ref = joint_coordinates(res, joint)[coordinate]
+        assert np.abs(values[:, m] - ref).max() <= 1e-12 * max(1.0, np.abs(ref).max())
+    assert values[:, 0].max() > math.pi + 1.0      # continuous past the branch cut at pi
+
+
+PI_SCRIPT = '''
+import ctypes
+
+from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
+
+# pythonfmu's loader releases this module's dict once per instance: take a reference each time
+ctypes.pythonapi.Py_IncRef(ctypes.py_object(globals()))
+
+
+class PIController(Fmi2Slave):
+    """u = kp e + ki integral(e), e = reference - angle, the integral by forward Euler."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.angle = 0.0
+        self.torque = 0.0
+        self.kp, self.ki, self.reference = 0.5, 2.0, 1.0
+        self.integral = 0.0
+        self.register_variable(Real("angle", causality=Fmi2Causality.input,
+                                    variability=Fmi2Variability.continuous))
+        self.register_variable(Real("torque", causality=Fmi2Causality.output,
+                                    variability=Fmi2Variability.continuous))
+        for name in ("kp", "ki", "reference"):
+            self.register_variable(Real(name, causality=Fmi2Causality.parameter,
+                                        variability=Fmi2Variability.fixed))
+
+    def do_step(self, current_time, step_size):
+        error = self.reference - self.angle
+        self.integral += error * step_size
+        self.torque = self.kp * error + self.ki * self.integral
+        return True
+'''
+
+
+@pytest.fixture(scope="module")
+def pi_fmu(tmp_path_factory):
+    from pythonfmu.builder import FmuBuilder
+    folder = tmp_path_factory.mktemp("pi")
+    script = folder / "pi_controller.py"
+    script.write_text(PI_SCRIPT)
+    return FmuBuilder.build_FMU(script, dest=folder)
+
+
+def python_pi(h, kp, ki, reference):
+    state = {"integral": 0.0}
+
+    def pi(t, y):
+        error = reference - y[0]
+        state["integral"] += error * h
+        return [kp * error + ki * state["integral"]]
+    return pi
+
+
+def test_pi_controller_fmu_drives_the_crank_like_the_python_loop(pi_fmu):
+    h = 0.002
+    model = crank_model()
+    fmu = FMUController(pi_fmu, inputs_from={"angle": "drive.coordinate"},
+                        outputs_to={"torque": "drive"}, step=h,
+                        parameters={"kp": 0.8, "reference": 1.5})
+    python = SampledController(python_pi(h, 0.8, 2.0, 1.5), actuators=["drive"], rate=1 / h)
+    runs = [simulate(model, t_end=1.0, method="projection", output_step=0.01,
+                     controllers=[c], **TOL) for c in (fmu, python)]
+    assert [r.status for r in runs] == ["success", "success"]
+    angles = [joint_coordinates(r, "A")["angle"] for r in runs]
+    commands = [r.control_log["drive"] for r in runs]
+    assert commands[0].shape == commands[1].shape == (500, 2)
+    assert np.array_equal(commands[0][:, 0], commands[1][:, 0])
+    assert np.abs(commands[0][:, 1] - commands[1][:, 1]).max() <= 1e-12
+    assert np.abs(angles[0] - angles[1]).max() <= 1e-12
+    assert abs(angles[0][-1]) > 0.5                       # the loop moved the crank
+    again = simulate(model, t_end=0.1, method="projection", output_step=0.01,
+                     controllers=[fmu], **TOL)            # a new run: a fresh FMU instance
+    assert np.abs(joint_coordinates(again, "A")["angle"] - angles[0][:11]).max() <= 1e-12
+    fmu.close()
+
+
+def test_command_line_writes_the_fmu(model_file, tmp_path, capsys):
+    out = tmp_path / "crank.fmu"
+    assert main(["fmu", str(model_file), "--output", "slider.x", "--input", "drive",
+                 "--step", "0.001", "-o", str(out)]) == 0
+    assert "1 input(s), 1 output(s), 1 parameter(s)" in capsys.readouterr().out
+    md = fmpy.read_model_description(str(out))
+    assert [v.name for v in md.modelVariables] == ["drive", "slider.x", "bodies.slider.mass"]
+    assert md.defaultExperiment.stepSize == "0.001"
+    assert validate_fmu(str(out)) == []
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("--input", "motor", "input 'motor' is not a point_force, torque or actuator element of "
+                         "the model (inputs it can take: drive)"),
+    ("--output", "A.angel", "output 'A.angel': joint 'A' (revolute) has the coordinates angle"),
+    ("--output", "crank.speed", "output 'crank.speed' is not a result column of the model"),
+    ("--step", "0", "the communication step must be a positive number of seconds, got 0.0"),
+    ("--step", "-1e-3", "the communication step must be a positive number of seconds"),
+    ("--parameter", "bodies.slider.mas", "parameter 'bodies.slider.mas': no key 'mas'"),
+    ("--parameter", "bodies.slider.name", "parameter 'bodies.slider.name' is 'slider', not a "
+                                          "number"),
+])
+def test_command_line_bad_input_names_the_item(model_file, tmp_path, capsys, option, value,
+                                               message):
+    out = tmp_path / "bad.fmu"
+    assert main(["fmu", str(model_file), f"{option}={value}", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_bad_step_and_names_in_python(crank_fmu, pi_fmu):
+    sim = CoSimulation(crank_model(), ["drive"], ["A.angle"])
+    for h in (0.0, -0.01, math.nan, math.inf):
+        with pytest.raises(ModelError, match="communication step must be a positive number"):
+            sim.do_step(0.0, h)
+    with pytest.raises(ModelError, match="'torque' is not an input"):
+        sim.set_input("torque", 1.0)
+    with pytest.raises(ModelError, match="communication step must be a positive number of "
+                                         "seconds, got 0.0"):
+        FMUController(pi_fmu, {"angle": "drive"}, {"torque": "drive"}, step=0.0)
+    with pytest.raises(ModelError, match="'speed' is not an input of the FMU \\(inputs: "
+                                         "angle\\)"):
+        FMUController(pi_fmu, {"speed": "drive"}, {"torque": "drive"}, step=1e-3)
+    with pytest.raises(ModelError, match="'force' is not an output of the FMU \\(outputs: "
+                                         "torque\\)"):
+        FMUController(pi_fmu, {"angle": "drive"}, {"force": "drive"}, step=1e-3)
+    with pytest.raises(ModelError, match="'drive.speed': give '<actuator>.coordinate'"):
+        FMUController(pi_fmu, {"angle": "drive.speed"}, {"torque": "drive"}, step=1e-3)
+    ctl = FMUController(pi_fmu, {"angle": "drive"}, {"torque": "spindle"}, step=1e-3)
+    with pytest.raises(ModelError, match="'spindle' is not an actuator of the model "
+                                         "\\(actuators: drive\\)"):
+        simulate(crank_model(), t_end=0.01, method="projection", controllers=[ctl])
+
+
+def test_fmu_without_a_binary_for_this_platform_is_refused(pi_fmu, tmp_path):
+    """An FMU that carries only a Windows binary: the error names the file, this platform
+    and the binaries it has."""
+    foreign = tmp_path / "windows_only.fmu"
+    with zipfile.ZipFile(pi_fmu) as zin, zipfile.ZipFile(foreign, "w") as zout:
+        for item in zin.infolist():
+            if item.filename.startswith("binaries/") and "win64" not in item.filename:
+                continue
+            zout.writestr(item, zin.read(item))
+    with pytest.raises(ModelError) as info:
+        FMUController(foreign, {"angle": "drive"}, {"torque": "drive"}, step=1e-3)
+    text = str(info.value)
+    assert "windows_only.fmu" in text and f"no binary for this platform ({fmpy.platform})" \
+        in text and "its binaries: win64" in text
+    with pytest.raises(ModelError, match="does not exist"):
+        FMUController(tmp_path / "missing.fmu", {"angle": "drive"}, {"torque": "drive"},
+                      step=1e-3)

@@ -132,6 +132,8 @@ def interface(data: dict, inputs=None, outputs=None, parameters=None, **settings
                              "importer's (step, stop time); give model values")
         try:
             value = get_path(plain, p)
+        except ModelError as exc:
+            raise ModelError(f"FMU export: {exc}") from None
         except (KeyError, IndexError, TypeError):
             raise ModelError(f"FMU export: parameter {p!r} is not a value of the model file "
                              "(paths as in sweeps: bodies.<name>.mass, forces.<name>.stiffness, "
