@@ -114,7 +114,7 @@ every step; 4 outputs (A.angle, A.angle_rate, D.translation, slider.x). Best of 
 | integration (the integrator's integrate() from t to t + h, restarted) | {per(integ):.1f} |
 | direct CoSimulation.do_step + input + outputs (Python) | {per(wall_d):.1f} |
 | through the FMU (fmpy setReal, doStep, getReal; pythonfmu; the slave) | {per(wall_f):.1f} |
-| **co-simulation overhead beyond the integration (FMU - integration)** | **{per(wall_f - integ):.1f}** |
+| **overhead beyond the integration (FMU - integration)** | **{per(wall_f - integ):.1f}** |
 | of which the FMI layer (FMU - direct) | {per(wall_f - wall_d):.1f} |
 
 Final outputs, FMU - direct: {diff:.2g} (the same computation).

@@ -55,9 +55,11 @@ def check_fmu(path, who="FMU"):
     platforms = fmpy.supported_platforms(str(path))
     if fmpy.platform not in platforms:
         binaries = [p for p in platforms if p not in ("c-code", "source")]
+        sources = " (and C sources: compile it for this platform)" \
+            if "c-code" in platforms else ""
         raise ModelError(f"{who}: {str(path)!r} has no binary for this platform "
                          f"({fmpy.platform}); its binaries: {', '.join(binaries) or 'none'}"
-                         f"{' (and C sources: compile it for this platform)' if 'c-code' in platforms else ''}")
+                         f"{sources}")
     return md
 
 

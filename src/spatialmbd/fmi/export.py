@@ -92,6 +92,21 @@ def _identifier(name: str) -> str:
     return ident if re.match(r"[A-Za-z_]", ident) else f"m_{ident}"
 
 
+def fmi_name(path: str) -> str:
+    """The FMI 2.0 structured name of a model path: list indices become [k] (0-based, as in the
+    path: bodies.link.inertia.0 -> bodies.link.inertia[0]), names that are not identifiers are
+    quoted ('link-1')."""
+    out = ""
+    for token in str(path).split("."):
+        if token.isdigit() and out:
+            out += f"[{int(token)}]"
+        else:
+            part = token if re.fullmatch(r"[A-Za-z_]\w*", token) else \
+                "'" + token.replace("\\", "\\\\").replace("'", "\\'") + "'"
+            out += ("." if out else "") + part
+    return out
+
+
 def interface(data: dict, inputs=None, outputs=None, parameters=None, **settings) -> dict:
     """The interface of the FMU: the ``fmu:`` section of ``data`` overridden by the arguments,
     every name checked against the model (ModelError naming it). Returns the JSON-ready spec."""
@@ -146,8 +161,14 @@ def interface(data: dict, inputs=None, outputs=None, parameters=None, **settings
     sim = CoSimulation(model, inputs, outputs, t0=float(spec["start_time"]),
                        method=spec["method"], integrator=spec["integrator"],
                        rtol=float(spec["rtol"]), atol=float(spec["atol"]), name="FMU export")
+    names = [fmi_name(n) for n in list(inputs) + list(outputs) + list(params)]
+    if len(set(names)) != len(names):
+        raise ModelError(f"FMU export: two variables share the FMI name "
+                         f"{next(n for n in names if names.count(n) > 1)!r}")
     spec.update(inputs={n: sim.get_input(n) for n in inputs}, outputs=outputs,
-                parameters=params, identifier=_identifier(data.get("name")),
+                parameters=params,
+                fmi_names=dict(zip(list(inputs) + list(outputs) + list(params), names)),
+                identifier=_identifier(data.get("name")),
                 description=f"spatialmbd model {data.get('name', 'model')!r}, co-simulation")
     return spec
 

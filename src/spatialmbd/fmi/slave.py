@@ -58,6 +58,7 @@ class SpatialMBDSlave:
             start_time=spec["start_time"], stop_time=spec.get("stop_time"),
             step_size=spec.get("step"), tolerance=spec.get("rtol"))
         self._values = [0.0] * len(self.output_names)
+        fmi = spec.get("fmi_names", {})
 
         def setter(table, name):
             def set_value(value):
@@ -68,18 +69,21 @@ class SpatialMBDSlave:
             return lambda: table[name]
         for name in self.input_values:
             self.register_variable(Real(
-                name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                fmi.get(name, name), causality=Fmi2Causality.input,
+                variability=Fmi2Variability.continuous,
                 getter=getter(self.input_values, name), setter=setter(self.input_values, name),
                 description="held over each communication step (zero-order hold)"),
                 nested=False)
         for m, name in enumerate(self.output_names):
             self.register_variable(Real(
-                name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                fmi.get(name, name), causality=Fmi2Causality.output,
+                variability=Fmi2Variability.continuous,
                 getter=(lambda m=m: self._values[m]), setter=(lambda value: None)),
                 nested=False)
         for name in self.parameter_values:
             self.register_variable(Real(
-                name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                fmi.get(name, name), causality=Fmi2Causality.parameter,
+                variability=Fmi2Variability.fixed,
                 getter=getter(self.parameter_values, name),
                 setter=setter(self.parameter_values, name),
                 description="model value by path (docs/model-file.md)"), nested=False)
