@@ -341,3 +341,83 @@ def test_fmu_without_a_binary_for_this_platform_is_refused(pi_fmu, tmp_path):
     with pytest.raises(ModelError, match="does not exist"):
         FMUController(tmp_path / "missing.fmu", {"angle": "drive"}, {"torque": "drive"},
                       step=1e-3)
+
+
+def test_a_second_independent_importer_runs_the_fmu(crank_fmu):
+    """libcosim (Open Simulation Platform; FMI Library underneath) steps the exported FMU to
+    the same outputs as fmpy: a constant torque, h = 10 ms, 0.2 s."""
+    libcosimpy = pytest.importorskip("libcosimpy", reason="libcosimpy: Linux/Windows wheels")
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+    assert libcosimpy
+    log_output_level(CosimLogLevel.ERROR)
+    refs = {v.name: v.valueReference for v in
+            fmpy.read_model_description(str(crank_fmu)).modelVariables}
+    execution = CosimExecution.from_step_size(step_size=10_000_000)          # ns
+    slave = execution.add_local_slave(CosimLocalSlave(fmu_path=str(crank_fmu),
+                                                      instance_name="crank"))
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    execution.real_initial_value(slave, refs["drive"], 0.2)
+    assert execution.step(20)
+    names = ["A.angle", "A.angle_rate", "slider.x"]
+    values = observer.last_real_values(slave, [refs[n] for n in names])
+    run = fmpy.simulate_fmu(str(crank_fmu), stop_time=0.2, step_size=0.01,
+                            start_values={"drive": 0.2})
+    assert np.allclose(values, [run[n][-1] for n in names], rtol=0, atol=1e-12)
+    direct = simulate(crank_model(0.2), t_end=0.2, method="projection", output_step=0.01,
+                      rtol=1e-12, atol=1e-14)
+    assert abs(values[0] - joint_coordinates(direct, "A")["angle"][-1]) < 1e-7
+
+
+PENDULUM = {
+    "spatialmbd": 1, "name": "pendulum", "gravity": [0.0, 0.0, -9.81],
+    "bodies": [{"name": "link", "mass": 1.0, "inertia": [0.1, 0.1, 0.01],
+                "position": [0.0, 0.5, 0.0]}],
+    "joints": [{"name": "pivot", "type": "revolute", "body_i": "ground", "body_j": "link",
+                "point": [0.0, 0.0, 0.0], "axis": [1.0, 0.0, 0.0]}],
+    "forces": [{"name": "twist", "type": "torque", "body": "link", "direction": [1, 0, 0],
+                "magnitude": 0.0},
+               {"name": "push", "type": "point_force", "body": "link", "point": [0, 0.5, 0],
+                "direction": [0, 0, 1], "magnitude": 0.0}],
+}
+
+
+def test_torque_and_point_force_magnitudes_as_inputs():
+    """Inputs held on a torque and a point force = the direct run with those laws held."""
+    h, n = 0.02, 25
+    tk = np.arange(n) * h
+    twist, push = 0.5 * np.cos(3 * tk), 2.0 * np.sin(5 * tk)
+    data = yaml.safe_load(yaml.safe_dump(PENDULUM))
+    for force, values in zip(data["forces"], (twist, push)):
+        force["magnitude"] = {"type": "time_series", "times": tk.tolist(),
+                              "values": values.tolist(), "interpolation": "zoh"}
+    direct = simulate(load_model(data)[0], t_end=n * h, method="projection", output_step=h,
+                      rtol=1e-12, atol=1e-14)
+    sim = CoSimulation(load_model(PENDULUM)[0], ["twist", "push"], ["pivot.angle", "link.z"],
+                       **TOL)
+    out = [sim.output_values()]
+    for t, a, b in zip(tk, twist, push):
+        sim.set_input("twist", a)
+        sim.set_input("push", b)
+        sim.do_step(t, h)
+        out.append(sim.output_values())
+    out = np.array(out)
+    assert np.abs(out[:, 0] - joint_coordinates(direct, "pivot")["angle"]).max() < 1e-8
+    assert np.abs(out[:, 1] - direct.q[:, 0, 2]).max() < 1e-8
+    assert np.ptp(out[:, 0]) > 0.1                        # the inputs moved the pendulum
+
+
+def test_the_fmu_section_is_checked_with_the_file():
+    from spatialmbd.io.schema import ModelFileError
+    data = crank_dict()
+    data["fmu"]["ouputs"] = data["fmu"].pop("outputs")
+    data["fmu"]["step"] = -1
+    with pytest.raises(ModelFileError) as info:
+        load_model(data)
+    assert info.value.problems == [
+        "fmu.ouputs: unknown key 'ouputs' (did you mean 'outputs'?); valid keys: inputs, "
+        "outputs, parameters, start_time, stop_time, step, method, integrator, rtol, atol",
+        "fmu.step: must be > 0, got -1"]
