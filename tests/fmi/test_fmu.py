@@ -421,3 +421,26 @@ def test_the_fmu_section_is_checked_with_the_file():
         "fmu.ouputs: unknown key 'ouputs' (did you mean 'outputs'?); valid keys: inputs, "
         "outputs, parameters, start_time, stop_time, step, method, integrator, rtol, atol",
         "fmu.step: must be > 0, got -1"]
+
+
+def test_reactions_and_accelerations_as_outputs():
+    """<joint>.<body>.fx..mz and <body>.ax.. at the communication points = the results table
+    of the direct run (a constant torque: no input jumps)."""
+    model = crank_model(0.2)
+    names = ["A.crank.fy", "A.ground.mz", "D.slider.fz", "B.rod.fx", "slider.ax",
+             "crank.alphax"]
+    sim = CoSimulation(model, ["drive"], names, **TOL)
+    sim.set_input("drive", 0.2)
+    h, n = 0.01, 20
+    out = [sim.output_values()]
+    for k in range(n):
+        sim.do_step(k * h, h)
+        out.append(sim.output_values())
+    out = np.array(out)
+    table = simulate(model, t_end=n * h, method="projection", output_step=h,
+                     rtol=1e-12, atol=1e-14).to_dataframe()
+    for m, name in enumerate(names):
+        ref = table[name].to_numpy()
+        assert np.abs(out[:, m] - ref).max() <= 1e-6 * np.abs(ref).max(), name
+    with pytest.raises(ModelError, match="joint 'A' joins 'ground' and 'crank'"):
+        CoSimulation(model, outputs=["A.slider.fx"])

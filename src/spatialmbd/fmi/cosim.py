@@ -18,7 +18,9 @@ The held value replaces the element's own law (column 0 of its law row; its rate
 
 Outputs (result column names, :mod:`spatialmbd.outputs`): ``<body>.x|y|z|e0..e3|vx..vz|wx..wz``
 and ``<joint>.<coordinate>`` of a joint (``A.angle``, ``A.angle_rate``, ``D.translation``, ...;
-angles continuous over turns across steps).
+angles continuous over turns across steps) from the state; ``<body>.ax..alphaz`` and the
+reactions ``<joint>.<body>.fx..mz`` of the results table through the method's solve at the
+communication point (with the inputs held over the step that ends there).
 """
 from __future__ import annotations
 
@@ -31,6 +33,9 @@ from ..errors import ModelError, SimulationError
 from .joint_kernel import axis_joint_coordinates
 
 BODY_COLUMNS = ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy", "vz", "wx", "wy", "wz")
+#: accelerations and reactions need the method's solve at the communication point (slower)
+ACCELERATION_COLUMNS = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
+REACTION_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 #: force-element types whose law column 0 an input may hold (besides every actuator type)
 INPUT_TYPES = ("point_force", "torque")
 
@@ -81,6 +86,13 @@ def check_outputs(model, names, who="co-simulation"):
         if target in bodies and quantity in BODY_COLUMNS:
             out.append(("body", bodies.index(target), quantity))
             continue
+        if target in bodies and quantity in ACCELERATION_COLUMNS:
+            out.append(("acceleration", bodies.index(target), quantity))
+            continue
+        reaction = _reaction(model, str(name), who)
+        if reaction is not None:
+            out.append(reaction)
+            continue
         try:
             g, _, _ = model.element(target) if target else (None, None, None)
         except (ModelError, KeyError, ValueError):
@@ -94,10 +106,29 @@ def check_outputs(model, names, who="co-simulation"):
             raise ModelError(f"{who}: output {name!r}: joint {target!r} ({g.name}) has the "
                              f"coordinates {', '.join(coords)} (and their _rate)")
         raise ModelError(f"{who}: output {name!r} is not a result column of the model (body "
-                         f"columns <body>.{'|'.join(BODY_COLUMNS[:3])}|..., joint columns "
-                         f"<joint>.angle, <joint>.angle_rate, ...; bodies: "
-                         f"{', '.join(bodies)})")
+                         f"columns <body>.{'|'.join(BODY_COLUMNS[:3])}|..., <body>.ax|..., "
+                         f"joint columns <joint>.angle, <joint>.angle_rate, ..., reactions "
+                         f"<joint>.<body>.fx|...|mz; bodies: {', '.join(bodies)})")
     return out
+
+
+def _reaction(model, name: str, who):
+    """("reaction", joint, body, quantity) of a column <joint>.<body>.<fx..mz> (the reaction
+    on that body of the joint, global axes, moment about the joint point, as in the results
+    table), None when the name is not of that form."""
+    parts = name.split(".")
+    if len(parts) != 3 or parts[2] not in REACTION_COLUMNS:
+        return None
+    try:
+        g, k, _ = model.element(parts[0])
+    except ModelError:
+        return None
+    names = list(model.body_names) + ["ground"]
+    ends = (names[int(g.body_i[k])], names[int(g.body_j[k])])
+    if parts[1] not in ends:
+        raise ModelError(f"{who}: output {name!r}: joint {parts[0]!r} joins {ends[0]!r} and "
+                         f"{ends[1]!r}; its reactions are <joint>.<one of them>.fx ... mz")
+    return ("reaction", parts[0], parts[1], parts[2])
 
 
 def check_step(h, who="co-simulation") -> float:
@@ -160,6 +191,8 @@ class CoSimulation:
         mob = _start_mobility(model, eom, q, v, self.t)
         redundant = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
         meth.setup(eom, redundant)
+        self._eom, self._method = eom, meth
+        self._redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
         # inputs: held values in law column 0, rewritten after every setting of the laws
         self.inputs = list(inputs)
         rows = input_rows(model, system, self.inputs, name)
@@ -252,11 +285,15 @@ class CoSimulation:
         from .joint_kernel import AXIS_JOINTS
         model, nb = self.model, self.model.nb
         body_pos, body_idx, joints, slow = [], [], [], []
-        for m, (kind, target, quantity) in enumerate(self._out):
+        self._solved = [(m, item) for m, item in enumerate(self._out)
+                        if item[0] in ("acceleration", "reaction")]
+        for m, (kind, target, quantity, *_) in enumerate(self._out):
             if kind == "body":
                 c = BODY_COLUMNS.index(quantity)
                 body_pos.append(m)
                 body_idx.append(7 * target + c if c < 7 else 7 * nb + 6 * target + c - 7)
+                continue
+            if kind != "joint":
                 continue
             g, k, _ = model.element(target)
             if g.name in AXIS_JOINTS:
@@ -281,7 +318,7 @@ class CoSimulation:
         self._fast_pos = np.array([m for m, _ in fast], dtype=np.int64)
         self._fast_col = np.array([c for _, c in fast], dtype=np.int64)
         self._generic = [(m, t, q) for m, t, q in slow if t is not None]
-        angles = [m for m, (kind, _, q) in enumerate(self._out)
+        angles = [m for m, (kind, _, q, *_) in enumerate(self._out)
                   if kind == "joint" and (q in ("rx", "rz") or
                                           ("angle" in q and not q.endswith("_rate")))]
         self._angle_pos = np.array(angles, dtype=np.int64)
@@ -306,6 +343,8 @@ class CoSimulation:
                 if target not in done:
                     done[target] = _joint(track, self.model, target)
                 values[m] = done[target][quantity][0]
+        if self._solved:
+            self._solve(values)
         if self._angle_pos.size:                    # angles continuous over turns
             a = values[self._angle_pos]
             if self._last_angles is not None:
@@ -314,6 +353,28 @@ class CoSimulation:
                 values[self._angle_pos] = a
             self._last_angles = a
         return values
+
+    def _solve(self, values) -> None:
+        """Accelerations and reactions at the current state: the method's solve, through the
+        one-sample :class:`spatialmbd.results.Results` (its reaction columns)."""
+        from ..results import Results
+        res = Results.from_integration(
+            model=self.model, eom=self._eom, method=self._method, integrator=self.integrator,
+            t=np.array([self.t]), y=self.y[None, :], status="success", message="",
+            counters={}, wall_time=0.0, correction=None,
+            redundant_joints=self._redundant_joints, messages=[], settings={})
+        reactions = None
+        for m, (kind, target, *rest) in self._solved:
+            if kind == "acceleration":
+                values[m] = res.vdot[0, target, ACCELERATION_COLUMNS.index(rest[0])]
+                continue
+            if reactions is None:
+                reactions = res.reactions()
+            body, quantity = rest
+            r = reactions[target]
+            side = "i" if body == r.body_i else "j"
+            vector = getattr(r, ("force_" if quantity[0] == "f" else "moment_") + side)
+            values[m] = vector[0, "xyz".index(quantity[1])]
 
     def output(self, name: str) -> float:
         """The value of output ``name`` at the current time."""
