@@ -161,8 +161,8 @@ class CoSimulation:
         from ..integrators.base import ODEProblem
         from ..state import normalize_q
         # the simulation's own building blocks (one run, built once)
-        from ..simulate import (_compiled_rhs, _driver_rows, _make_integrator,
-                                _python_rhs, _start_mobility)
+        from ..simulate import (_compiled_rhs, _contact_memory, _driver_rows,
+                                _make_integrator, _python_rhs, _start_mobility)
         model = guards.compiled_model(model)
         self.model, self.name, nb = model, name, model.nb
         self.t = float(t0)
@@ -234,6 +234,14 @@ class CoSimulation:
                                    stages=meth.stages(system) if compiled else None,
                                    n_quadrature=1, breaks=breaks)
         self.y = np.concatenate([q.reshape(-1), v.reshape(-1), np.zeros(n_z), [0.0]])
+        # contacts: the impact-velocity memory restarts the steps at every first touch, as in
+        # a simulation (the located touches are the integrator's events within a step)
+        memory = _contact_memory(model, eom, compiled, self.t, self.y)
+        self._events = None
+        if memory is not None:
+            from ..integrators import Event
+            self._events = [Event(gap, direction=-1.0, name=touch_name, restart=touch,
+                                  record=False) for touch_name, gap, touch in memory.triggers()]
         self._nq = n_q
         self.integration_time = 0.0
         self.steps = 0
@@ -266,7 +274,8 @@ class CoSimulation:
                              f"t = {self.t!r} s (steps must follow one another)")
         t_end = t + h
         start = time.perf_counter()
-        res = self.integrator.integrate(self._problem, t, self.y, np.array([t, t_end]))
+        res = self.integrator.integrate(self._problem, t, self.y, np.array([t, t_end]),
+                                        events=self._events)
         self.integration_time += time.perf_counter() - start
         if res.status != "success" or len(res.t) < 2:
             err = SimulationError(f"{self.name}: the step from t = {t:.9g} s to "
