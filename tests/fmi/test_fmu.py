@@ -465,3 +465,17 @@ def test_contact_impacts_inside_a_communication_step():
     assert out[:, 1].max() > 2.0                        # it bounced (upward speed)
     assert np.abs(out[:, 0] - direct.q[:, 0, 2]).max() < 1e-6
     assert np.abs(out[:, 1] - direct.v[:, 0, 2]).max() < 1e-5
+
+
+def test_export_from_a_model_object(tmp_path):
+    """export_fmu(Model, ...): the model is written into the FMU as a model file."""
+    path = export_fmu(crank_model(), tmp_path / "from_model.fmu", inputs=["drive"],
+                      outputs=["A.angle"], step=0.01)
+    assert validate_fmu(str(path)) == []
+    with zipfile.ZipFile(path) as z:
+        assert "resources/model.json" in z.namelist()
+    run = fmpy.simulate_fmu(str(path), stop_time=0.1, step_size=0.01,
+                            start_values={"drive": 0.2})
+    direct = simulate(crank_model(0.2), t_end=0.1, method="projection", output_step=0.01,
+                      rtol=1e-12, atol=1e-14)
+    assert np.abs(run["A.angle"] - joint_coordinates(direct, "A")["angle"]).max() < 1e-6

@@ -62,27 +62,23 @@ def _require_pythonfmu():
 
 
 def _model_source(model_or_path, work: Path):
-    """(model file written into ``work``, its dict) of a path, a dict or a Model/builder."""
-    from ..io.writer import save_model, model_to_dict
+    """(model file written into ``work``, its dict) of a path, a dict or a Model/builder (a
+    Model or builder is written as a model file: what a file cannot hold, e.g. user forces,
+    is refused by the writer, naming it)."""
+    from ..io.writer import model_to_dict
     if isinstance(model_or_path, (str, Path)):
         src = Path(model_or_path)
         if not src.is_file():
             raise ModelError(f"model file {str(src)!r} does not exist")
         data = read_model_dict(src)
-        suffix = ".json" if src.suffix.lower() == ".json" else ".yaml"
-    elif isinstance(model_or_path, dict):
-        data, suffix = model_or_path, ".json"
-    else:
-        data, suffix = model_to_dict(model_or_path), ".json"
-    if not isinstance(data, dict):
-        raise ModelError(f"model {model_or_path!r}: not a model file (expected a mapping)")
-    target = work / f"model{suffix}"
-    if isinstance(model_or_path, (str, Path)):
-        shutil.copyfile(model_or_path, target)
-    elif suffix == ".json":
-        target.write_text(json.dumps(data))
-    else:                                                          # pragma: no cover
-        save_model(model_or_path, target)
+        if not isinstance(data, dict):
+            raise ModelError(f"model file {str(src)!r}: not a model file (expected a mapping)")
+        target = work / ("model.json" if src.suffix.lower() == ".json" else "model.yaml")
+        shutil.copyfile(src, target)
+        return target, data
+    data = model_or_path if isinstance(model_or_path, dict) else model_to_dict(model_or_path)
+    target = work / "model.json"
+    target.write_text(json.dumps(data))
     return target, data
 
 
