@@ -323,13 +323,15 @@ class CoSimulation:
         self._js_i = np.array([g.geometry.s_i[k] for g, k in geo], dtype=float).reshape(-1, 3)
         self._js_j = np.array([g.geometry.s_j[k] for g, k in geo], dtype=float).reshape(-1, 3)
         self._jout = np.zeros((len(joints), 4))
+        self._jlast = np.full(len(joints), np.nan)
         fast = [(m, c) for m, t, c in slow if t is None]
         self._fast_pos = np.array([m for m, _ in fast], dtype=np.int64)
         self._fast_col = np.array([c for _, c in fast], dtype=np.int64)
         self._generic = [(m, t, q) for m, t, q in slow if t is not None]
+        generic = {m for m, _, _ in self._generic}
         angles = [m for m, (kind, _, q, *_) in enumerate(self._out)
-                  if kind == "joint" and (q in ("rx", "rz") or
-                                          ("angle" in q and not q.endswith("_rate")))]
+                  if m in generic and (q in ("rx", "rz") or
+                                       ("angle" in q and not q.endswith("_rate")))]
         self._angle_pos = np.array(angles, dtype=np.int64)
         self._last_angles = None
 
@@ -341,7 +343,7 @@ class CoSimulation:
         values[self._body_pos] = y[self._body_idx]
         if self._fast_pos.size:
             axis_joint_coordinates(y, nb, self._jb_i, self._jb_j, self._jR_i, self._jR_j,
-                                   self._js_i, self._js_j, self._jout)
+                                   self._js_i, self._js_j, self._jlast, self._jout)
             values[self._fast_pos] = self._jout.reshape(-1)[self._fast_col]
         if self._generic:
             from ..outputs import _Track, _joint
@@ -354,7 +356,7 @@ class CoSimulation:
                 values[m] = done[target][quantity][0]
         if self._solved:
             self._solve(values)
-        if self._angle_pos.size:                    # angles continuous over turns
+        if self._angle_pos.size:                    # other joints' angles, likewise
             a = values[self._angle_pos]
             if self._last_angles is not None:
                 last = self._last_angles

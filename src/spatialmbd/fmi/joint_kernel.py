@@ -72,10 +72,11 @@ def _dot(a, b):
 
 
 @njit
-def axis_joint_coordinates(y, nb, body_i, body_j, R_i, R_j, s_i, s_j, out):
+def axis_joint_coordinates(y, nb, body_i, body_j, R_i, R_j, s_i, s_j, last, out):
     """out (n, 4) = [angle, angle rate, translation, translation rate] of n axis joints.
     body_i, body_j (n,); R_i, R_j (n, 3, 3) joint frames [u, a, b] in body axes; s_i, s_j
-    (n, 3) joint points in body axes."""
+    (n, 3) joint points in body axes; last (n,): the previous angles (NaN: none), updated --
+    each angle is taken on the branch nearest it (continuous over turns)."""
     Ai, Aj = np.empty((3, 3)), np.empty((3, 3))
     ri, rj, vi, vj = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     wi, wj = np.empty(3), np.empty(3)
@@ -95,7 +96,13 @@ def axis_joint_coordinates(y, nb, body_i, body_j, R_i, R_j, s_i, s_j, out):
         xd = _dot(tmp, aj) + _dot(ai, tmp2)
         _cross(wi, bi, tmp)
         yd = _dot(tmp, aj) + _dot(bi, tmp2)
-        out[k, 0] = math.atan2(yy, x)
+        theta = math.atan2(yy, x)
+        if not math.isnan(last[k]):
+            step = theta - last[k]
+            theta = last[k] + step - 2.0 * math.pi * math.floor((step + math.pi)
+                                                                / (2.0 * math.pi))
+        last[k] = theta
+        out[k, 0] = theta
         out[k, 1] = (x * yd - yy * xd) / (x * x + yy * yy)
         for i in range(3):
             si[i] = Ai[i, 0] * s_i[k, 0] + Ai[i, 1] * s_i[k, 1] + Ai[i, 2] * s_i[k, 2]
