@@ -51,11 +51,14 @@ def cmd_fmu(args) -> int:
                          method=args.method, integrator=args.integrator, rtol=args.rtol,
                          atol=args.atol)
     if not args.quiet:
-        import fmpy
-        md = fmpy.read_model_description(str(written))
+        import zipfile
+        from xml.etree import ElementTree
+        with zipfile.ZipFile(written) as fmu:
+            root = ElementTree.fromstring(fmu.read("modelDescription.xml"))
         counts = {}
-        for v in md.modelVariables:
-            counts[v.causality] = counts.get(v.causality, 0) + 1
+        for v in root.iter("ScalarVariable"):
+            kind = v.get("causality", "local")
+            counts[kind] = counts.get(kind, 0) + 1
         print(f"FMU (FMI 2.0 co-simulation) written to {written}: {counts.get('input', 0)} "
               f"input(s), {counts.get('output', 0)} output(s), "
               f"{counts.get('parameter', 0)} parameter(s)")
