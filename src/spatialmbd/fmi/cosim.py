@@ -171,8 +171,7 @@ class CoSimulation:
             raise ModelError(f"{name}: method {meth.name!r} does not co-simulate; use "
                              "'projection' or 'standard'")
         opts = dict(integrator_options or {})
-        if getattr(guards, "check_integrator_name", None):
-            guards.check_integrator_name(integrator)
+        guards.check_integrator_name(integrator)
         from ..integrators import INTEGRATORS
         cls = INTEGRATORS.get(str(integrator).lower())
         if cls is not None and getattr(cls, "adaptive", False):
