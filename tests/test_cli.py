@@ -18,7 +18,7 @@ from spatialmbd.cli import main
 from spatialmbd.io.modelfile import load_model, model_to_dict, save_model
 from spatialmbd.io.results_io import load_results, read_results
 
-COMMANDS = ["run", "info", "plot", "animate", "examples", "demo", "validate"]
+COMMANDS = ["run", "info", "plot", "animate", "examples", "demo", "validate", "fmu"]
 SHORT = {"type": "dynamic", "t_end": 0.3, "output_step": 0.02,
          "method": {"name": "standard"}, "integrator": {"name": "rk45", "rtol": 1e-8,
                                                          "atol": 1e-10}}

@@ -13,7 +13,7 @@ DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
 RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
              "couplers.md", "sliding-joints.md", "rolling.md", "joint-limits-friction.md",
-             "actuators.md")
+             "actuators.md", "fmi.md")
 
 
 def _mkdocs(config: Path, site: Path):
@@ -78,6 +78,10 @@ def test_worked_examples_of_the_pages_run(tmp_path, monkeypatch):
     a = 0.3 / (1.35 + 20 * 0.45 ** 2)
     assert door["touch"] == pytest.approx((2 - np.sqrt(4 - 2 * a * 1.4)) / a, abs=1e-9)
     assert door["energy_error"] < 1e-6
+    fmi = spaces["fmi.md"]                    # the FMU's run = the held-input simulation
+    assert fmi["problems"] == [] and fmi["difference"] < 1e-8
+    assert fmi["loop_difference"] <= 1e-12 and fmi["final_angle"] == pytest.approx(0.445,
+                                                                                   abs=1e-3)
     act = spaces["actuators.md"]                       # the PD step response, closed form
     assert act["step_error"] < 1e-9 and act["energy_error"] < 1e-9
     assert act["final_angle"] == pytest.approx(0.5, abs=0.01)   # the sampled controller

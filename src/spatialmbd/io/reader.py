@@ -378,7 +378,29 @@ def _parse(P, data, default_name="model"):
         analysis = _parse_analysis(P, ("analysis",), data["analysis"], declared_bodies)
     if analysis is not None:
         analysis.outputs = _parse_outputs_section(P, data)
+    _check_fmu_section(P, data)
     return b, analysis
+
+
+def _check_fmu_section(P, data) -> None:
+    """The ``fmu:`` section's shape (docs/fmi.md); its names are checked against the model
+    when an FMU is exported (:func:`spatialmbd.fmi.export.export_fmu`)."""
+    from .schema import FMU_KEYS
+    fmu = data.get("fmu")
+    if fmu is None or not _mapping(P, ("fmu",), fmu, FMU_KEYS):
+        return
+    for key in ("inputs", "outputs", "parameters"):
+        if key in fmu and _list(P, ("fmu", key), fmu[key], "names"):
+            for k, name in enumerate(fmu[key]):
+                _string(P, ("fmu", key, k), name, "a name")
+    for key in ("start_time", "stop_time", "rtol", "atol"):
+        if key in fmu:
+            _number(P, ("fmu", key), fmu[key], nonneg=True)
+    if "step" in fmu:
+        _number(P, ("fmu", "step"), fmu["step"], positive=True)
+    for key in ("method", "integrator"):
+        if key in fmu:
+            _string(P, ("fmu", key), fmu[key])
 
 
 def _force_section(P, b, data, section, FORCE_TYPES, refs, actuators_only=False):

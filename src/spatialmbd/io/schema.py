@@ -30,7 +30,10 @@ YAML_SUFFIXES = (".yaml", ".yml")
 JSON_SUFFIXES = (".json",)
 
 TOP_KEYS = ("spatialmbd", "name", "gravity", "bodies", "joints", "drivers", "forces",
-            "ground_shapes", "analysis", "outputs", "contacts", "couplers", "controls")
+            "ground_shapes", "analysis", "outputs", "contacts", "couplers", "controls", "fmu")
+#: the ``fmu:`` section: the interface of an exported FMU (docs/fmi.md, spatialmbd.fmi)
+FMU_KEYS = ("inputs", "outputs", "parameters", "start_time", "stop_time", "step", "method",
+            "integrator", "rtol", "atol")
 BODY_KEYS = ("name", "mass", "inertia", "position", "orientation", "velocity",
              "angular_velocity", "angular_velocity_local", "points", "vectors", "shapes", "color",
              "density")
