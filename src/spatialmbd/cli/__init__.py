@@ -170,10 +170,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             with compile_notice():
                 return args.func(args)
         return args.func(args)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         if debug:
             raise
-        common.err("interrupted")
+        common.err(f"interrupted {exc}" if str(exc) else "interrupted")
         return 130
     except Exception as exc:  # noqa: BLE001 - turned into messages and exit statuses below
         if debug:

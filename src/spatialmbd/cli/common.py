@@ -13,6 +13,8 @@ import time
 import warnings
 from typing import Optional, Sequence
 
+from ..atomic import check_writable
+
 
 class UsageError(Exception):
     """Bad command-line input (exit status 2)."""
@@ -278,6 +280,7 @@ def output_paths(args, stem: str, default_suffix: str, allowed: Sequence[str]) -
         if not parent.is_dir():
             raise UsageError(f"output file {str(out)!r}: directory {str(parent)!r} does not "
                              "exist")
+        check_writable(out)        # a read-only folder, /proc: refused before any work
     return outs
 
 

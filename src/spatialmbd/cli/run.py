@@ -121,7 +121,9 @@ def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> i
     notes = []
     for out in outs:
         if out.suffix.lower() == ".csv":
-            table.to_csv(out, index=False)
+            from ..atomic import atomic_write
+            with atomic_write(out) as tmp:
+                table.to_csv(tmp, index=False)
         elif analysis.type == "modal":
             kinds = list(results.table["kind"])
             k = next((i for i, c in enumerate(kinds) if c != "rigid-body"), 0)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import pathlib
 import sys
 
+from ..atomic import check_writable
 from . import common
 
 SWEEP_SUFFIXES = (".nc", ".csv", ".parquet")
@@ -107,10 +108,13 @@ def cmd_sweep(args) -> int:
                                     "or .parquet")
         if not (out.parent if str(out.parent) else pathlib.Path(".")).is_dir():
             raise common.UsageError(f"output file {str(out)!r}: directory does not exist")
+        check_writable(out)        # a read-only folder, /proc: refused before the sweep runs
     plot = None if (args.plot or "").lower() == "none" else \
         pathlib.Path(args.plot) if args.plot else outs[0].with_suffix(".png")
     if plot is not None and plot.suffix.lower() not in PLOT_SUFFIXES:
         raise common.UsageError(f"--plot {str(plot)!r}: use .png, .svg or .pdf")
+    if plot is not None:
+        check_writable(plot)
     if not args.quiet:
         for note in notes:
             print(f"note: {note}")

@@ -78,7 +78,8 @@ from typing import Any, Optional
 import numpy as np
 
 # atomic writing lives in the core layer (spatialmbd.atomic); re-exported here
-from ..atomic import STALE_SECONDS, _Staged, atomic_write, clean_stale_temporaries  # noqa: F401
+from ..atomic import (STALE_SECONDS, _Staged, atomic_write, clean_stale_temporaries,  # noqa: F401
+                      commit_all, defers_interrupts, interrupt_check, write_error)
 
 FORMAT_NAME = "spatialmbd-results"
 FORMAT_VERSION = 1
@@ -212,6 +213,7 @@ def _is_reaction(column: str, model) -> bool:
 # ----------------------------------------------------------------------------------------------
 # writing
 # ----------------------------------------------------------------------------------------------
+@defers_interrupts
 def save_results(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """Write ``results`` to ``path``: CSV for ``.csv``, HDF5 for ``.h5``/``.hdf5``.
 
@@ -295,6 +297,7 @@ def status_line(results) -> Optional[str]:
     return f"# status: {status}" + (f"; {message}" if message else "")
 
 
+@defers_interrupts
 def write_csv(results, path, *, table=None) -> pathlib.Path:
     """The results table as CSV (header row, one row per output time), written atomically.
     Results that are not complete (status failed, budget, interrupted) start with a comment
@@ -316,6 +319,7 @@ class _CSVSink:
             self.fh.write(line + "\n")
 
     def add(self, df):
+        interrupt_check()
         df.to_csv(self.fh, index=False, header=self.rows == 0 and self.columns == 0)
         self.rows += len(df)
         self.columns = len(df.columns)
@@ -345,6 +349,7 @@ def _write_csv_to(results, tmp, table=None) -> tuple:
     return sink.close()
 
 
+@defers_interrupts
 def save_all(results, paths, *, analysis=None) -> dict:
     """Write ``results`` to every path (.csv / .h5) as one set: all files are written to
     temporaries first and moved onto their targets only when all of them are complete, so
@@ -358,8 +363,10 @@ def save_all(results, paths, *, analysis=None) -> dict:
             raise ValueError(f"cannot tell the results format from {str(path)!r}: use a .csv "
                              "or .h5 (.hdf5) file name")
     staged, sinks = [], []
+    current = paths[0] if paths else None
     try:
         for path in paths:
+            current = path
             st = _Staged(path)
             staged.append(st)
             if path.suffix.lower() in CSV_SUFFIXES:
@@ -367,7 +374,6 @@ def save_all(results, paths, *, analysis=None) -> dict:
             else:
                 sinks.append(_H5Sink(results, st.tmp, analysis, run_id,
                                      [str(p) for p in paths]))
-        current = paths[0]
         for df in iter_table(results):
             for path, sink in zip(paths, sinks):
                 current = path
@@ -378,17 +384,18 @@ def save_all(results, paths, *, analysis=None) -> dict:
             written[path] = sink.close()
     except BaseException as exc:
         for sink in sinks:
-            sink.abort()
+            with contextlib.suppress(Exception):
+                sink.abort()
         for st in staged:
             st.abort()
         if isinstance(exc, OSError):
-            where = staged[-1].path if len(staged) < len(paths) else current
-            if str(where) not in str(exc):
-                raise OSError(exc.errno, f"cannot write {where}: {exc.strerror or exc} (the "
-                                         "previous files are kept)") from exc
+            tmp = next((st.tmp for st in staged if st.path == current), None)
+            raise write_error(current, exc, tmp, "the previous files are kept") from exc
+        if isinstance(exc, KeyboardInterrupt):
+            raise KeyboardInterrupt(f"while writing {', '.join(map(str, paths))}: nothing "
+                                    "written, the previous files are kept") from None
         raise
-    for st in staged:
-        st.commit()
+    commit_all(staged)
     return written
 
 
@@ -479,6 +486,7 @@ def _metadata(results, analysis) -> dict:
     return meta
 
 
+@defers_interrupts
 def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """The results with their model, settings and counters as HDF5 (layout in the module
     docstring), written atomically; the table is computed and written in chunks."""
@@ -530,6 +538,7 @@ class _H5Sink:
             tab.attrs["units"] = json.dumps(column_units_of(df))
             self.columns = len(df.columns)
         for c in df.columns:
+            interrupt_check()
             arr = df[c].to_numpy()
             if first:
                 _dataset(tab, str(c), arr, growable=len(df) < self.n_total)
@@ -549,6 +558,7 @@ class _H5Sink:
         try:
             with open(self.tmp, "wb") as fh:
                 for start in range(0, len(view), WRITE_BLOCK):
+                    interrupt_check()
                     fh.write(view[start:start + WRITE_BLOCK])
         finally:
             view.release()
@@ -581,7 +591,16 @@ def _dataset(group, name, arr, growable=False):
     if growable:
         kwargs.update(maxshape=(None,) + arr.shape[1:], chunks=(min(max(len(arr), 1), 8192),)
                       + arr.shape[1:])
-    group.create_dataset(name, data=arr, **kwargs)
+    interrupt_check()
+    if arr.ndim == 0 or arr.nbytes <= WRITE_BLOCK:
+        group.create_dataset(name, data=arr, **kwargs)
+        return
+    # large arrays in blocks of rows, so that Ctrl-C is honoured between them
+    dset = group.create_dataset(name, shape=arr.shape, dtype=arr.dtype, **kwargs)
+    step = max(1, WRITE_BLOCK // max(1, arr[0].nbytes))
+    for start in range(0, len(arr), step):
+        interrupt_check()
+        dset[start:start + step] = arr[start:start + step]
 
 
 # ----------------------------------------------------------------------------------------------

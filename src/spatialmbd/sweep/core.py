@@ -503,18 +503,20 @@ def save_result(ds, path) -> Path:
     """Write a sweep result: .nc (netCDF via xarray), .csv or .parquet (tidy table)."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix == ".nc":
-        ds.to_netcdf(path, engine=_netcdf_engine())
-    elif suffix == ".csv":
-        to_dataframe(ds).to_csv(path, index=False)
-    elif suffix == ".parquet":
-        try:
-            to_dataframe(ds).to_parquet(path, index=False)
-        except ImportError as exc:
-            raise ModelError(f"writing {path.name}: parquet needs pyarrow (pip install "
-                             f"pyarrow), or write .nc or .csv ({exc})") from None
-    else:
+    from ..atomic import atomic_write
+    if suffix not in (".nc", ".csv", ".parquet"):
         raise ModelError(f"sweep output {path.name!r}: use .nc, .csv or .parquet")
+    with atomic_write(path) as tmp:          # a failed write names the target, keeps the old
+        if suffix == ".nc":
+            ds.to_netcdf(tmp, engine=_netcdf_engine())
+        elif suffix == ".csv":
+            to_dataframe(ds).to_csv(tmp, index=False)
+        else:
+            try:
+                to_dataframe(ds).to_parquet(tmp, index=False)
+            except ImportError as exc:
+                raise ModelError(f"writing {path.name}: parquet needs pyarrow (pip install "
+                                 f"pyarrow), or write .nc or .csv ({exc})") from None
     return path
 
 

@@ -394,9 +394,15 @@ def write_animation_html(path, scene: dict, *, title: str = "spatialmbd animatio
     """Write the offline HTML animation of ``scene`` to ``path``; return the path."""
     path = pathlib.Path(path)
     text = animation_html(scene, title=title, renderer=renderer)
+    from ..atomic import atomic_write
     if path.parent != pathlib.Path(""):
-        path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OSError(exc.errno, f"cannot write {path}: cannot create its directory "
+                                     f"{path.parent}: {exc.strerror or exc}") from exc
+    with atomic_write(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
     return path
 
 
