@@ -52,7 +52,11 @@ def add_parser(command) -> None:
                         "tcp://host:8786, or auto (default: serial below 16 members, else "
                         "dask when installed)")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="worker processes of processes/dask (default: the number of cores)")
+                   help="worker processes of processes/dask (default: the number of cores; "
+                        "at most min(cores, members) are started)")
+    p.add_argument("--max-members", type=int, metavar="N",
+                   help="the most members allowed (default 1,000,000; a larger grid or --lhs "
+                        "is refused before anything is allocated)")
     p.add_argument("--engine", choices=("simulate", "batch"), default="simulate",
                    help="batch: integrate the members of a chunk together in one compiled "
                         "call (methods auto, standard, baumgarte, projection, recursive; "
@@ -80,7 +84,7 @@ def _params(args, usage_error):
         path = path.strip()
         if path in values:
             raise usage_error(f"--param {path!r} given twice")
-        values[path] = parse_range(text, path)
+        values[path] = parse_range(text, path, args.max_members)
     if args.lhs is not None:
         if args.lhs < 1:
             raise usage_error(f"--lhs must be >= 1, got {args.lhs}")
@@ -89,8 +93,8 @@ def _params(args, usage_error):
             if v.size < 2 or v.min() == v.max():
                 raise usage_error(f"--lhs: parameter {path!r} needs a range (low:high:n)")
             bounds[path] = (float(v.min()), float(v.max()))
-        return latin_hypercube(bounds, args.lhs, args.seed)
-    return grid(values)
+        return latin_hypercube(bounds, args.lhs, args.seed, args.max_members)
+    return grid(values, args.max_members)
 
 
 def cmd_sweep(args) -> int:
@@ -118,9 +122,20 @@ def cmd_sweep(args) -> int:
     if not args.quiet:
         for note in notes:
             print(f"note: {note}")
-    ds = sweep(str(model_path), space, args.output, analysis, args.scheduler,
-               engine=args.engine, chunk_size=args.chunk_size, workers=args.workers,
-               progress=False if args.quiet else None)
+    import warnings
+
+    from ..sweep.limits import SweepNote
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SweepNote)      # said here, before the sweep starts
+        workers = args.workers
+        if workers is not None and args.scheduler in ("processes", "dask", "auto"):
+            from ..sweep.limits import cap_workers
+            workers, note = cap_workers(workers, space.n_members)
+            if note:
+                common.err(f"note: {note}")
+        ds = sweep(str(model_path), space, args.output, analysis, args.scheduler,
+                   engine=args.engine, chunk_size=args.chunk_size, workers=workers,
+                   progress=False if args.quiet else None, max_members=args.max_members)
     for out in outs:
         save_result(ds, out)
     if plot is not None:
