@@ -226,9 +226,19 @@ def apply_overrides(analysis, args):
 
 
 def run_analysis(model, analysis, progress: bool, budget=None, stream=None):
-    """Run; return (results, wall time, warning texts)."""
+    """Run; return (results, wall time, warning texts). The estimate of a long run's work
+    (budget.WorkEstimate) is printed as a note when it comes, before the run."""
+    from ..budget import WorkEstimate
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        record = warnings.showwarning
+
+        def show(message, category, *rest, **kwargs):
+            if issubclass(category, WorkEstimate):
+                err(f"note: {message}")
+            else:
+                record(message, category, *rest, **kwargs)
+        warnings.showwarning = show
         start = time.perf_counter()
         if stream is not None:
             results = analysis.run(model, progress=progress, budget=budget, stream=stream)
