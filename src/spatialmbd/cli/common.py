@@ -42,10 +42,11 @@ def err(*lines: str) -> None:
         print(line, file=sys.stderr)
 
 
-def load(path: str, **import_options):
+def load(path: str, external_files: bool = True, **import_options):
     """(Model, Analysis) of a model file, or of an MJCF/URDF file imported in memory (with the
     default analysis; ``import_options``: strict, verbose, quiet of :func:`import_file`); file
-    problems raise ModelFileError / UsageError."""
+    problems raise ModelFileError / UsageError. external_files=False: a model file naming
+    files outside its folder is refused (--no-external-files)."""
     p = pathlib.Path(path)
     if not p.exists():
         raise UsageError(f"no such model file: {path}")
@@ -56,7 +57,7 @@ def load(path: str, **import_options):
         builder = import_file(p, **import_options)
         return load_model(model_to_dict(builder, meshes="arrays"))
     from ..io.modelfile import load_model
-    return load_model(p)
+    return load_model(p, external_files=external_files)
 
 
 MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
@@ -64,9 +65,9 @@ MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
 
 def import_options(args, path) -> dict:
     """The import options of the command line (--strict, --verbose, -q) for an MJCF/URDF
-    ``path``; {} for a model file."""
+    ``path``; for a model file only --no-external-files."""
     if pathlib.Path(path).suffix.lower() not in MJCF_SUFFIXES:
-        return {}
+        return {"external_files": False} if getattr(args, "no_external_files", False) else {}
     return dict(strict=bool(getattr(args, "strict", False)),
                 verbose=bool(getattr(args, "verbose", False)),
                 quiet=bool(getattr(args, "quiet", False)))
@@ -82,6 +83,11 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
     g.add_argument("--verbose", action="store_true",
                    help="list every feature left out, not only their counts")
     g.add_argument("--lenient", action="store_true", help=argparse.SUPPRESS)   # the default
+    if model_files:
+        parser.add_argument("--no-external-files", action="store_true",
+                            help="an untrusted model: refuse files it names outside its own "
+                                 "folder (meshes, sidecars, time series) before reading any; "
+                                 "`spatialmbd info` lists them")
 
 
 def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool = False):

@@ -318,7 +318,8 @@ def _prepare_scene(scene: dict, title: str) -> dict:
              else _PALETTE[i % len(_PALETTE)],
              # (n_samples, 7): r then p per frame, float32 (viewing precision, ~1e-7 relative)
              "q": _float32_base64(np.concatenate([r, p], axis=1), what),
-             "shapes": _shapes(body.get("shapes"), what + "['shapes']")}
+             "shapes": _shapes(body.get("shapes"),
+                               f"{what}['shapes'] (body {body.get('name', i)!r})")}
         out["bodies"].append(b)
 
     for j, joint in enumerate(scene.get("joints") or []):
