@@ -39,6 +39,8 @@ BAD_MESHES = {                      # mesh fields -> (what the message names, wh
     "fractional faces": (dict(vertices=V, faces=[[0, 1, 2.5]]), ".faces[0]", "got [0.0, 1.0, 2.5]"),
     "non-finite vertex": (dict(vertices=NAN_V, faces=F), ".vertices[2]",
                           "non-finite coordinates [0.0, nan, 0.0]"),
+    # found by the fuzz test (tests/fuzz_surfaces.py): a ValueError from NumPy before
+    "scale as a string": (dict(vertices=V, faces=F, scale="x"), ".scale", "got a string ('x')"),
 }
 
 

@@ -177,7 +177,14 @@ def _table(value, what: str, expected: str, kind) -> np.ndarray:
 
 
 def _scale(shape: dict, what: str) -> np.ndarray:
-    s = np.asarray(shape.get("scale", 1.0), dtype=float).reshape(-1)
+    value = shape.get("scale", 1.0)
+    try:
+        if isinstance(value, (str, bytes, dict, bool)):
+            raise TypeError
+        s = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}.scale: expected one or three positive numbers, got "
+                         f"{_describe(value)}") from None
     if s.size == 1:
         s = np.repeat(s, 3)
     if s.size != 3 or not np.all(np.isfinite(s)) or np.any(s <= 0):

@@ -59,6 +59,12 @@ def test_the_member_limit_can_be_raised_and_lowered():
         grid({"a": "0:1:1001", "b": "0:1:1000"})
 
 
+def test_values_that_are_not_numbers_are_a_model_error():
+    """Found by the fuzz test (tests/fuzz_surfaces.py): a ValueError from NumPy before."""
+    with pytest.raises(ModelError, match=r"parameter 'k': values must be numbers.*\['x'\]"):
+        grid({"k": ["x"]})
+
+
 def test_memory_is_estimated_before_a_sweep_with_long_series_starts():
     with pytest.raises(ModelError, match="more than half of this machine's memory"):
         check_memory(1000, 2, 1e6, memory=1e9)

@@ -62,7 +62,13 @@ class ParameterSpace:
 
 
 def _values(name, vals, max_members=None) -> np.ndarray:
-    a = np.asarray(vals, dtype=float).ravel() if not isinstance(vals, str) else None
+    a = None
+    if not isinstance(vals, str):
+        try:
+            a = np.asarray(vals, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise ModelError(f"parameter {name!r}: values must be numbers, a list of numbers "
+                             f"or a 'start:stop:count' range, got {vals!r}"[:300]) from None
     if isinstance(vals, str):
         a = parse_range(vals, name, max_members)
     if a.size == 0:
