@@ -1,6 +1,6 @@
 """Files a model file refers to outside its own folder (mesh files, mesh sidecars, time series).
 
-A model file may name any file (``file: ../shared/arm.stl``, ``file: /data/motion.csv``):
+A model file may name any file (``file: ../meshes/arm.stl``, ``file: /data/motion.csv``):
 they are allowed, listed by ``spatialmbd info``, and refused before anything is read when the
 model is not trusted (``load_model(path, external_files=False)``; ``--no-external-files`` of
 run, info, animate and plot). A file is outside the folder when its real path (symbolic links
