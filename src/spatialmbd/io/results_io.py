@@ -72,6 +72,7 @@ import datetime
 import io
 import json
 import pathlib
+import time
 from dataclasses import dataclass, field
 from typing import Any, Optional
 
@@ -213,7 +214,7 @@ def _is_reaction(column: str, model) -> bool:
 # ----------------------------------------------------------------------------------------------
 # writing
 # ----------------------------------------------------------------------------------------------
-@defers_interrupts
+@defers_interrupts(imports=("pandas", "h5py"))
 def save_results(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """Write ``results`` to ``path``: CSV for ``.csv``, HDF5 for ``.h5``/``.hdf5``.
 
@@ -233,6 +234,10 @@ def save_results(results, path, *, analysis=None, table=None) -> pathlib.Path:
 
 #: rows of the results table computed and written at a time (bounded memory for long runs)
 CHUNK_ROWS = 20_000
+#: without an explicit chunk_rows, the table is computed in chunks of about this many seconds
+#: (the first of FIRST_CHUNK_ROWS rows times it), so that Ctrl-C is honoured between them
+CHUNK_SECONDS = 0.15
+FIRST_CHUNK_ROWS = 2_000
 
 
 def _chunk_rows(results) -> int:
@@ -269,12 +274,16 @@ def iter_table(results, chunk_rows: Optional[int] = None):
     kind = results_kind(results)
     n = len(results.t) if kind != "loaded" else len(results.table)
     step = chunk_rows or _chunk_rows(results)
-    if n <= step:
+    size = step if chunk_rows else min(step, FIRST_CHUNK_ROWS)
+    if n <= size:
         yield to_dataframe(results)
         return
     total0, refs = None, getattr(results, "coupler_references", None)
-    for start in range(0, n, step):
-        part = _slice(results, start, min(n, start + step))
+    start = 0
+    while start < n:
+        stop = min(n, start + size)
+        began = time.perf_counter()
+        part = _slice(results, start, stop)
         if kind == "dynamic":        # couplers' angles unwrapped on from the previous chunk
             part.coupler_references = refs
         df = to_dataframe(part)
@@ -284,6 +293,10 @@ def iter_table(results, chunk_rows: Optional[int] = None):
                 total0 = float(df["energy.total"].iloc[0])
             df["energy.error"] = df["energy.total"] - total0 - \
                 df["energy.work_nonconservative"]
+        if not chunk_rows:                 # about CHUNK_SECONDS per chunk, at most step rows
+            per_row = (time.perf_counter() - began) / (stop - start)
+            size = int(min(step, max(500, CHUNK_SECONDS / max(per_row, 1e-9))))
+        start = stop
         yield df
 
 
@@ -297,7 +310,7 @@ def status_line(results) -> Optional[str]:
     return f"# status: {status}" + (f"; {message}" if message else "")
 
 
-@defers_interrupts
+@defers_interrupts(imports=("pandas", "h5py"))
 def write_csv(results, path, *, table=None) -> pathlib.Path:
     """The results table as CSV (header row, one row per output time), written atomically.
     Results that are not complete (status failed, budget, interrupted) start with a comment
@@ -349,7 +362,7 @@ def _write_csv_to(results, tmp, table=None) -> tuple:
     return sink.close()
 
 
-@defers_interrupts
+@defers_interrupts(imports=("pandas", "h5py"))
 def save_all(results, paths, *, analysis=None) -> dict:
     """Write ``results`` to every path (.csv / .h5) as one set: all files are written to
     temporaries first and moved onto their targets only when all of them are complete, so
@@ -486,7 +499,7 @@ def _metadata(results, analysis) -> dict:
     return meta
 
 
-@defers_interrupts
+@defers_interrupts(imports=("pandas", "h5py"))
 def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """The results with their model, settings and counters as HDF5 (layout in the module
     docstring), written atomically; the table is computed and written in chunks."""
