@@ -105,6 +105,18 @@ def test_cli_other_commands_refuse_an_unwritable_path_before_any_work(command, t
     one_clean_line(capsys.readouterr().err, command[command.index("-o") + 1])
 
 
+@pytest.mark.parametrize("command, target", [
+    (["demo", "--quick", "-q", "--outdir", "/proc/study"], "/proc/study"),
+    (["validate", "-q", "--out", "/proc/v.md"], "/proc/v.md"),
+])
+def test_cli_demo_and_validate_refuse_an_unwritable_output_before_running(command, target,
+                                                                          capsys):
+    start = time.perf_counter()
+    assert main(command) == 2
+    one_clean_line(capsys.readouterr().err, target)
+    assert time.perf_counter() - start < 5.0             # refused before the study runs
+
+
 # ------------------------------------------------------------------ item 1: every writer
 def _writers(results, tmp_path):
     """(name, call(target)) for every writer of the package."""
