@@ -88,3 +88,45 @@ def test_fuzz_api_calls_long(pendulum):
     def run(call):
         check_api(pendulum, *call)
     run()
+
+
+# ------------------------------------------------------------------ issue 31: more surfaces
+from fuzz_surfaces import (check_mesh, check_output, check_sweep, check_xml,  # noqa: E402
+                           mesh_shape, output_target, sweep_case, xml_file)
+
+#: a fixed, derandomized set per surface (the whole file stays under 20 s)
+SURFACE_CASES = {"import": 60, "mesh": 80, "sweep": 40, "output": 40}
+
+
+@settings(QUICK, max_examples=SURFACE_CASES["import"])
+@given(case=xml_file())
+def test_fuzz_import(tmp_path_factory, case):
+    """Mutated MJCF/URDF files import, or are refused with a ModelError; nothing is written
+    to the working directory."""
+    folder = tmp_path_factory.mktemp("xml")
+    text, suffix = case
+    path = folder / f"model{suffix}"
+    path.write_text(text)
+    from fuzz_surfaces import working_directory
+    with working_directory(folder):
+        check_xml(path)
+
+
+@settings(QUICK, max_examples=SURFACE_CASES["mesh"])
+@given(shape=mesh_shape())
+def test_fuzz_mesh_shapes(shape):
+    check_mesh(shape)
+
+
+@settings(QUICK, max_examples=SURFACE_CASES["sweep"])
+@given(case=sweep_case())
+def test_fuzz_sweep_parameters(case):
+    check_sweep(*case)
+
+
+@settings(QUICK, max_examples=SURFACE_CASES["output"])
+@given(target=output_target())
+def test_fuzz_output_paths(tmp_path_factory, target):
+    folder = tmp_path_factory.mktemp("out") / "work"
+    folder.mkdir()
+    check_output(target, folder)

@@ -136,8 +136,55 @@ def _check(V, F, what: str) -> None:
                          f"0..{V.shape[0] - 1}")
 
 
+def _describe(value) -> str:
+    if isinstance(value, str):
+        text = value if len(value) <= 20 else value[:17] + "..."
+        return f"a string ({text!r})"
+    if isinstance(value, dict):
+        return f"a mapping of {len(value)} key{'s' if len(value) != 1 else ''}"
+    if isinstance(value, (bool, np.bool_)):
+        return f"a boolean ({value})"
+    return f"{type(value).__name__} {value!r}"[:60]
+
+
+def _table(value, what: str, expected: str, kind) -> np.ndarray:
+    """``value`` as an array of numbers (``kind`` float or int: whole numbers), or ModelError
+    naming ``what``, the shape expected and what was given (a string, a mapping, a boolean, a
+    ragged list) -- never a TypeError from NumPy."""
+    if isinstance(value, (str, bytes, dict)) or not isinstance(value, (list, tuple,
+                                                                       np.ndarray)):
+        raise ModelError(f"{what}: expected {expected}, got {_describe(value)}")
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.dtype.kind not in "iuf":
+        for k, row in enumerate(value):                  # the first entry that is no number
+            items = row if isinstance(row, (list, tuple, np.ndarray)) else [row]
+            for x in items:
+                if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float,
+                                                                         np.number)):
+                    inside = f" in {_describe(row)}" if x is not row else ""
+                    raise ModelError(f"{what}[{k}]: expected {expected}, got "
+                                     f"{_describe(x)}{inside}")
+        raise ModelError(f"{what}: expected {expected}, got rows of different lengths")
+    if kind is int and array.dtype.kind == "f":
+        bad = ~np.isfinite(array) | (array != np.round(array))
+        if np.any(bad):
+            k = int(np.argwhere(bad)[0][0])
+            raise ModelError(f"{what}[{k}]: expected {expected}, got {array[k].tolist()}")
+    return array.astype(float) if kind is float else array
+
+
 def _scale(shape: dict, what: str) -> np.ndarray:
-    s = np.asarray(shape.get("scale", 1.0), dtype=float).reshape(-1)
+    value = shape.get("scale", 1.0)
+    try:
+        if isinstance(value, (str, bytes, dict, bool)):
+            raise TypeError
+        s = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}.scale: expected one or three positive numbers, got "
+                         f"{_describe(value)}") from None
     if s.size == 1:
         s = np.repeat(s, 3)
     if s.size != 3 or not np.all(np.isfinite(s)) or np.any(s <= 0):
@@ -156,17 +203,12 @@ def mesh_arrays(shape: dict, what: str = "mesh") -> tuple:
     elif shape.get("file") is not None:
         V, F = read_file(shape["file"])
     elif shape.get("vertices") is not None and shape.get("faces") is not None:
-        try:
-            V = np.asarray(shape["vertices"], dtype=float)
-            F = np.asarray(shape["faces"])
-        except (TypeError, ValueError):
-            raise ModelError(f"{what}: vertices must be (n, 3) numbers and faces (m, 3) "
-                             "integers") from None
+        V = _table(shape["vertices"], f"{what}.vertices", "(n, 3) coordinates in m", float)
+        F = _table(shape["faces"], f"{what}.faces", "(m, 3) vertex indices (integers)", int)
         if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] < 3:
             raise ModelError(f"{what}.vertices: expected (n, 3) numbers with n >= 3, got shape "
                              f"{V.shape}")
-        if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] < 1 or not (
-                np.issubdtype(F.dtype, np.integer) or np.all(F == np.round(F))):
+        if F.ndim != 2 or F.shape[1] != 3 or F.shape[0] < 1:
             raise ModelError(f"{what}.faces: expected (m, 3) vertex indices (integers), got "
                              f"shape {F.shape}")
         F = F.astype(np.int64)

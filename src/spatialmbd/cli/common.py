@@ -13,6 +13,8 @@ import time
 import warnings
 from typing import Optional, Sequence
 
+from ..atomic import check_writable
+
 
 class UsageError(Exception):
     """Bad command-line input (exit status 2)."""
@@ -40,10 +42,11 @@ def err(*lines: str) -> None:
         print(line, file=sys.stderr)
 
 
-def load(path: str, **import_options):
+def load(path: str, external_files: bool = True, **import_options):
     """(Model, Analysis) of a model file, or of an MJCF/URDF file imported in memory (with the
     default analysis; ``import_options``: strict, verbose, quiet of :func:`import_file`); file
-    problems raise ModelFileError / UsageError."""
+    problems raise ModelFileError / UsageError. external_files=False: a model file naming
+    files outside its folder is refused (--no-external-files)."""
     p = pathlib.Path(path)
     if not p.exists():
         raise UsageError(f"no such model file: {path}")
@@ -54,7 +57,7 @@ def load(path: str, **import_options):
         builder = import_file(p, **import_options)
         return load_model(model_to_dict(builder, meshes="arrays"))
     from ..io.modelfile import load_model
-    return load_model(p)
+    return load_model(p, external_files=external_files)
 
 
 MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
@@ -62,9 +65,9 @@ MJCF_SUFFIXES = (".xml", ".mjcf", ".urdf")
 
 def import_options(args, path) -> dict:
     """The import options of the command line (--strict, --verbose, -q) for an MJCF/URDF
-    ``path``; {} for a model file."""
+    ``path``; for a model file only --no-external-files."""
     if pathlib.Path(path).suffix.lower() not in MJCF_SUFFIXES:
-        return {}
+        return {"external_files": False} if getattr(args, "no_external_files", False) else {}
     return dict(strict=bool(getattr(args, "strict", False)),
                 verbose=bool(getattr(args, "verbose", False)),
                 quiet=bool(getattr(args, "quiet", False)),
@@ -84,6 +87,11 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
                    help="start from the file's keyframe NAME (its qpos, qvel and ctrl) "
                         "instead of qpos0 at rest")
     g.add_argument("--lenient", action="store_true", help=argparse.SUPPRESS)   # the default
+    if model_files:
+        parser.add_argument("--no-external-files", action="store_true",
+                            help="an untrusted model: refuse files it names outside its own "
+                                 "folder (meshes, sidecars, time series) before reading any; "
+                                 "`spatialmbd info` lists them")
 
 
 def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool = False,
@@ -230,9 +238,19 @@ def apply_overrides(analysis, args):
 
 
 def run_analysis(model, analysis, progress: bool, budget=None, stream=None):
-    """Run; return (results, wall time, warning texts)."""
+    """Run; return (results, wall time, warning texts). The estimate of a long run's work
+    (budget.WorkEstimate) is printed as a note when it comes, before the run."""
+    from ..budget import WorkEstimate
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        record = warnings.showwarning
+
+        def show(message, category, *rest, **kwargs):
+            if issubclass(category, WorkEstimate):
+                err(f"note: {message}")
+            else:
+                record(message, category, *rest, **kwargs)
+        warnings.showwarning = show
         start = time.perf_counter()
         if stream is not None:
             results = analysis.run(model, progress=progress, budget=budget, stream=stream)
@@ -284,6 +302,7 @@ def output_paths(args, stem: str, default_suffix: str, allowed: Sequence[str]) -
         if not parent.is_dir():
             raise UsageError(f"output file {str(out)!r}: directory {str(parent)!r} does not "
                              "exist")
+        check_writable(out)        # a read-only folder, /proc: refused before any work
     return outs
 
 

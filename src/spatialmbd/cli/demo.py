@@ -13,8 +13,13 @@ def cmd_demo(args) -> int:
     except ImportError as exc:
         raise common.UsageError(f"the chapter 15 study is not available in this installation "
                                 f"({exc})") from None
+    from ..atomic import check_writable
     outdir = pathlib.Path(args.outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"cannot write into {outdir}: {exc.strerror or exc}") from exc
+    check_writable(outdir / "table15_3.csv")      # before the study runs
     try:
         echo = None if args.quiet else (lambda line: print(line, flush=True))
         out = run_study(outdir, quick=args.quick, echo=echo)

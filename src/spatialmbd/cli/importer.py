@@ -17,6 +17,8 @@ def cmd_import(args) -> int:
     if not (out.parent if str(out.parent) else pathlib.Path(".")).is_dir():
         raise common.UsageError(f"output file {str(out)!r}: directory {str(out.parent)!r} "
                                 "does not exist")
+    from ..atomic import check_writable
+    check_writable(out)
     builder = common.import_file(src, strict=args.strict, verbose=args.verbose,
                                  quiet=args.quiet, keyframe=args.keyframe)
     from ..io.modelfile import save_model

@@ -1,6 +1,7 @@
 """`spatialmbd info`: bodies, joints, drivers, forces, analysis and mobility of a model."""
 from __future__ import annotations
 
+import pathlib
 import textwrap
 
 from . import common
@@ -47,6 +48,13 @@ def cmd_info(args) -> int:
         from ..outputs import parse_outputs
         lines.append("outputs: " + ", ".join(
             f"{r.kind} {r.of}" if r.of else r.kind for r in parse_outputs(model, requests)))
+    if pathlib.Path(args.model).suffix.lower() in (".yaml", ".yml", ".json"):
+        from ..io.external import external_files
+        outside = external_files(args.model)
+        if outside:
+            lines.append(f"files outside the model's folder ({len(outside)}; refused with "
+                         "--no-external-files):")
+            lines += [f"  {place}: {real}" for place, real in outside]
     lines.append("mobility:")
     lines.append(textwrap.indent(mobility(model).report(), "  "))
     print("\n".join(lines))

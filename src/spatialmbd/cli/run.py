@@ -81,12 +81,14 @@ def _stream_writer(args, analysis, outs):
 
 
 def _budget_of(args):
-    """The Budget of --max-steps / --max-wall-time (None without them)."""
+    """The Budget of --max-steps / --max-wall-time / --max-estimated-time (None without
+    them)."""
     steps, wall = getattr(args, "max_steps", None), getattr(args, "max_wall_time", None)
-    if steps is None and wall is None:
+    estimated = getattr(args, "max_estimated_time", None)
+    if steps is None and wall is None and estimated is None:
         return None
     from ..budget import Budget
-    return Budget(max_steps=steps, max_wall_time=wall)
+    return Budget(max_steps=steps, max_wall_time=wall, max_estimated_time=estimated)
 
 
 def _with_outputs(model, analysis, tokens):
@@ -121,7 +123,9 @@ def _write_engineering(results, analysis, outs, wall, warning_texts, quiet) -> i
     notes = []
     for out in outs:
         if out.suffix.lower() == ".csv":
-            table.to_csv(out, index=False)
+            from ..atomic import atomic_write
+            with atomic_write(out) as tmp:
+                table.to_csv(tmp, index=False)
         elif analysis.type == "modal":
             kinds = list(results.table["kind"])
             k = next((i for i, c in enumerate(kinds) if c != "rigid-body"), 0)
@@ -185,5 +189,9 @@ def add_parser(command) -> None:
                    help="stop after N accepted integration steps")
     g.add_argument("--max-wall-time", type=common.positive, metavar="S",
                    help="stop after S seconds of wall time")
+    g.add_argument("--max-estimated-time", type=common.positive, metavar="S",
+                   help="run even if its work is estimated above S seconds (default 600: a "
+                        "longer run is refused before it starts unless --max-wall-time or "
+                        "--max-steps bounds it)")
     common.add_import_options(p)
     p.set_defaults(func=cmd_run)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import pathlib
 import sys
 
+from ..atomic import check_writable
 from . import common
 
 SWEEP_SUFFIXES = (".nc", ".csv", ".parquet")
@@ -51,7 +52,11 @@ def add_parser(command) -> None:
                         "tcp://host:8786, or auto (default: serial below 16 members, else "
                         "dask when installed)")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="worker processes of processes/dask (default: the number of cores)")
+                   help="worker processes of processes/dask (default: the number of cores; "
+                        "at most min(cores, members) are started)")
+    p.add_argument("--max-members", type=int, metavar="N",
+                   help="the most members allowed (default 1,000,000; a larger grid or --lhs "
+                        "is refused before anything is allocated)")
     p.add_argument("--engine", choices=("simulate", "batch"), default="simulate",
                    help="batch: integrate the members of a chunk together in one compiled "
                         "call (methods auto, standard, baumgarte, projection, recursive; "
@@ -79,7 +84,7 @@ def _params(args, usage_error):
         path = path.strip()
         if path in values:
             raise usage_error(f"--param {path!r} given twice")
-        values[path] = parse_range(text, path)
+        values[path] = parse_range(text, path, args.max_members)
     if args.lhs is not None:
         if args.lhs < 1:
             raise usage_error(f"--lhs must be >= 1, got {args.lhs}")
@@ -88,8 +93,8 @@ def _params(args, usage_error):
             if v.size < 2 or v.min() == v.max():
                 raise usage_error(f"--lhs: parameter {path!r} needs a range (low:high:n)")
             bounds[path] = (float(v.min()), float(v.max()))
-        return latin_hypercube(bounds, args.lhs, args.seed)
-    return grid(values)
+        return latin_hypercube(bounds, args.lhs, args.seed, args.max_members)
+    return grid(values, args.max_members)
 
 
 def cmd_sweep(args) -> int:
@@ -107,16 +112,30 @@ def cmd_sweep(args) -> int:
                                     "or .parquet")
         if not (out.parent if str(out.parent) else pathlib.Path(".")).is_dir():
             raise common.UsageError(f"output file {str(out)!r}: directory does not exist")
+        check_writable(out)        # a read-only folder, /proc: refused before the sweep runs
     plot = None if (args.plot or "").lower() == "none" else \
         pathlib.Path(args.plot) if args.plot else outs[0].with_suffix(".png")
     if plot is not None and plot.suffix.lower() not in PLOT_SUFFIXES:
         raise common.UsageError(f"--plot {str(plot)!r}: use .png, .svg or .pdf")
+    if plot is not None:
+        check_writable(plot)
     if not args.quiet:
         for note in notes:
             print(f"note: {note}")
-    ds = sweep(str(model_path), space, args.output, analysis, args.scheduler,
-               engine=args.engine, chunk_size=args.chunk_size, workers=args.workers,
-               progress=False if args.quiet else None)
+    import warnings
+
+    from ..sweep.limits import SweepNote
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SweepNote)      # said here, before the sweep starts
+        workers = args.workers
+        if workers is not None and args.scheduler in ("processes", "dask", "auto"):
+            from ..sweep.limits import cap_workers
+            workers, note = cap_workers(workers, space.n_members)
+            if note:
+                common.err(f"note: {note}")
+        ds = sweep(str(model_path), space, args.output, analysis, args.scheduler,
+                   engine=args.engine, chunk_size=args.chunk_size, workers=workers,
+                   progress=False if args.quiet else None, max_members=args.max_members)
     for out in outs:
         save_result(ds, out)
     if plot is not None:

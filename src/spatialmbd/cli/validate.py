@@ -1,6 +1,8 @@
 """`spatialmbd validate`: the validation suite."""
 from __future__ import annotations
 
+import pathlib
+
 from . import common
 
 
@@ -16,6 +18,12 @@ def cmd_validate(args) -> int:
             print(f"{case.name}: {'pass' if case.passed else 'FAIL'} ({case.runtime:.1f} s)",
                   flush=True)
 
+    if args.out is not None:                     # before the cases run
+        from ..atomic import check_writable
+        out = pathlib.Path(args.out)
+        target = out if out.suffix.lower() in (".md", ".txt") else out / "validation.md"
+        if target.parent.is_dir():              # (a missing folder is made by the writer)
+            check_writable(target)
     try:
         cases = run_validation(full=args.full, out=args.out, cases=args.cases or None,
                                progress=progress, method=args.method)

@@ -496,18 +496,29 @@ def _parse_outputs_section(P, data) -> list:
     return out
 
 
-def load_builder(path_or_dict) -> tuple[ModelBuilder, Analysis]:
+def load_builder(path_or_dict, *, external_files: bool = True) -> tuple[ModelBuilder,
+                                                                        Analysis]:
     """A ModelBuilder and the Analysis of a model file (.yaml/.yml/.json) or a model dict.
 
     The whole file is checked first; every problem is reported at once in one
     :class:`ModelFileError` (``problems``: one string per problem, with its place).
+    external_files=False (an untrusted model): files named outside the model file's folder
+    (meshes, sidecars, time series; :mod:`.external`) are refused before any is read.
     """
     data, source, lines, duplicates, default_name = _read(path_or_dict)
     P = _Problems(lines)
     for where, line in duplicates:
         P.add(where, f"duplicate key {where[-1]!r} (each key may appear once per mapping)",
               line)
-    token = _BASE_DIR.set(None if source is None else str(Path(source).resolve().parent))
+    base_dir = None if source is None else str(Path(source).resolve().parent)
+    if not external_files:
+        from .external import refusal, scan
+        refused = scan(data, base_dir)
+        for path, real in refused:
+            P.add(path, refusal(real, base_dir))
+        if refused:
+            raise P.error(source)
+    token = _BASE_DIR.set(base_dir)
     try:
         builder, analysis = _parse(P, data, default_name)
     finally:
@@ -517,9 +528,10 @@ def load_builder(path_or_dict) -> tuple[ModelBuilder, Analysis]:
     return builder, analysis
 
 
-def load_model(path_or_dict) -> tuple[Model, Analysis]:
-    """The compiled Model and the Analysis of a model file or dict (see :func:`load_builder`)."""
-    builder, analysis = load_builder(path_or_dict)
+def load_model(path_or_dict, *, external_files: bool = True) -> tuple[Model, Analysis]:
+    """The compiled Model and the Analysis of a model file or dict (see :func:`load_builder`;
+    external_files=False refuses files outside the model's folder)."""
+    builder, analysis = load_builder(path_or_dict, external_files=external_files)
     try:
         model = builder.compile()
     except ModelFileError:

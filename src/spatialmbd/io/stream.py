@@ -31,6 +31,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ..atomic import commit_all, defers_interrupts, interrupt_check, write_error
 from ..errors import ModelError
 from .results_io import (CSV_SUFFIXES, FORMAT_NAME, FORMAT_VERSION, HDF5_SUFFIXES, _json,
                          _metadata, _Staged, column_units_of, status_line, to_dataframe)
@@ -104,6 +105,7 @@ class _H5Stream:
         self.columns = None
 
     def _append(self, group, name, arr):
+        interrupt_check()                  # Ctrl-C between datasets, never inside HDF5
         arr = np.asarray(arr, dtype=float)
         if name not in group:
             group.create_dataset(name, data=arr,
@@ -247,6 +249,7 @@ class ResultsWriter:
                 raise wrapped from exc
             raise
 
+    @defers_interrupts
     def add(self, results) -> None:
         """Append the output rows of ``results`` (dynamic Results of consecutive output times)
         to every file."""
@@ -275,6 +278,7 @@ class ResultsWriter:
         self.rows += len(df)
         self.t_written = float(results.t[-1])
 
+    @defers_interrupts
     def finish(self, results) -> dict:
         """Record the run (status, message, counters, model: from ``results``, the run's last
         chunk), close the files and move them onto their targets together. Returns
@@ -295,8 +299,7 @@ class ResultsWriter:
             if self.error is not exc:
                 raise self.error from exc
             raise
-        for st in self._staged:
-            st.commit()
+        commit_all(self._staged)
         self.finished = True
         return written
 
@@ -308,12 +311,11 @@ class ResultsWriter:
             st.abort()
         self.finished = True
 
-    @staticmethod
-    def _wrap_os(exc, path):
-        """An OSError naming the file (the others as they are)."""
-        if isinstance(exc, OSError) and str(path) not in str(exc):
-            return OSError(exc.errno, f"cannot write {path}: {exc.strerror or exc} (the "
-                                      "previous file is kept)")
+    def _wrap_os(self, exc, path):
+        """An OSError naming the target file, never its temporary (the others as they are)."""
+        if isinstance(exc, OSError):
+            tmp = next((st.tmp for st in self._staged if st.path == path), None)
+            return write_error(path, exc, tmp, "the previous file is kept")
         return exc
 
 

@@ -5,15 +5,14 @@ from __future__ import annotations
 
 import inspect
 import json
-import os
 import re
-import tempfile
 from pathlib import Path
 from typing import Optional, Union
 
 import numpy as np
 import yaml
 
+from ..atomic import atomic_write, check_writable
 from ..model import Model, ModelBuilder
 from .analysis import Analysis
 from .schema import (GEOMETRY_KEYS, JSON_SUFFIXES, SCHEMA_VERSION, YAML_SUFFIXES, ModelFileError,
@@ -259,27 +258,12 @@ def save_model(model_or_builder, path, analysis=None, *, header: Optional[str] =
     except ValueError as exc:       # NaN / inf in JSON
         raise ModelFileError([str(exc)], path,
                              heading=f"cannot write {str(path)!r}") from None
+    check_writable(path)                 # before the sidecar: nothing written if it cannot be
     if store is not None and store.shapes:
         store.write()
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+    with atomic_write(path) as tmp:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
             fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        try:
-            mode = os.stat(path).st_mode & 0o777 if path.exists() else 0o644
-            os.chmod(tmp, mode)
-        except OSError:
-            pass
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
     return path
 
 

@@ -201,6 +201,11 @@ class ModelBuilder:
                 raise ModelError(f"{what}.vectors[{key!r}]: zero-length vector; give a "
                                  "direction")
             vecs[str(key)] = vec
+        for k, shape in enumerate(shapes or []):   # inline meshes: faces, finite vertices
+            if isinstance(shape, dict) and shape.get("type") == "mesh" and \
+                    shape.get("file") is None:
+                from ..meshes import mesh_arrays
+                mesh_arrays(shape, f"{what}.shapes[{k}] (mesh)")
         self.bodies[name] = BodySpec(name=name, mass=mass, inertia=J,
                                      r=_vector(r, f"{what}.r"), p=pv,
                                      rdot=_vector(rdot, f"{what}.rdot"), omega=w, points=pts,

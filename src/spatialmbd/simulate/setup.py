@@ -2,6 +2,7 @@
 redundancy analysis at the start, the checks of fixed steps and budgets."""
 from __future__ import annotations
 
+import math
 import time
 from typing import Optional
 
@@ -149,25 +150,39 @@ def _structural_redundancy(model, eom, q, v, t0, mob):
 
 
 def _check_fixed_steps(integ, rhs, t0, y0, t_out, limits, n_eq=0) -> None:
-    """Refuse (before it starts) a fixed-step run of more steps than budget.MAX_FIXED_STEPS
-    without a step budget, with an estimate of its time from one timed evaluation."""
+    """Before the run starts: refuse a fixed-step run of more steps than
+    budget.MAX_FIXED_STEPS without a step budget, and estimate the work of a long run (steps
+    known in advance: fixed steps, or an adaptive integrator's max_step; output rows) from
+    one timed evaluation, announced or refused by budget.check_work."""
+    from ..budget import (OUTPUT_EVALUATIONS, STEP_EVALUATIONS, check_work, estimate_work,
+                         row_bytes)
+    span = float(t_out[-1]) - t0
     step = getattr(integ, "step", None)
-    if integ.adaptive or not step:
-        return
-    n_steps = (float(t_out[-1]) - t0) / step + len(t_out)
+    stages = getattr(integ, "stages", 1) or 1
+    if not integ.adaptive and step:
+        n_steps = span / step + len(t_out)
+    else:
+        max_step = float(getattr(integ, "max_step", math.inf) or math.inf)
+        n_steps = span / max_step if 0.0 < max_step < math.inf else 0.0
+        step = None
+    units = n_steps * (stages + STEP_EVALUATIONS) + len(t_out) * OUTPUT_EVALUATIONS
     per_eval = None
-    if n_steps > 1e6 and not limits.active:
+    if units > 1e5 and not limits.active:
         try:
             rhs(t0, y0)
-            start = time.perf_counter()
-            rhs(t0, y0)
-            per_eval = time.perf_counter() - start
+            times = []
+            for _ in range(3):
+                start = time.perf_counter()
+                rhs(t0, y0)
+                times.append(time.perf_counter() - start)
+            per_eval = min(times)
         except Exception:  # noqa: BLE001 - the run itself reports evaluation failures
             per_eval = None
-    from ..budget import row_bytes
-    check_fixed_steps(n_steps, step, float(t_out[-1]) - t0,
-                      getattr(integ, "stages", 1) or 1, limits, per_eval,
-                      len(t_out) * row_bytes(y0.size, n_eq))
+    if step:
+        check_fixed_steps(n_steps, step, span, stages, limits, per_eval,
+                          len(t_out) * row_bytes(y0.size, n_eq))
+    if per_eval:
+        check_work(estimate_work(n_steps, stages, len(t_out), per_eval), limits)
 
 
 def _guarded(rhs, stages, guard):

@@ -11,6 +11,7 @@ topology in one compiled call. Dask and xarray come with ``pip install 'spatialm
 """
 from .core import (QUIET_WORKERS, SweepJob, local_cluster, run_chunk, save_result, sweep,
                    to_dataframe)
+from .limits import MAX_MEMBERS, SweepNote
 from .outputs import REDUCTIONS, Output, parse_outputs, peak, period, trough
 from .params import (ParameterSpace, as_space, get_path, grid, latin_hypercube, parse_range,
                      points, set_path)
@@ -21,7 +22,8 @@ __all__ = ["sweep", "grid", "points", "latin_hypercube", "ParameterSpace", "pars
            "Output", "parse_outputs", "period", "peak", "trough", "REDUCTIONS", "set_path",
            "get_path",
            "save_result", "to_dataframe", "SweepJob", "run_chunk", "sensitivities",
-           "forward_sensitivities", "simulate_batch", "local_cluster", "QUIET_WORKERS"]
+           "forward_sensitivities", "simulate_batch", "local_cluster", "QUIET_WORKERS",
+           "MAX_MEMBERS", "SweepNote"]
 
 
 def __getattr__(name):

@@ -25,6 +25,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import ModelError
+from .limits import SweepNote, cap_workers, check_memory
 from .outputs import Columns, parse_outputs
 from .params import ParameterSpace, as_space, plain_copy, set_path, split
 from .status import FAILED, SUCCESS, _describe
@@ -292,7 +293,8 @@ def _scheduler_kind(scheduler, n_members):
 # --------------------------------------------------------------------------------- sweep
 def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="xarray",
           engine="simulate", chunk_size: Optional[int] = None, workers: Optional[int] = None,
-          progress=None, batch_options: Optional[dict] = None):
+          progress=None, batch_options: Optional[dict] = None,
+          max_members: Optional[int] = None):
     """Run ``model`` once per member of ``params`` and collect ``outputs``.
 
     model: a Model or ModelBuilder, a model file path (.yaml/.json), a model dict, or a factory
@@ -318,10 +320,13 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
         cores, False under Dask or processes, whose workers are one process per core),
         ``max_steps`` (per member, default 10 000 000).
     progress: a progress bar (default: when stderr is a terminal).
+    max_members: the most members allowed (default :data:`.limits.MAX_MEMBERS`); larger
+        spaces, and sweeps whose results are estimated above half of the memory, are refused
+        before anything is allocated. Local worker processes are at most min(cores, members).
 
     Members that fail are recorded (status "failed", message); they never raise.
     """
-    space = as_space(params)
+    space = as_space(params, max_members)
     outs = parse_outputs(outputs)
     if engine not in ("simulate", "batch"):
         raise ModelError(f"engine {engine!r}: use 'simulate' or 'batch'")
@@ -333,8 +338,13 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
         # processes every worker is already one process per core
         batch_options["threads"] = kind == "serial" and (os.cpu_count() or 1) > 1
     job = _make_job(model, space, outs, analysis, engine, batch_options)
+    check_memory(n, len(space.names), _values_per_member(outs, job.analysis))
     if workers is None:
         workers = (os.cpu_count() or 1) if kind != "serial" else 1
+    if kind == "processes" or (kind == "dask" and scheduler in ("dask", "auto", None)):
+        workers, note = cap_workers(workers, n)          # local processes: cores, members
+        if note:
+            warnings.warn(note, SweepNote, stacklevel=2)
     if chunk_size is None:
         # two tasks per worker: each task costs the scheduler some ms, members of one model
         # cost about the same (measured: 200 pendulum members on 2 workers, 1.70x serial with
@@ -363,6 +373,18 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
     if format == "dataframe":
         return to_dataframe(ds)
     raise ModelError(f"format {format!r}: use 'xarray' or 'dataframe'")
+
+
+def _values_per_member(outs, analysis: dict) -> float:
+    """Output numbers per member: 1 per scalar output, the number of output times per
+    time-series output (from the analysis' t_end and output_step)."""
+    series = sum(1 for o in outs if o.series)
+    if not series:
+        return float(len(outs))
+    t_end = float(analysis.get("t_end") or 1.0)
+    step = analysis.get("output_step")
+    times = t_end / float(step) + 1.0 if step else 1001.0
+    return float(len(outs) - series) + series * times
 
 
 def _make_job(model, space: ParameterSpace, outs, analysis, engine, batch_options) -> SweepJob:
@@ -495,18 +517,20 @@ def save_result(ds, path) -> Path:
     """Write a sweep result: .nc (netCDF via xarray), .csv or .parquet (tidy table)."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix == ".nc":
-        ds.to_netcdf(path, engine=_netcdf_engine())
-    elif suffix == ".csv":
-        to_dataframe(ds).to_csv(path, index=False)
-    elif suffix == ".parquet":
-        try:
-            to_dataframe(ds).to_parquet(path, index=False)
-        except ImportError as exc:
-            raise ModelError(f"writing {path.name}: parquet needs pyarrow (pip install "
-                             f"pyarrow), or write .nc or .csv ({exc})") from None
-    else:
+    from ..atomic import atomic_write
+    if suffix not in (".nc", ".csv", ".parquet"):
         raise ModelError(f"sweep output {path.name!r}: use .nc, .csv or .parquet")
+    with atomic_write(path) as tmp:          # a failed write names the target, keeps the old
+        if suffix == ".nc":
+            ds.to_netcdf(tmp, engine=_netcdf_engine())
+        elif suffix == ".csv":
+            to_dataframe(ds).to_csv(tmp, index=False)
+        else:
+            try:
+                to_dataframe(ds).to_parquet(tmp, index=False)
+            except ImportError as exc:
+                raise ModelError(f"writing {path.name}: parquet needs pyarrow (pip install "
+                                 f"pyarrow), or write .nc or .csv ({exc})") from None
     return path
 
 

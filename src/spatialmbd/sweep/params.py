@@ -33,6 +33,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..errors import ModelError
+from .limits import check_members
 
 __all__ = ["ParameterSpace", "grid", "points", "latin_hypercube", "parse_range",
            "as_space", "set_path", "get_path"]
@@ -60,10 +61,16 @@ class ParameterSpace:
         return {n: float(self.values[k, j]) for j, n in enumerate(self.names)}
 
 
-def _values(name, vals) -> np.ndarray:
-    a = np.asarray(vals, dtype=float).ravel() if not isinstance(vals, str) else None
+def _values(name, vals, max_members=None) -> np.ndarray:
+    a = None
+    if not isinstance(vals, str):
+        try:
+            a = np.asarray(vals, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise ModelError(f"parameter {name!r}: values must be numbers, a list of numbers "
+                             f"or a 'start:stop:count' range, got {vals!r}"[:300]) from None
     if isinstance(vals, str):
-        a = parse_range(vals, name)
+        a = parse_range(vals, name, max_members)
     if a.size == 0:
         raise ModelError(f"parameter {name!r}: no values given")
     if not np.all(np.isfinite(a)):
@@ -71,10 +78,15 @@ def _values(name, vals) -> np.ndarray:
     return a
 
 
-def parse_range(text: str, name: str = "parameter") -> np.ndarray:
+def parse_range(text: str, name: str = "parameter",
+                max_members: Optional[int] = None) -> np.ndarray:
     """Values from ``"start:stop:count"`` (count values, both ends included, like
-    numpy.linspace), ``"start:stop:count:log"`` (geometric) or ``"v1,v2,v3"``."""
+    numpy.linspace), ``"start:stop:count:log"`` (geometric) or ``"v1,v2,v3"``. A count above
+    ``max_members`` (default limits.MAX_MEMBERS) is refused before the values exist."""
     text = text.strip()
+    parts = text.split(":")
+    if len(parts) in (3, 4) and parts[2].strip().isdigit():
+        check_members(int(parts[2]), 1, f"parameter {name!r}: {text!r}", max_members)
     try:
         if ":" in text:
             parts = text.split(":")
@@ -95,13 +107,17 @@ def parse_range(text: str, name: str = "parameter") -> np.ndarray:
                          "comma-separated list (e.g. 1,2,5)") from None
 
 
-def grid(params: dict) -> ParameterSpace:
+def grid(params: dict, max_members: Optional[int] = None) -> ParameterSpace:
     """Full factorial of ``{name: values}`` (values: a list/array or a "start:stop:count"
-    string). The first parameter varies slowest."""
+    string). The first parameter varies slowest. More than ``max_members`` (default
+    limits.MAX_MEMBERS) members are refused before the table of values is made."""
     if not params:
         raise ModelError("a sweep needs at least one parameter")
     names = list(params)
-    axes = [_values(n, params[n]) for n in names]
+    axes = [_values(n, params[n], max_members) for n in names]
+    sizes = [a.size for a in axes]
+    check_members(math.prod(sizes), len(names),
+                  "a grid of " + " x ".join(str(s) for s in sizes) + " values", max_members)
     values = np.array(list(itertools.product(*axes)), dtype=float).reshape(-1, len(names))
     return ParameterSpace(names, values, "grid", axes)
 
@@ -129,13 +145,15 @@ def points(pts) -> ParameterSpace:
     return ParameterSpace(names, values, "points")
 
 
-def latin_hypercube(bounds: dict, n: int, seed: Optional[int] = 0) -> ParameterSpace:
+def latin_hypercube(bounds: dict, n: int, seed: Optional[int] = 0,
+                    max_members: Optional[int] = None) -> ParameterSpace:
     """n samples of ``{name: (low, high)}`` by Latin hypercube sampling: each parameter's range
     is cut into n equal strata and every stratum holds exactly one sample (uniform inside it);
     the strata are paired at random. ``seed`` makes the members reproducible."""
     n = int(n)
     if n < 1:
         raise ModelError(f"latin_hypercube: n must be >= 1, got {n}")
+    check_members(n, len(bounds), f"a Latin hypercube of n = {n}", max_members)
     rng = np.random.default_rng(seed)
     names = list(bounds)
     cols = []
@@ -153,12 +171,14 @@ def latin_hypercube(bounds: dict, n: int, seed: Optional[int] = 0) -> ParameterS
     return ParameterSpace(names, np.column_stack(cols), "points")
 
 
-def as_space(params) -> ParameterSpace:
+def as_space(params, max_members: Optional[int] = None) -> ParameterSpace:
     """A ParameterSpace from a space, a ``{name: values}`` dict (grid) or a list of points."""
     if isinstance(params, ParameterSpace):
+        check_members(params.n_members, len(params.names), "the parameter space",
+                      max_members)
         return params
     if isinstance(params, dict):
-        return grid(params)
+        return grid(params, max_members)
     if isinstance(params, (list, tuple)):
         return points(params)
     raise ModelError(f"params: expected a dict {{path: values}}, a list of points or a "

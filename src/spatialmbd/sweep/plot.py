@@ -55,7 +55,11 @@ def summary_plot(ds, path) -> pathlib.Path:
     fig.suptitle(f"sweep of {ds.attrs.get('model', 'model')}: {ds.attrs['n_members']} members, "
                  f"{ds.attrs['n_failed']} failed", fontsize=10)
     fig.tight_layout()
+    from ..atomic import atomic_write
     path = pathlib.Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_write(path) as tmp:
+            fig.savefig(tmp, format=path.suffix.lower().lstrip(".") or "png", dpi=110)
+    finally:
+        plt.close(fig)
     return path

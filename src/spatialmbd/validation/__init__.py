@@ -97,7 +97,9 @@ def run_validation(full: bool = False, out=None, cases: Optional[Iterable[str]] 
         else:
             out.mkdir(parents=True, exist_ok=True)
             path = out / ("validation_full.md" if full else "validation.md")
-        path.write_text(format_table(results, markdown=path.suffix == ".md") + "\n")
+        from ..atomic import atomic_write
+        with atomic_write(path) as tmp:
+            tmp.write_text(format_table(results, markdown=path.suffix == ".md") + "\n")
     return results
 
 

@@ -318,7 +318,8 @@ def _prepare_scene(scene: dict, title: str) -> dict:
              else _PALETTE[i % len(_PALETTE)],
              # (n_samples, 7): r then p per frame, float32 (viewing precision, ~1e-7 relative)
              "q": _float32_base64(np.concatenate([r, p], axis=1), what),
-             "shapes": _shapes(body.get("shapes"), what + "['shapes']")}
+             "shapes": _shapes(body.get("shapes"),
+                               f"{what}['shapes'] (body {body.get('name', i)!r})")}
         out["bodies"].append(b)
 
     for j, joint in enumerate(scene.get("joints") or []):
@@ -394,9 +395,15 @@ def write_animation_html(path, scene: dict, *, title: str = "spatialmbd animatio
     """Write the offline HTML animation of ``scene`` to ``path``; return the path."""
     path = pathlib.Path(path)
     text = animation_html(scene, title=title, renderer=renderer)
+    from ..atomic import atomic_write
     if path.parent != pathlib.Path(""):
-        path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OSError(exc.errno, f"cannot write {path}: cannot create its directory "
+                                     f"{path.parent}: {exc.strerror or exc}") from exc
+    with atomic_write(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
     return path
 
 

@@ -70,10 +70,12 @@ Modules: ``table`` (the table, its columns and chunks, :class:`LoadedResults`), 
 """
 from __future__ import annotations
 
+import contextlib
 import pathlib
 
 # atomic writing lives in the core layer (spatialmbd.atomic); re-exported here
-from ...atomic import STALE_SECONDS, _Staged, atomic_write, clean_stale_temporaries  # noqa: F401
+from ...atomic import (STALE_SECONDS, _Staged, atomic_write, clean_stale_temporaries,  # noqa: F401
+                       commit_all, defers_interrupts, interrupt_check, write_error)
 from .csv_file import _CSVSink, write_csv
 from .hdf5_file import _Encoder, _H5Sink, _json, _metadata, write_hdf5  # noqa: F401
 from .reading import load_results, read_results
@@ -87,6 +89,7 @@ __all__ = ["to_dataframe", "iter_table", "save_all", "clean_stale_temporaries", 
            "FORMAT_VERSION"]
 
 
+@defers_interrupts(imports=("pandas", "h5py"))
 def save_results(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """Write ``results`` to ``path``: CSV for ``.csv``, HDF5 for ``.h5``/``.hdf5``.
 
@@ -104,6 +107,7 @@ def save_results(results, path, *, analysis=None, table=None) -> pathlib.Path:
                      "(.hdf5) file name")
 
 
+@defers_interrupts(imports=("pandas", "h5py"))
 def save_all(results, paths, *, analysis=None) -> dict:
     """Write ``results`` to every path (.csv / .h5) as one set: all files are written to
     temporaries first and moved onto their targets only when all of them are complete, so
@@ -117,8 +121,10 @@ def save_all(results, paths, *, analysis=None) -> dict:
             raise ValueError(f"cannot tell the results format from {str(path)!r}: use a .csv "
                              "or .h5 (.hdf5) file name")
     staged, sinks = [], []
+    current = paths[0] if paths else None
     try:
         for path in paths:
+            current = path
             st = _Staged(path)
             staged.append(st)
             if path.suffix.lower() in CSV_SUFFIXES:
@@ -126,7 +132,6 @@ def save_all(results, paths, *, analysis=None) -> dict:
             else:
                 sinks.append(_H5Sink(results, st.tmp, analysis, run_id,
                                      [str(p) for p in paths]))
-        current = paths[0]
         for df in iter_table(results):
             for path, sink in zip(paths, sinks):
                 current = path
@@ -137,17 +142,18 @@ def save_all(results, paths, *, analysis=None) -> dict:
             written[path] = sink.close()
     except BaseException as exc:
         for sink in sinks:
-            sink.abort()
+            with contextlib.suppress(Exception):
+                sink.abort()
         for st in staged:
             st.abort()
         if isinstance(exc, OSError):
-            where = staged[-1].path if len(staged) < len(paths) else current
-            if str(where) not in str(exc):
-                raise OSError(exc.errno, f"cannot write {where}: {exc.strerror or exc} (the "
-                                         "previous files are kept)") from exc
+            tmp = next((st.tmp for st in staged if st.path == current), None)
+            raise write_error(current, exc, tmp, "the previous files are kept") from exc
+        if isinstance(exc, KeyboardInterrupt):
+            raise KeyboardInterrupt(f"while writing {', '.join(map(str, paths))}: nothing "
+                                    "written, the previous files are kept") from None
         raise
-    for st in staged:
-        st.commit()
+    commit_all(staged)
     return written
 
 

@@ -3,10 +3,11 @@ from __future__ import annotations
 
 import pathlib
 
-from ...atomic import atomic_write
+from ...atomic import atomic_write, defers_interrupts, interrupt_check
 from .table import _write_table, status_line
 
 
+@defers_interrupts(imports=("pandas", "h5py"))
 def write_csv(results, path, *, table=None) -> pathlib.Path:
     """The results table as CSV (header row, one row per output time), written atomically.
     Results that are not complete (status failed, budget, interrupted) start with a comment
@@ -28,6 +29,7 @@ class _CSVSink:
             self.fh.write(line + "\n")
 
     def add(self, df):
+        interrupt_check()
         df.to_csv(self.fh, index=False, header=self.rows == 0 and self.columns == 0)
         self.rows += len(df)
         self.columns = len(df.columns)

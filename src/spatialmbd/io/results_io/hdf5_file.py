@@ -12,7 +12,7 @@ from typing import Optional
 
 import numpy as np
 
-from ...atomic import atomic_write
+from ...atomic import atomic_write, defers_interrupts, interrupt_check
 from .table import column_units_of, FORMAT_NAME, FORMAT_VERSION, _write_table, results_kind
 
 
@@ -103,6 +103,7 @@ def _metadata(results, analysis) -> dict:
     return meta
 
 
+@defers_interrupts(imports=("pandas", "h5py"))
 def write_hdf5(results, path, *, analysis=None, table=None) -> pathlib.Path:
     """The results with their model, settings and counters as HDF5 (layout in the module
     docstring), written atomically; the table is computed and written in chunks."""
@@ -154,6 +155,7 @@ class _H5Sink:
             tab.attrs["units"] = json.dumps(column_units_of(df))
             self.columns = len(df.columns)
         for c in df.columns:
+            interrupt_check()
             arr = df[c].to_numpy()
             if first:
                 _dataset(tab, str(c), arr, growable=len(df) < self.n_total)
@@ -173,6 +175,7 @@ class _H5Sink:
         try:
             with open(self.tmp, "wb") as fh:
                 for start in range(0, len(view), WRITE_BLOCK):
+                    interrupt_check()
                     fh.write(view[start:start + WRITE_BLOCK])
         finally:
             view.release()
@@ -205,7 +208,16 @@ def _dataset(group, name, arr, growable=False):
     if growable:
         kwargs.update(maxshape=(None,) + arr.shape[1:], chunks=(min(max(len(arr), 1), 8192),)
                       + arr.shape[1:])
-    group.create_dataset(name, data=arr, **kwargs)
+    interrupt_check()
+    if arr.ndim == 0 or arr.nbytes <= WRITE_BLOCK:
+        group.create_dataset(name, data=arr, **kwargs)
+        return
+    # large arrays in blocks of rows, so that Ctrl-C is honoured between them
+    dset = group.create_dataset(name, shape=arr.shape, dtype=arr.dtype, **kwargs)
+    step = max(1, WRITE_BLOCK // max(1, arr[0].nbytes))
+    for start in range(0, len(arr), step):
+        interrupt_check()
+        dset[start:start + step] = arr[start:start + step]
 
 
 @contextlib.contextmanager

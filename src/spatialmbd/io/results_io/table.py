@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
+import time
 from dataclasses import dataclass, field
 from typing import Any, Optional
 
@@ -133,6 +134,10 @@ def _is_reaction(column: str, model) -> bool:
 
 #: rows of the results table computed and written at a time (bounded memory for long runs)
 CHUNK_ROWS = 20_000
+#: without an explicit chunk_rows, the table is computed in chunks of about this many seconds
+#: (the first of FIRST_CHUNK_ROWS rows times it), so that Ctrl-C is honoured between them
+CHUNK_SECONDS = 0.15
+FIRST_CHUNK_ROWS = 2_000
 
 
 def _chunk_rows(results) -> int:
@@ -169,12 +174,16 @@ def iter_table(results, chunk_rows: Optional[int] = None):
     kind = results_kind(results)
     n = len(results.t) if kind != "loaded" else len(results.table)
     step = chunk_rows or _chunk_rows(results)
-    if n <= step:
+    size = step if chunk_rows else min(step, FIRST_CHUNK_ROWS)
+    if n <= size:
         yield to_dataframe(results)
         return
     total0, refs = None, getattr(results, "coupler_references", None)
-    for start in range(0, n, step):
-        part = _slice(results, start, min(n, start + step))
+    start = 0
+    while start < n:
+        stop = min(n, start + size)
+        began = time.perf_counter()
+        part = _slice(results, start, stop)
         if kind == "dynamic":        # couplers' angles unwrapped on from the previous chunk
             part.coupler_references = refs
         df = to_dataframe(part)
@@ -184,6 +193,10 @@ def iter_table(results, chunk_rows: Optional[int] = None):
                 total0 = float(df["energy.total"].iloc[0])
             df["energy.error"] = df["energy.total"] - total0 - \
                 df["energy.work_nonconservative"]
+        if not chunk_rows:                 # about CHUNK_SECONDS per chunk, at most step rows
+            per_row = (time.perf_counter() - began) / (stop - start)
+            size = int(min(step, max(500, CHUNK_SECONDS / max(per_row, 1e-9))))
+        start = stop
         yield df
 
 
