@@ -161,8 +161,9 @@ class CoSimulation:
         from ..integrators.base import ODEProblem
         from ..state import normalize_q
         # the simulation's own building blocks (one run, built once)
-        from ..simulate import (_compiled_rhs, _contact_memory, _driver_rows,
-                                _make_integrator, _python_rhs, _start_mobility)
+        from ..simulate.assembly import _contact_memory
+        from ..simulate.rhs import _compiled_rhs, _driver_rows, _python_rhs
+        from ..simulate.setup import _make_integrator, _start_mobility
         model = guards.compiled_model(model)
         self.model, self.name, nb = model, name, model.nb
         self.t = float(t0)
