@@ -7,7 +7,7 @@ force passes through the axis), -m_w g RADIUS sin(theta); optimize() chooses m_w
 the peak |torque| over one revolution, as the minimax of the torque's peak and trough (the
 epigraph form: no kink at the optimum). A dense scan of m_w checks the result.
 
-Balanced case (closed form): with a massless rod and slider the crank's own weight is the
+Balanced case (closed form): with a massless rod (no inertia) and slider the crank's own weight is the
 only load, T = m_c g r_c sin(theta) - m_w g RADIUS sin(theta), and the peak |T| is zero at
 m_w = m_c r_c / RADIUS (0.12 kg x 0.04 m / 0.04 m = 0.12 kg).
 
@@ -25,10 +25,12 @@ ANALYSIS = dict(type="dynamic", t_end=2 * np.pi / 6.0, output_step=0.005,   # on
                 integrator=dict(name="rk45", rtol=1e-9, atol=1e-11))
 
 
-def slider_crank_counterweight(counterweight=0.0, rod_mass=0.5, slider_mass=2.0):
+def slider_crank_counterweight(counterweight=0.0, rod_mass=0.5, slider_mass=2.0,
+                               rod_inertia=None):
     """The driven slider-crank (Model) with a point counterweight (kg) on the crank, RADIUS
     below the pivot A: the crank's mass, centre of mass and inertia (parallel axes) change;
-    rod and slider masses in kg."""
+    rod and slider masses in kg, the rod's centroidal inertia [Ixx, Iyy, Izz] kg m^2 (None:
+    the benchmark's)."""
     from spatialmbd.io import load_model
     from spatialmbd.io.writer import model_to_dict
     data = model_to_dict(slider_crank(driven=True))
@@ -44,6 +46,8 @@ def slider_crank_counterweight(counterweight=0.0, rod_mass=0.5, slider_mass=2.0)
                  inertia=[inertia[0] + extra, inertia[1] + extra, inertia[2]],
                  points={"B": [0.0, 0.0, 0.2 - z]})
     bodies["rod"]["mass"] = rod_mass
+    if rod_inertia is not None:
+        bodies["rod"]["inertia"] = [float(v) for v in rod_inertia]
     bodies["slider"]["mass"] = slider_mass
     model, _ = load_model(data)
     return model
