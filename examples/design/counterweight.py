@@ -7,8 +7,8 @@ force passes through the axis), -m_w g RADIUS sin(theta); optimize() chooses m_w
 the peak |torque| over one revolution, as the minimax of the torque's peak and trough (the
 epigraph form: no kink at the optimum). A dense scan of m_w checks the result.
 
-Balanced case (closed form): with a massless rod (no inertia) and slider the crank's own weight is the
-only load, T = m_c g r_c sin(theta) - m_w g RADIUS sin(theta), and the peak |T| is zero at
+Balanced case (closed form): with a massless rod (no inertia) and slider the crank's own
+weight is the only load, T = m_c g r_c sin(theta) - m_w g RADIUS sin(theta), and the peak |T| is zero at
 m_w = m_c r_c / RADIUS (0.12 kg x 0.04 m / 0.04 m = 0.12 kg).
 
     python examples/design/counterweight.py [--scan N]

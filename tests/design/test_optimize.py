@@ -21,8 +21,8 @@ PEAK_ABS = [f"peak({T})", f"-trough({T})"]
 
 
 def test_balanced_case_closed_form():
-    # rod and slider (nearly) massless, the rod without inertia: the crank's weight is the only load and the peak
-    # torque vanishes at m_w = m_c r_c / RADIUS = 0.12 kg x 0.04 m / 0.04 m
+    # rod and slider (nearly) massless, the rod without inertia: the crank's weight is the
+    # only load and the peak torque vanishes at m_w = m_c r_c / RADIUS = 0.12 kg x 0.04 m / 0.04 m
     def light(counterweight):
         return cw.slider_crank_counterweight(counterweight, rod_mass=1e-6, slider_mass=1e-6,
                                              rod_inertia=(1e-9, 1e-8, 1e-8))

@@ -15,6 +15,8 @@ Standard errors (Gauss-Newton, at the estimate x*, J the weighted Jacobian (m x 
     cov = s^2 (J^T J)^-1,   s^2 = 1 with noise levels given (absolute sigma), else
     s^2 = sum(r^2) / (m - p)  (the residual variance);
     standard error_j = sqrt(cov_jj), correlation_jk = cov_jk / (se_j se_k).
+With a robust loss the same formula is applied to the weighted residuals and Jacobian as
+they are (SciPy does not return the loss-weighted ones): read the errors as approximate.
 Identifiability: the rank of J^T (columns scaled to unit length, so units do not matter) by
 the project's one rank decision :func:`spatialmbd.rank.row_rank`; a dependent row is a
 parameter whose effect on the outputs is a combination of the others' (it cannot be told from
@@ -80,7 +82,8 @@ class Identification:
         """Estimates +- standard errors, correlations, warnings and failures as text."""
         w = max(len(n) for n in self.names)
         state = "converged" if self.success else "NOT converged"
-        lines = [f"identification: {self.message} ({state}), {self.n_runs} runs, {self.wall_time:.3g} s",
+        lines = [f"identification: {self.message} ({state}), {self.n_runs} runs, "
+                 f"{self.wall_time:.3g} s",
                  f"residual rms {np.sqrt(self.residual_variance):.4g} (weighted), rank "
                  f"{self.rank} of {len(self.names)}", "",
                  f"{'parameter':<{w}}  {'estimate':>13}  {'std error':>11}  {'start':>11}"]

@@ -57,7 +57,8 @@ class Optimization:
     def report(self) -> str:
         w = max(len(n) for n in self.names)
         state = "converged" if self.success else "NOT converged"
-        lines = [f"optimization: {self.message} ({state}), {self.n_iterations} iterations, {self.n_runs} runs, "
+        lines = [f"optimization: {self.message} ({state}), {self.n_iterations} iterations, "
+                 f"{self.n_runs} runs, "
                  f"{self.wall_time:.3g} s", f"objective {self.objective:.8g}", "",
                  f"{'parameter':<{w}}  {'optimum':>13}  {'start':>11}"]
         lines += [f"{n:<{w}}  {x:13.6g}  {x0:11.4g}"

@@ -25,8 +25,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
-
 import numpy as np
 
 from ..errors import ModelError
@@ -187,7 +185,7 @@ class Problem:
             if an.get("type", "dynamic") != "dynamic":
                 raise ModelError("identification fits a dynamic analysis; set analysis type "
                                  "'dynamic'")
-            t_end = float(an.get("t_end", 0.0) or 0.0)
+            t_end = float(an.get("t_end") or max(an.get("t_eval") or [0.0]))
             if e.t[-1] > t_end + 1e-12 * max(1.0, t_end):
                 raise ModelError(f"{e.name}: time stamps reach {e.t[-1]:g} s, beyond the run "
                                  f"(t_end = {t_end:g} s); set analysis.t_end >= {e.t[-1]:g} "
