@@ -13,14 +13,16 @@ from .identify import out_path, params_and_bounds
 def add_parser(command) -> None:
     p = command("optimize", "choose model parameters that minimise an output (SLSQP)",
                 "Minimise OBJECTIVE (an output reduction(column): peak, trough, rms, mean, "
-                "max, final, ...; -OUTPUT maximises; several --objective minimise the "
-                "largest) over the parameters PATH of MODEL, subject to --constraint "
+                "max, final, ...; -OUTPUT maximises, written --objective=-OUTPUT; several "
+                "--objective minimise the largest) over the parameters PATH of MODEL, subject to --constraint "
                 "'OUTPUT >= VALUE' (or <=, ==), and write the optimised model file (-o) and "
                 "a report.",
                 """
-                spatialmbd optimize slider_crank.yaml --objective 'peak(crank_drive.crank.mx)' \\
-                    --objective '-trough(crank_drive.crank.mx)' \\
-                    --param bodies.rod.mass=0.5:0.1:2 -o best.yaml
+                spatialmbd optimize pendulum_damped.yaml '--objective=-rms(pendulum.wx)' \\
+                    --param forces.pivot_damper.damping=2:0.1:5 \\
+                    --constraint 'rms(pendulum.wx) <= 2.45' --t-end 1 -o best.yaml
+                spatialmbd optimize model.yaml --objective 'peak(drive.crank.mx)' \\
+                    '--objective=-trough(drive.crank.mx)' --param bodies.rod.mass=0.5:0.1:2
                 """)
     p.add_argument("model", metavar="MODEL", help="model file (.yaml, .yml or .json)")
     p.add_argument("--objective", action="append", required=True, metavar="OUTPUT",

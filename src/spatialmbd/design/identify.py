@@ -293,7 +293,7 @@ def identify(model, data=None, params=(), *, outputs=None, weights: Optional[dic
     if not np.all(np.isfinite(r0)):
         first = problem.failures[0]["message"] if problem.failures else "non-finite values"
         raise ModelError(f"identify: the model does not run at the start values "
-                         f"{dict(zip(names, x0))}: {first}")
+                         f"{dict(zip(names, x0.tolist()))}: {first}")
     if r0.size < len(names):
         raise ModelError(f"identify: {r0.size} residuals cannot determine {len(names)} "
                          "parameters; give more samples")

@@ -275,7 +275,7 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
         vals0, _ = evaluate(x0, False)
     except _Failed as exc:
         raise ModelError(f"optimize: the model does not run at the start values "
-                         f"{dict(zip(names, x0))}: {exc}") from None
+                         f"{dict(zip(names, x0.tolist()))}: {exc}") from None
     z0 = np.append(u0, np.max(sign * vals0[:nt])) if minimax else u0
     if minimax:
         ub.append((None, None))
