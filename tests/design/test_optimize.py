@@ -71,6 +71,19 @@ def test_constraint_and_forward_gradient():
                  jacobian="forward")
 
 
+def test_governor_spring_for_target_speed_closed_form():
+    spec = importlib.util.spec_from_file_location("governor",
+                                                  EXAMPLES / "design" / "governor.py")
+    gov = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gov)
+    best = optimize(gov.governor, gov.height_error, {"stiffness": 2.0},
+                    bounds={"stiffness": (0.5, 10.0)}, analysis=gov.ANALYSIS, tol=1e-14)
+    assert best.success, best.report()
+    # k* = M D sin(phi) (D w^2 cos(phi) - g) / phi = 2.374341 N m/rad
+    assert best.x[0] == pytest.approx(gov.exact_stiffness(), rel=1e-5), best.report()
+    assert best.outputs["height_error"] < 1e-14
+
+
 def test_bad_input():
     model = EXAMPLES / "design" / "pendulum_damped.yaml"
     with pytest.raises(ModelError, match="does not exist in the model"):

@@ -296,10 +296,14 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
     objective_value = float(np.max(sign * vals[:nt]))
     return Optimization(
         names=names, start=x0, x=x, objective=objective_value,
-        outputs={specs[k]: float(v) for k, v in zip(specs, vals)}, success=success,
+        outputs={_label(specs[k]): float(v) for k, v in zip(specs, vals)}, success=success,
         message=message, n_iterations=nit, n_runs=counter["runs"], history=history,
         failures=failures, wall_time=time.perf_counter() - start_time,
         model_data=None if job.data is None else dict(job.data, analysis=job.analysis))
+
+
+def _label(spec) -> str:
+    return spec if isinstance(spec, str) else getattr(spec, "__name__", "objective")
 
 
 def _space(names, x):
