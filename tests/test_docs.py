@@ -13,7 +13,7 @@ DOCS = ROOT / "docs"
 #: pages whose Python examples are run here (the others are reference tables)
 RUN_PAGES = ("getting-started.md", "outputs.md", "kinematics.md", "dynamics.md", "contact.md",
              "couplers.md", "sliding-joints.md", "rolling.md", "joint-limits-friction.md",
-             "actuators.md", "fmi.md")
+             "actuators.md", "fmi.md", "design.md")
 
 
 def _mkdocs(config: Path, site: Path):

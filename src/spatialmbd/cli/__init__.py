@@ -10,6 +10,8 @@
     spatialmbd validate [--full]          the validation suite
     spatialmbd sweep MODEL --param P=V    a parameter sweep (serial, processes or Dask)
     spatialmbd fmu MODEL -o M.fmu         an FMI 2.0 co-simulation FMU (extra spatialmbd[fmi])
+    spatialmbd identify MODEL --data CSV  fit parameters to measurements (least squares)
+    spatialmbd optimize MODEL --objective O   choose parameters that minimise an output
 
 Exit status: 0 success; 1 the analysis (or a validation case) failed, partial results are
 still written; 2 bad input (unreadable or invalid model file, unknown names, bad options);
@@ -25,15 +27,15 @@ from typing import Optional, Sequence
 
 from .. import __version__
 from ..errors import ModelError, SpatialMBDError
-from . import (animate, common, demo, examples, fmu, importer, info, plot, run, sweep,
-               validate, warmup)
+from . import (animate, common, demo, examples, fmu, identify, importer, info, optimize,
+               plot, run, sweep, validate, warmup)
 from .common import UsageError
 
 PROG = "spatialmbd"
 __all__ = ["main", "build_parser", "UsageError", "PROG"]
 #: the commands in the order of ``spatialmbd --help``; each module adds its own sub-parser
 COMMAND_MODULES = (run, info, plot, animate, importer, examples, demo, validate, warmup, sweep,
-                   fmu)
+                   fmu, identify, optimize)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -273,6 +273,16 @@ def parse_outputs(outputs) -> list:
     return out
 
 
+def _engineering(results) -> dict:
+    """The engineering output columns of a result (its own requests), without the reactions
+    and energies the full table computes."""
+    from ..outputs import compute_outputs
+    try:
+        return compute_outputs(results)
+    except (AttributeError, TypeError):          # a result without what the outputs need
+        return {}
+
+
 class Columns:
     """Result columns by name, each computed on first use (reactions, energies and the
     constraint violation are computed once for all their columns)."""
@@ -323,6 +333,10 @@ class Columns:
                     return getattr(jr, f"{kind}_i")[:, j]
                 if parts[1] == jr.body_j:
                     return getattr(jr, f"{kind}_j")[:, j]
+        if getattr(r, "output_requests", None) and len(parts) >= 2:
+            eng = self._group("engineering", lambda: _engineering(r))
+            if name in eng:                      # joint coordinates, force and driver outputs
+                return eng[name]
         return self._from_frame(name)
 
     def _group(self, key, fn):

@@ -185,8 +185,9 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     batch engine takes). The state and sensitivities are
     integrated by classic RK4 with ``step`` (s; default the analysis' step, else 1e-3).
     relative_delta: the parameter perturbation of f_p, delta = relative_delta |x0|.
-    Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, and the
-    sensitivity time series ``S`` (time, state, parameter).
+    Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, the
+    sensitivity time series ``S`` (time, state, parameter) and the state ``y`` (time, state)
+    of the same RK4 integration (what :mod:`spatialmbd.design` fits to measurements).
     """
     import xarray as xr
     from .batch import BatchSetup
@@ -296,7 +297,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
         nominal_out[i], deriv[i] = _reduce_derivative(o.reduction, t_out, x, SS[:, c, :])
     return xr.Dataset(
         dict(derivative=(("output", "parameter"), deriv), nominal=(("output",), nominal_out),
-             S=(("time", "state", "parameter"), SS)),
+             S=(("time", "state", "parameter"), SS), y=(("time", "state"), Y)),
         coords=dict(output=[o.name for o in outs], parameter=names, time=t_out,
                     value=(("parameter",), np.array([nominal[nm] for nm in names]))),
         attrs=dict(method="forward sensitivity equations, RK4", step=h))

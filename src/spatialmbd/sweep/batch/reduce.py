@@ -15,10 +15,18 @@ def _integrate_reduce(job, setup, analysis, t_out, good, Fs, Y0, starts, rows):
                      with_outputs=_needs_accelerations(job.outputs),
                      threads=bool(opts.get("threads", False)), starts=starts)
     plan = _state_plan(job.outputs, setup.model)
+    requests = None
+    if plan is None and analysis.outputs:        # joint, force, ... columns, as simulate has
+        from ...outputs import parse_outputs as parse_requests
+        requests = parse_requests(setup.model, analysis.outputs)
     for (k, _), member in zip(good, res):
         try:
-            rows[k] = _reduce_states(job, member, plan) if plan is not None else \
-                job.reduce(as_results(member))
+            if plan is not None:
+                rows[k] = _reduce_states(job, member, plan)
+            else:
+                results = as_results(member)
+                results.output_requests = requests or []
+                rows[k] = job.reduce(results)
         except Exception as exc:
             rows[k] = (FAILED, _describe(exc), job.empty(), None)
 
