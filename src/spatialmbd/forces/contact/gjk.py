@@ -33,7 +33,7 @@ EPS_EPA = 1e-12
 MAX_GJK = 128
 MAX_EPA = 160
 MAX_V = MAX_EPA + 8
-MAX_F = 2 * MAX_V + 8
+MAX_F = 8 * MAX_V
 
 
 @njit(inline="always")
@@ -82,6 +82,55 @@ def triangle_weights(a, b, c):
     return 1.0 - v - w, v, w
 
 
+@njit(inline="always")
+def _segment_t(p, q):
+    d = v_sub(q, p)
+    den = v_dot(d, d)
+    return 0.0 if den <= 0.0 else min(1.0, max(0.0, -v_dot(p, d) / den))
+
+
+@njit
+def triangle_weights_sv(a, b, c):
+    """Barycentric weights of the point of triangle abc nearest the origin by signed areas in
+    the best-conditioned coordinate plane (Montanari, Petrinic & Barbieri, ACM TOG 36, 2017):
+    robust where GJK's triangles degenerate (curved cores, converged simplices)."""
+    n = v_cross(v_sub(b, a), v_sub(c, a))
+    nn = v_dot(n, n)
+    inside = False
+    if nn > 0.0:
+        h = v_dot(a, n) / nn
+        p0 = (h * n[0], h * n[1], h * n[2])
+        ax = 0
+        if abs(n[1]) > abs(n[ax]):
+            ax = 1
+        if abs(n[2]) > abs(n[ax]):
+            ax = 2
+        x, y = (ax + 1) % 3, (ax + 2) % 3
+        mu = (b[x] - a[x]) * (c[y] - a[y]) - (b[y] - a[y]) * (c[x] - a[x])
+        c1 = (b[x] - p0[x]) * (c[y] - p0[y]) - (b[y] - p0[y]) * (c[x] - p0[x])
+        c2 = (p0[x] - a[x]) * (c[y] - a[y]) - (p0[y] - a[y]) * (c[x] - a[x])
+        c3 = (b[x] - a[x]) * (p0[y] - a[y]) - (b[y] - a[y]) * (p0[x] - a[x])
+        inside = mu != 0.0 and c1 * mu > 0.0 and c2 * mu > 0.0 and c3 * mu > 0.0
+        if inside:
+            return c1 / mu, c2 / mu, c3 / mu
+    # the nearest point is on an edge: the best of the three
+    best = (1.0, 0.0, 0.0)
+    bd = v_dot(a, a)
+    t = _segment_t(a, b)
+    p = v_add(v_scale(1.0 - t, a), v_scale(t, b))
+    if v_dot(p, p) < bd:
+        bd, best = v_dot(p, p), (1.0 - t, t, 0.0)
+    t = _segment_t(a, c)
+    p = v_add(v_scale(1.0 - t, a), v_scale(t, c))
+    if v_dot(p, p) < bd:
+        bd, best = v_dot(p, p), (1.0 - t, 0.0, t)
+    t = _segment_t(b, c)
+    p = v_add(v_scale(1.0 - t, b), v_scale(t, c))
+    if v_dot(p, p) < bd:
+        bd, best = v_dot(p, p), (0.0, 1.0 - t, t)
+    return best
+
+
 @njit
 def _reduce(W, A, B, lam, m):
     """Keep the simplex vertices of positive weight (in place); returns (count, v)."""
@@ -113,7 +162,7 @@ def _closest_on_simplex(W, A, B, lam, m):
         n, v = _reduce(W, A, B, lam, 2)
         return n, v, False
     if m == 3:
-        u, v_, w = triangle_weights(_row(W, 0), _row(W, 1), _row(W, 2))
+        u, v_, w = triangle_weights_sv(_row(W, 0), _row(W, 1), _row(W, 2))
         lam[0], lam[1], lam[2] = u, v_, w
         n, v = _reduce(W, A, B, lam, 3)
         return n, v, False
@@ -130,7 +179,7 @@ def _closest_on_simplex(W, A, B, lam, m):
         nrm = v_cross(v_sub(b, a), v_sub(c, a))
         if -v_dot(nrm, a) * v_dot(nrm, v_sub(d, a)) <= 0.0:
             inside = False
-        u, v_, w = triangle_weights(a, b, c)
+        u, v_, w = triangle_weights_sv(a, b, c)
         p = v_add(v_add(v_scale(u, a), v_scale(v_, b)), v_scale(w, c))
         dd = v_dot(p, p)
         if dd < bestd:
@@ -165,6 +214,10 @@ def gjk(P, oi, fi, oj, fj, W, A, B, lam):
     lam[0] = 1.0
     m, v = 1, w
     vv = v_dot(v, v)
+    Wk = np.empty((4, 3))
+    Ak = np.empty((4, 3))
+    Bk = np.empty((4, 3))
+    lamk = np.empty(4)
     for _ in range(MAX_GJK):
         if vv <= 1e-30:
             return m, v, True
@@ -177,15 +230,20 @@ def gjk(P, oi, fi, oj, fj, W, A, B, lam):
                 repeat = True
         if repeat:
             return m, v, False
+        for q in range(m):
+            Wk[q], Ak[q], Bk[q], lamk[q] = W[q], A[q], B[q], lam[q]
         _set(W, m, w)
         _set(A, m, a)
         _set(B, m, b)
+        mk = m
         m, v_new, inside = _closest_on_simplex(W, A, B, lam, m + 1)
         if inside:
             return m, (0.0, 0.0, 0.0), True
         vv_new = v_dot(v_new, v_new)
-        if vv_new >= vv:                # no progress (round-off): v is as good as it gets
-            return m, v_new, False
+        if vv_new >= vv:                # no progress (round-off): keep the previous simplex
+            for q in range(mk):
+                W[q], A[q], B[q], lam[q] = Wk[q], Ak[q], Bk[q], lamk[q]
+            return mk, v, False
         v, vv = v_new, vv_new
     return m, v, False
 
@@ -246,33 +304,50 @@ def _blow_up(P, oi, fi, oj, fj, W, A, B, m):
 
 
 @njit
+def _link(Adj, AdjE, f, e, g, eg):
+    Adj[f, e], AdjE[f, e], Adj[g, eg], AdjE[g, eg] = g, eg, f, e
+
+
+@njit
 def epa(P, oi, fi, oj, fj, W, A, B, m):
-    """EPA from the simplex W[:m] holding the origin. Returns (depth, n, a, b, ok)."""
+    """EPA from the simplex W[:m] holding the origin. Returns (depth, n, a, b, ok). The faces
+    seen from a new support point are found by walking across edges from the nearest face
+    (van den Bergen 2001, the silhouette), so the removed region is connected and its horizon
+    one loop: the polytope stays closed and convex under round-off."""
     if m < 4:
         m = _blow_up(P, oi, fi, oj, fj, W, A, B, m)
         if m < 4:
             return 0.0, (0.0, 0.0, 1.0), _row(A, 0), _row(B, 0), False
     V = np.empty((MAX_V, 3))
     VA = np.empty((MAX_V, 3))
-    VB = np.empty((MAX_V, 3))
     F = np.empty((MAX_F, 3), np.int64)
+    Adj = np.empty((MAX_F, 3), np.int64)
+    AdjE = np.empty((MAX_F, 3), np.int64)
     N = np.empty((MAX_F, 3))
     Dst = np.empty(MAX_F)
     alive = np.zeros(MAX_F, np.bool_)
     for q in range(4):
-        V[q], VA[q], VB[q] = W[q], A[q], B[q]
-    nv, nf = 4, 0
-    for (i0, i1, i2, i3) in ((0, 1, 2, 3), (0, 3, 1, 2), (0, 2, 3, 1), (1, 3, 2, 0)):
-        a, b, c, d = _row(V, i0), _row(V, i1), _row(V, i2), _row(V, i3)
-        if v_dot(v_cross(v_sub(b, a), v_sub(c, a)), v_sub(d, a)) > 0.0:
-            i1, i2 = i2, i1
-        F[nf, 0], F[nf, 1], F[nf, 2] = i0, i1, i2
-        alive[nf] = True
-        _face(V, F, N, Dst, nf)
-        nf += 1
-    edges = np.empty((3 * MAX_F, 2), np.int64)
+        V[q], VA[q] = W[q], A[q]
+    a, b, c, d = _row(V, 0), _row(V, 1), _row(V, 2), _row(V, 3)
+    if v_dot(v_cross(v_sub(b, a), v_sub(c, a)), v_sub(d, a)) > 0.0:   # orient: 0,1,2 outward
+        V[1], V[2] = W[2], W[1]
+        VA[1], VA[2] = A[2], A[1]
+    for f, (i0, i1, i2) in enumerate(((0, 1, 2), (0, 3, 1), (1, 3, 2), (2, 3, 0))):
+        F[f, 0], F[f, 1], F[f, 2] = i0, i1, i2
+        alive[f] = True
+        _face(V, F, N, Dst, f)
+    # edges: face 0 (0,1)(1,2)(2,0); 1 (0,3)(3,1)(1,0); 2 (1,3)(3,2)(2,1); 3 (2,3)(3,0)(0,2)
+    _link(Adj, AdjE, 0, 0, 1, 2)
+    _link(Adj, AdjE, 0, 1, 2, 2)
+    _link(Adj, AdjE, 0, 2, 3, 2)
+    _link(Adj, AdjE, 1, 0, 3, 1)
+    _link(Adj, AdjE, 1, 1, 2, 0)
+    _link(Adj, AdjE, 2, 1, 3, 0)
+    nv, nf = 4, 4
+    stack = np.empty((MAX_F, 2), np.int64)
+    hf = np.empty(MAX_F, np.int64)          # horizon: the kept face and its edge index
+    he = np.empty(MAX_F, np.int64)
     ok = False
-    best = 0
     for _ in range(MAX_EPA):
         best, bd = -1, math.inf
         for f in range(nf):
@@ -282,44 +357,42 @@ def epa(P, oi, fi, oj, fj, W, A, B, m):
             break
         n = _row(N, best)
         w, a, b = _support_pair(P, oi, fi, oj, fj, n)
-        if v_dot(n, w) - bd <= EPS_EPA * max(1.0, abs(bd)) or nv >= MAX_V:
+        if v_dot(n, w) - bd <= EPS_EPA * max(1.0, abs(bd)):
             ok = True
+            break
+        if nv >= MAX_V or nf + 64 > MAX_F:
             break
         _set(V, nv, w)
         _set(VA, nv, a)
-        _set(VB, nv, b)
-        ne = 0
-        for f in range(nf):             # faces seen from w go; their unshared edges stay
-            if alive[f] and v_dot(_row(N, f), v_sub(w, _row(V, F[f, 0]))) > 0.0:
-                alive[f] = False
-                for e in range(3):
-                    p, q = F[f, e], F[f, (e + 1) % 3]
-                    shared = -1
-                    for h in range(ne):
-                        if edges[h, 0] == q and edges[h, 1] == p:
-                            shared = h
-                    if shared >= 0:
-                        edges[shared] = edges[ne - 1]
-                        ne -= 1
-                    else:
-                        edges[ne, 0], edges[ne, 1] = p, q
-                        ne += 1
-        live = 0                        # compact the faces (a closed polytope of nv + 1
-        for f in range(nf):             # vertices has 2 (nv + 1) - 4 faces)
-            if alive[f]:
-                if live != f:
-                    F[live], N[live], Dst[live] = F[f], N[f], Dst[f]
-                    alive[live] = True
-                live += 1
-        nf = live
-        if nf + ne > MAX_F:
-            ok = True
-            break
-        for h in range(ne):
-            F[nf, 0], F[nf, 1], F[nf, 2] = edges[h, 0], edges[h, 1], nv
-            alive[nf] = True
-            _face(V, F, N, Dst, nf)
+        alive[best] = False
+        top, nh = 0, 0
+        for e in (2, 1, 0):
+            stack[top, 0], stack[top, 1] = Adj[best, e], AdjE[best, e]
+            top += 1
+        while top > 0:
+            top -= 1
+            g, eg = stack[top, 0], stack[top, 1]
+            if not alive[g]:
+                continue
+            if v_dot(_row(N, g), v_sub(w, _row(V, F[g, 0]))) > 0.0:
+                alive[g] = False
+                for e in ((eg + 2) % 3, (eg + 1) % 3):
+                    stack[top, 0], stack[top, 1] = Adj[g, e], AdjE[g, e]
+                    top += 1
+            else:
+                hf[nh], he[nh] = g, eg
+                nh += 1
+        first = nf
+        for h in range(nh):
+            g, eg = hf[h], he[h]
+            f = nf
+            F[f, 0], F[f, 1], F[f, 2] = F[g, (eg + 1) % 3], F[g, eg], nv
+            alive[f] = True
+            _face(V, F, N, Dst, f)
+            _link(Adj, AdjE, f, 0, g, eg)
             nf += 1
+        for h in range(nh):
+            _link(Adj, AdjE, first + h, 1, first + (h + 1) % nh, 2)
         nv += 1
     best, bd = -1, math.inf             # the nearest face of the final polytope
     for f in range(nf):
