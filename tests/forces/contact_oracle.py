@@ -146,4 +146,5 @@ def summary(out):
                 certificate_sep=float(out[sep, 4].max()) if np.any(sep) else 0.0,
                 certificate_pen=float(out[~sep, 4].max()) if np.any(~sep) else 0.0,
                 coal_normal_better=float(np.nanmax(out[:, 6])),
+                verified_sep=float(np.fmin(dd, out[:, 4])[sep].max()) if np.any(sep) else 0.0,
                 points_along_n=worst(np.ones_like(sep), 7))

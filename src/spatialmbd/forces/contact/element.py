@@ -411,7 +411,8 @@ class Contact(ForceType):
             for v in vj:
                 out.append((cj + Aj @ v, row.copy(), float(hj.min())))
         elif pair in (geo.CONVEX, geo.PLANE_CONVEX):
-            row[sup.C_SIDE_I:sup.C_SIDE_J] = CS.side_block(*sh[0][:1], *sh[0][3:])
+            if ki != "plane":
+                row[sup.C_SIDE_I:sup.C_SIDE_J] = CS.side_block(*sh[0][:1], *sh[0][3:])
             row[sup.C_SIDE_J:sup.N_COLUMNS] = CS.side_block(*sh[1][:1], *sh[1][3:])
             sz = CS.size(*sh[1][:1], *sh[1][3:])
             if pair == geo.CONVEX:

@@ -29,7 +29,7 @@ from ...jit import njit
 from .support import support, unit
 
 EPS_GJK = 1e-13
-EPS_EPA = 1e-12
+EPS_EPA = 1e-10
 MAX_GJK = 128
 MAX_EPA = 160
 MAX_V = MAX_EPA + 8
@@ -200,11 +200,11 @@ def _support_pair(P, oi, fi, oj, fj, d):
 
 
 @njit
-def gjk(P, oi, fi, oj, fj, W, A, B, lam):
-    """GJK on the cores at P[oi:], P[oj:] (frames fi, fj). Returns (count, v, overlap): the
-    simplex W[:count] (A, B: the cores' points of each vertex, lam its weights) and v, the
-    point of A - B nearest the origin (overlap: the simplex holds the origin)."""
-    d = v_sub(fi[0], fj[0])
+def gjk(P, oi, fi, oj, fj, W, A, B, lam, d):
+    """GJK on the cores at P[oi:], P[oj:] (frames fi, fj) from the search direction -d.
+    Returns (count, v, overlap): the simplex W[:count] (A, B: the cores' points of each
+    vertex, lam its weights) and v, the point of A - B nearest the origin (overlap: the
+    simplex holds the origin)."""
     if v_dot(d, d) == 0.0:
         d = (1.0, 0.0, 0.0)
     w, a, b = _support_pair(P, oi, fi, oj, fj, v_scale(-1.0, d))
@@ -417,7 +417,22 @@ def closest(P, oi, fi, oj, fj):
     A = np.empty((4, 3))
     B = np.empty((4, 3))
     lam = np.empty(4)
-    m, v, overlap = gjk(P, oi, fi, oj, fj, W, A, B, lam)
+    m, v, overlap = gjk(P, oi, fi, oj, fj, W, A, B, lam, v_sub(fi[0], fj[0]))
+    for _ in range(3):
+        # a simplex degenerated on a curved core stalls short of EPS_GJK: restart from the
+        # direction reached (a fresh, well-conditioned simplex) while that gains
+        vv = v_dot(v, v)
+        if overlap or vv <= 1e-24:
+            break
+        w, a, b = _support_pair(P, oi, fi, oj, fj, v_scale(-1.0, v))
+        if vv - v_dot(v, w) <= EPS_GJK * vv + 1e-24:
+            break
+        W2, A2, B2, lam2 = W.copy(), A.copy(), B.copy(), lam.copy()
+        m2, v2, overlap2 = gjk(P, oi, fi, oj, fj, W2, A2, B2, lam2, v)
+        if overlap2 or v_dot(v2, v2) >= vv:
+            break
+        m, v = m2, v2
+        W[:], A[:], B[:], lam[:] = W2, A2, B2, lam2
     if not overlap:
         a, b = _witness(A, B, lam, m)
         n, dist = unit(v_sub(b, a))

@@ -9,9 +9,10 @@ opposite direction (a box's most anti-parallel face, a segment, a cylinder's sid
 rim points of a cap, a hull's vertices within 0.05 rad of the extreme) is clipped against the
 reference face's side planes (Sutherland-Hodgman), and every clipped point p gets the depth
 delta = n_ref . (r_0 - p) below the reference plane. Slot s of the manifold (one contact
-instance each) takes the clipped point furthest in the diagonal direction (+-u +-w)_s of the
-reference face (u, w fixed on the reference body), so each slot follows one corner; a point
-already taken by a lower slot leaves the slot open. Otherwise (vertex, edge-edge or curved
+instance each) takes clipped point s when there are at most MAX_SLOTS (the incident polygon's
+order: a face resting inside another keeps its corners in their slots); with more, slot s
+takes the point furthest in the diagonal direction (+-u +-w)_s of the reference face (u, w
+fixed on the reference body), a point already taken by a lower slot leaving the slot open. Otherwise (vertex, edge-edge or curved
 contact) slot 0 is the witness pair and the others are open. An open slot reports gap OPEN.
 
 For a point that is a vertex of the incident body, n_ref a direction of the reference body and
@@ -211,21 +212,26 @@ def convex_core_points(P, oi, fi, oj, fj, slot):
             return a, b, n
         return a, v_add(a, v_scale(OPEN, n)), n
     r0 = (R[0, 0], R[0, 1], R[0, 2])
-    pick = np.empty(MAX_SLOTS, np.int64)
-    for s in range(slot + 1):
-        su = 1.0 if s in (0, 3) else -1.0
-        sw = 1.0 if s in (0, 1) else -1.0
-        best, at = -math.inf, 0
-        for m in range(ny):
-            p = (Y[m, 0], Y[m, 1], Y[m, 2])
-            h = su * v_dot(p, u) + sw * v_dot(p, w)
-            if m == 0 or h > best + 1e-12 * (1.0 + abs(best)):
-                best, at = h, m
-        pick[s] = at
-    for s in range(slot):
-        if pick[s] == pick[slot]:
+    if ny <= MAX_SLOTS:                             # every point has its slot
+        if slot >= ny:
             return a, v_add(a, v_scale(OPEN, n)), n
-    p = (Y[pick[slot], 0], Y[pick[slot], 1], Y[pick[slot], 2])
+        at = slot
+    else:                                           # the extremes in 4 diagonal directions
+        pick = np.empty(MAX_SLOTS, np.int64)
+        for s in range(slot + 1):
+            su = 1.0 if s in (0, 3) else -1.0
+            sw = 1.0 if s in (0, 1) else -1.0
+            best, pick[s] = -math.inf, 0
+            for m in range(ny):
+                p = (Y[m, 0], Y[m, 1], Y[m, 2])
+                h = su * v_dot(p, u) + sw * v_dot(p, w)
+                if m == 0 or h > best + 1e-12 * (1.0 + abs(best)):
+                    best, pick[s] = h, m
+        for s in range(slot):
+            if pick[s] == pick[slot]:
+                return a, v_add(a, v_scale(OPEN, n)), n
+        at = pick[slot]
+    p = (Y[at, 0], Y[at, 1], Y[at, 2])
     depth = v_dot(nref, v_sub(r0, p))
     q = v_add(p, v_scale(depth, nref))
     if ref_i:
