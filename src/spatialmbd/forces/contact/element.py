@@ -27,7 +27,8 @@ stand for several contact points (a box's vertices, manifold slots): its instanc
 Parameters: see :mod:`.laws` for the laws; ``stiffness`` K (N/m^n, per contact point) given or from
 the materials ``young_i``, ``poisson_i``, ``young_j``, ``poisson_j`` (Pa, -; a side without them
 is rigid): Hertz for curved shapes, the flat punch for flat faces (:mod:`.stiffness`);
-``exponent`` n (default 1.5, 1 for linear and for a flat punch from materials); ``damping`` c (N s/m, linear law); ``restitution`` e in (0, 1] (hysteresis laws);
+``exponent`` n (default 1.5, 1 for linear and for a flat punch from materials); ``damping`` c (N
+s/m, linear law); ``restitution`` e in (0, 1] (hysteresis laws);
 ``min_impact_velocity`` (m/s, default 1e-3: the floor of v0 in the hysteresis term);
 ``friction`` (none, coulomb, stribeck, viscous), ``mu`` (or ``mu_static``, ``mu_dynamic``),
 ``stribeck_velocity`` (m/s), ``creep_velocity`` v_eps (m/s, default 1e-4), ``viscous`` c_v

@@ -12,7 +12,8 @@ delta = n_ref . (r_0 - p) below the reference plane. Slot s of the manifold (one
 instance each) takes clipped point s when there are at most MAX_SLOTS (the incident polygon's
 order: a face resting inside another keeps its corners in their slots); with more, slot s
 takes the point furthest in the diagonal direction (+-u +-w)_s of the reference face (u, w
-fixed on the reference body), a point already taken by a lower slot leaving the slot open. Otherwise (vertex, edge-edge or curved
+fixed on the reference body), a point already taken by a lower slot leaving the slot open.
+Otherwise (vertex, edge-edge or curved
 contact) slot 0 is the witness pair and the others are open. An open slot reports gap OPEN.
 
 For a point that is a vertex of the incident body, n_ref a direction of the reference body and

@@ -13,7 +13,8 @@ E* = 1 / ((1 - nu_i^2) / E_i + (1 - nu_j^2) / E_j) (a side without ``young_`` is
   largest face area A of the smaller flat body (a box's largest face, a hull's largest face) or
   a = R for a cylinder's cap. The face's points share it: each of a box's or hull's contact
   points gets K_face / 4 (a face resting on four corners), each of a cylinder's rim points
-  K_face / 3 (a tripod per cap on a plane; 4 rim points on a box or hull), so a face resting flat has the stiffness K_face.
+  K_face / 3 (a tripod per cap on a plane; 4 rim points on a box or hull), so a face resting
+  flat has the stiffness K_face.
 """
 from __future__ import annotations
 
