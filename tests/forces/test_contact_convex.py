@@ -259,3 +259,31 @@ def test_wrench_energy_and_power_of_resting_shapes(pair):
         delivered = np.sum(gen[:1] * v)
         assert delivered == pytest.approx(-dE + power.sum(), abs=1e-6 * (1 + abs(dE)))
         assert np.all(power <= 1e-12)
+
+
+@pytest.mark.parametrize("degrees, tips", [(26.0, False), (27.2, True)])
+def test_box_on_a_ramp_tips_at_the_closed_form_angle(degrees, tips):
+    """A box (half width b = 0.05 m, half height h = 0.1 m) standing on a tilted slab with
+    mu = 0.9 > tan(theta) does not slide; it tips over iff tan(theta) > b / h (26.57 deg):
+    0.57 deg below it stays on its face (rotation relative to the slab < 1e-3 rad after 0.6 s),
+    0.63 deg above it has rotated by more than 0.2 rad (box-box manifold on the slab's face;
+    measured: 4e-5 rad at 26.2 deg, 0.71 rad at 27.0 deg)."""
+    from spatialmbd.simulate import simulate
+    th = math.radians(degrees)
+    R = np.array([[math.cos(th), 0, math.sin(th)], [0, 1, 0], [-math.sin(th), 0, math.cos(th)]])
+    b_, h_ = 0.05, 0.1
+    m = 1.0
+    b = ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_body("box", m, (m * (b_**2 + h_**2) / 3,) * 3, r=tuple(R @ (0, 0, 0.1 + h_ + 1e-5)),
+               p=(math.cos(th / 2), 0.0, math.sin(th / 2), 0.0))
+    k = 1e6
+    b.add_force("contact", "c", body_i="ground", body_j="box",
+                shape_i={"type": "box", "half_extents": (2.0, 2.0, 0.1), "axes": R},
+                shape_j={"type": "box", "half_extents": (b_, b_, h_)},
+                law="linear", stiffness=k, damping=2 * math.sqrt(k * m / 4),
+                friction="coulomb", mu=0.9, creep_velocity=1e-3)
+    res = simulate(b.compile(), 0.6, output_step=0.01, rtol=1e-8, atol=1e-10)
+    p = res.q[-1, 0, 3:] if res.q.ndim == 3 else res.q[-1, 3:]
+    p = p / np.linalg.norm(p)
+    angle = 2 * math.acos(min(1.0, abs(p[0] * math.cos(th / 2) + p[2] * math.sin(th / 2))))
+    assert (angle > 0.2) if tips else (angle < 1e-3)
