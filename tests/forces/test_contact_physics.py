@@ -230,7 +230,7 @@ def builder(z=0.5):
     (dict(law="sticky"), "law"),
     (dict(shape_j={"type": "cone"}), "shape_j.type"),
     (dict(shape_j={"type": "box", "half_extents": (1, 1, 1)},
-          shape_i={"type": "box", "half_extents": (1, 1, 1)}), "no contact geometry"),
+          shape_i={"type": "socket", "radius": 1.0}), "no contact geometry"),
 ])
 def test_bad_parameters_name_the_element(kw, words):
     with pytest.raises(ModelError, match=r"forces\['bad'\].*" + words.split(".")[0]):

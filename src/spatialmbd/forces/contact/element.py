@@ -7,20 +7,28 @@ the centre of mass; ``axes`` a 3x3 rotation, shape -> body axes, default identit
 * ``{"type": "sphere", "radius": R}``
 * ``{"type": "plane", "normal": n, "point": p}``  the half-space behind the plane (n outward)
 * ``{"type": "box", "half_extents": (a, b, c)}``
+* ``{"type": "cylinder", "radius": R, "half_length": h, "axis": u}``, ``{"type": "ellipsoid",
+  "semi_axes": (a, b, c)}``, ``{"type": "convex", "vertices": [[x, y, z], ...]}`` (the hull of
+  the points: a convex mesh), see :mod:`.convex_shapes`
 * ``{"type": "capsule", "radius": R, "half_length": L, "axis": u}``  segment of length 2L
 * ``{"type": "socket", "radius": R}``  spherical cavity (ball-in-socket clearance joint)
 * ``{"type": "bearing", "radius": R, "axis": u}``  cylindrical bore; with a ``journal``
   (``{"type": "journal", "radius": R}``, a circle in the bearing's plane) the radial-clearance
   revolute joint
 
-Pairs: plane-sphere, plane-box (8 vertex contacts), plane-capsule (2 end contacts), sphere /
-capsule pairs, box-sphere, socket-sphere, bearing-journal. One element may stand for several
-contact points (a box's vertices): its instances are named ``name``, or ``name[0]``, ...
+Pairs: plane-sphere, plane-box (8 vertex contacts), plane-capsule (2 end contacts),
+plane-convex (a contact per hull vertex), plane-cylinder (3 rim points per cap),
+plane-ellipsoid, sphere / capsule pairs, box-sphere, socket-sphere, bearing-journal, and every
+other pair of sphere, capsule, box, cylinder, ellipsoid and convex (box-box by separating axes,
+the rest by GJK/EPA, with a face manifold of up to 4 points: :mod:`.manifold`). One element may
+stand for several contact points (a box's vertices, manifold slots): its instances are named
+``name``, or ``name[0]``, ...
 
-Parameters: see :mod:`.laws` for the laws; ``stiffness`` K (N/m^n) given or, for sphere
-shapes, from Hertz theory K = 4/3 E* sqrt(R*) with ``young_i``, ``poisson_i``, ``young_j``,
-``poisson_j`` (Pa, -; a side without them is rigid); ``exponent`` n (default 1.5, 1 for
-linear); ``damping`` c (N s/m, linear law); ``restitution`` e in (0, 1] (hysteresis laws);
+Parameters: see :mod:`.laws` for the laws; ``stiffness`` K (N/m^n, per contact point) given or from
+the materials ``young_i``, ``poisson_i``, ``young_j``, ``poisson_j`` (Pa, -; a side without them
+is rigid): Hertz for curved shapes, the flat punch for flat faces (:mod:`.stiffness`);
+``exponent`` n (default 1.5, 1 for linear and for a flat punch from materials); ``damping`` c (N
+s/m, linear law); ``restitution`` e in (0, 1] (hysteresis laws);
 ``min_impact_velocity`` (m/s, default 1e-3: the floor of v0 in the hysteresis term);
 ``friction`` (none, coulomb, stribeck, viscous), ``mu`` (or ``mu_static``, ``mu_dynamic``),
 ``stribeck_velocity`` (m/s), ``creep_velocity`` v_eps (m/s, default 1e-4), ``viscous`` c_v
@@ -38,9 +46,13 @@ from ...jit import njit
 from ..base import ForceType, check_body, check_unknown, register
 from ..kernel_tools import add_wrench
 from . import geometry as geo
+from . import convex_shapes as CS
 from . import laws as L
+from . import stiffness as ST
+from . import support as sup
 
-SHAPES = ("sphere", "plane", "box", "capsule", "socket", "bearing", "journal")
+SHAPES = ("sphere", "plane", "box", "capsule", "socket", "bearing", "journal", "cylinder",
+          "ellipsoid", "convex")
 #: details columns (:func:`details`)
 DETAIL_COLUMNS = ("gap", "gap_rate", "impact_velocity", "normal_force", "friction_x",
                   "friction_y", "friction_z", "slip_x", "slip_y", "slip_z", "point_x",
@@ -160,7 +172,8 @@ def _axes_from_z(u):
 
 
 def parse_shape(name, key, shape, builder, body):
-    """(type, centre (3,), axes (3, 3), radius, half_length, half_extents (3,)) in body axes."""
+    """(type, centre (3,), axes (3, 3), radius, half_length, half_extents (3,), vertices
+    (nv, 3) or None) in body axes (the vertices in the shape frame)."""
     if not isinstance(shape, dict) or "type" not in shape:
         raise _err(name, key, f"expected a shape dict with a 'type' ({', '.join(SHAPES)}), got "
                               f"{shape!r}")
@@ -168,7 +181,7 @@ def parse_shape(name, key, shape, builder, body):
     if kind not in SHAPES:
         raise _err(name, key + ".type", f"unknown shape {kind!r}; valid: {', '.join(SHAPES)}")
     allowed = {"type", "center", "axes", "radius", "half_length", "half_extents", "axis",
-               "normal", "point"}
+               "normal", "point", "semi_axes", "vertices"}
     extra = set(shape) - allowed
     if extra:
         raise _err(name, key, f"unknown shape key(s) {sorted(extra)}; allowed: {sorted(allowed)}")
@@ -193,6 +206,9 @@ def parse_shape(name, key, shape, builder, body):
         axes = _axes_from_z(u)
     radius = half_length = 0.0
     half = np.zeros(3)
+    if kind in ("cylinder", "ellipsoid", "convex"):
+        radius, half_length, half, verts = CS.parse(name, key, kind, shape)
+        return kind, centre, axes, radius, half_length, half, verts
     if kind in ("sphere", "capsule", "socket", "bearing", "journal"):
         radius = _number(name, key + ".radius", shape.get("radius", float("nan")), 0.0, True)
     if kind == "capsule":
@@ -203,7 +219,7 @@ def parse_shape(name, key, shape, builder, body):
         if not np.all(half > 0):
             raise _err(name, key + ".half_extents", f"must be 3 positive numbers (m), got "
                                                     f"{shape.get('half_extents')!r}")
-    return kind, centre, axes, radius, half_length, half
+    return kind, centre, axes, radius, half_length, half, None
 
 
 def _pairing(name, a, b):
@@ -218,14 +234,20 @@ def _pairing(name, a, b):
         return table[(a, b)], False
     if (b, a) in table:
         return table[(b, a)], True
+    if a in CS.CONVEX_KINDS and b in CS.CONVEX_KINDS:
+        return geo.CONVEX, False
+    if "plane" in (a, b) and {a, b} & {"cylinder", "ellipsoid", "convex"}:
+        return (geo.PLANE_POINT if "convex" in (a, b) else geo.PLANE_CONVEX), b == "plane"
     pairs = sorted(f"{x}-{y}" for x, y in table)
     raise ModelError(f"forces[{name!r}]: no contact geometry for a {a}-{b} pair; available: "
-                     f"{', '.join(pairs)}")
+                     f"{', '.join(pairs)}, plane with cylinder, ellipsoid or convex, and any "
+                     f"two of {', '.join(CS.CONVEX_KINDS)}")
 
 
-def law_params(spec, radii, kinds):
+def law_params(spec, radii, kinds, shapes=None):
     """(law id, K, n, c, vmin) and the friction columns (:func:`friction_params`) of a spec
-    (checked): the columns C_LAW .. C_RELAX of the contact table."""
+    (checked): the columns C_LAW .. C_RELAX of the contact table. shapes: the two parsed
+    shapes (kind, radius, half_length, half, vertices) for the stiffness from materials."""
     name, p = spec.name, spec.params
     law = p.get("law", "hunt_crossley")
     if law not in L.NORMAL_LAWS:
@@ -234,9 +256,15 @@ def law_params(spec, radii, kinds):
     if "stiffness" in p:
         K = _number(name, "stiffness", p["stiffness"], 0.0, True)
     else:
-        K = _hertz_stiffness(spec, radii, kinds)
-        if law != "linear" and "exponent" not in p:
-            n = 1.5
+        if shapes is None:
+            shapes = [(k, r, 0.0, np.zeros(3), None) for k, r in zip(kinds, radii)]
+        if not all(x[0] in ST.FLAT + CS.CONVEX_KINDS + ("socket", "bearing", "journal")
+                   for x in shapes):
+            raise _err(name, "stiffness", f"no stiffness from materials for a "
+                                          f"{kinds[0]}-{kinds[1]} pair: give a stiffness")
+        K, n_mat = ST.from_materials(spec, shapes[0], shapes[1], _number)
+        if "exponent" not in p:
+            n = n_mat
     c = 0.0
     if law == "linear":
         c = _number(name, "damping", p.get("damping", 0.0), 0.0)
@@ -299,36 +327,13 @@ def friction_params(name, p, default="none"):
     return (mud, mus, vs, veps, cv, float(fr == "lugre"), sigma0, sigma1, relax)
 
 
-def _hertz_stiffness(spec, radii, kinds):
-    name, p = spec.name, spec.params
-    inv = 0.0
-    for side in ("i", "j"):
-        if f"young_{side}" in p:
-            E = _number(name, f"young_{side}", p[f"young_{side}"], 0.0, True)
-            nu = _number(name, f"poisson_{side}", p.get(f"poisson_{side}", 0.3), -1.0, True, 0.5)
-            inv += (1.0 - nu * nu) / E
-    if inv == 0.0:
-        raise _err(name, "stiffness", "give a stiffness (N/m^n) or the materials (young_i / "
-                                      "young_j in Pa, poisson_i / poisson_j)")
-    ki, kj = kinds
-    ri, rj = radii
-    curv = {"sphere": 1.0, "socket": -1.0, "plane": 0.0}
-    if ki not in curv or kj not in curv or (ki, kj) in (("socket", "socket"),):
-        raise _err(name, "stiffness", f"Hertz stiffness from materials needs spheres, planes "
-                                      f"or a socket, not a {ki}-{kj} pair: give a stiffness")
-    k = (curv[ki] / ri if curv[ki] else 0.0) + (curv[kj] / rj if curv[kj] else 0.0)
-    if not k > 0:
-        raise _err(name, "stiffness", "the pair has no positive relative curvature")
-    return 4.0 / 3.0 / inv * math.sqrt(1.0 / k)
-
-
 @register
 class Contact(ForceType):
     """Contact between two shapes on two bodies: a normal-force law and friction."""
 
     name = "contact"
     kernel = staticmethod(kernel)
-    n_param = L.N_COLUMNS
+    n_param = sup.N_COLUMNS
     #: the impact-velocity memory (.memory): every instance records its touches
     records_impacts = True
     details_kernel = staticmethod(details)
@@ -351,7 +356,7 @@ class Contact(ForceType):
         self.bj = np.asarray(bj, dtype=np.intp)
         self.s_i, self.s_j = np.asarray(s_i, float), np.asarray(s_j, float)
         self.R_i, self.R_j = np.asarray(R_i, float), np.asarray(R_j, float)
-        self.param = np.asarray(param, dtype=float).reshape(-1, L.N_COLUMNS)
+        self.param = np.asarray(param, dtype=float).reshape(-1, sup.N_COLUMNS)
         self.size = np.asarray(size, dtype=float)
 
     @classmethod
@@ -376,14 +381,15 @@ class Contact(ForceType):
         pair, swap = _pairing(spec.name, sh[0][0], sh[1][0])
         if swap:
             sh, bodies = sh[::-1], bodies[::-1]
-        (ki, ci, Ai, rad_i, li, hi), (kj, cj, Aj, rad_j, lj, hj) = sh
-        law = law_params(spec, (rad_i, rad_j), (ki, kj))
-        row = np.zeros(L.N_COLUMNS)
+        (ki, ci, Ai, rad_i, li, hi, vi), (kj, cj, Aj, rad_j, lj, hj, vj) = sh
+        law = law_params(spec, (rad_i, rad_j), (ki, kj),
+                         [(x[0],) + tuple(x[3:]) for x in sh])
+        row = np.zeros(sup.N_COLUMNS)
         row[geo.C_PAIR] = pair
         row[geo.C_RI], row[geo.C_RJ] = rad_i, rad_j
         row[geo.C_LI], row[geo.C_LJ] = li, lj
         row[geo.C_HX:geo.C_HZ + 1] = hi
-        row[L.C_LAW:] = law
+        row[L.C_LAW:L.N_COLUMNS] = law
         if pair == geo.SOCKET_BALL and not rad_j < rad_i:
             raise _err(spec.name, "shape_j.radius", f"the ball (radius {rad_j:g} m) must be "
                                                     f"smaller than the socket ({rad_i:g} m)")
@@ -402,6 +408,22 @@ class Contact(ForceType):
         elif pair == geo.PLANE_POINT and kj == "capsule":
             for sz in (-1, 1):
                 out.append((cj + sz * lj * Aj[:, 2], row.copy(), rad_j))
+        elif pair == geo.PLANE_POINT and kj == "convex":
+            for v in vj:
+                out.append((cj + Aj @ v, row.copy(), float(hj.min())))
+        elif pair in (geo.CONVEX, geo.PLANE_CONVEX):
+            if ki != "plane":
+                row[sup.C_SIDE_I:sup.C_SIDE_J] = CS.side_block(*sh[0][:1], *sh[0][3:])
+            row[sup.C_SIDE_J:sup.N_COLUMNS] = CS.side_block(*sh[1][:1], *sh[1][3:])
+            sz = CS.size(*sh[1][:1], *sh[1][3:])
+            if pair == geo.CONVEX:
+                sz = min(sz, CS.size(*sh[0][:1], *sh[0][3:]))
+            count = CS.slots(ki, kj) if pair == geo.CONVEX else \
+                (6 if kj == "cylinder" else 1)
+            for slot in range(count):
+                r = row.copy()
+                r[sup.C_SLOT] = slot
+                out.append((cj, r, sz))
         else:
             sizes = [x for x in (rad_i, rad_j) if x > 0] + list(hi[hi > 0])
             if pair in (geo.SOCKET_BALL, geo.BEARING_JOURNAL):

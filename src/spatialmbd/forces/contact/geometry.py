@@ -16,6 +16,11 @@ checks it against finite differences of g.
 
 Shape frames: centre s and axes R (columns) in body axes; the plane's outward normal, a
 capsule's and a bearing's axis are the frame's z column.
+
+The convex pairs (boxes, cylinders, ellipsoids, hulls with each other and with spheres and
+capsules) go to :mod:`.manifold` (CONVEX, one instance per manifold slot), a plane against a
+cylinder or an ellipsoid to :mod:`.plane_convex` (PLANE_CONVEX); their shapes live in the
+parameter row's side blocks (:mod:`.support`).
 """
 from __future__ import annotations
 
@@ -23,12 +28,16 @@ import math
 
 from ...constraints.primitives import rotate, row3, v_add, v_cross, v_dot, v_scale, v_sub
 from ...jit import njit
+from . import manifold, plane_convex
+from . import support as sup
 
 #: pair kinds (param column 0)
 PLANE_POINT, SEGMENTS, BOX_SPHERE, SOCKET_BALL, BEARING_JOURNAL = 0, 1, 2, 3, 4
+CONVEX, PLANE_CONVEX = 5, 6
 PAIR_NAMES = {PLANE_POINT: "plane-sphere", SEGMENTS: "sphere/capsule pair",
               BOX_SPHERE: "box-sphere", SOCKET_BALL: "socket-ball",
-              BEARING_JOURNAL: "bearing-journal"}
+              BEARING_JOURNAL: "bearing-journal", CONVEX: "convex pair",
+              PLANE_CONVEX: "plane-cylinder/ellipsoid"}
 #: parameter columns of the geometry
 C_PAIR, C_RI, C_RJ, C_LI, C_LJ, C_HX, C_HY, C_HZ = 0, 1, 2, 3, 4, 5, 6, 7
 EZ = (0.0, 0.0, 1.0)
@@ -91,6 +100,16 @@ def core_points(S, G, k):
     bi, bj = G.bi[k], G.bj[k]
     P = G.param
     kind = int(P[k, C_PAIR])
+    if kind == CONVEX or kind == PLANE_CONVEX:
+        row = P[k]
+        fj = sup.frame(S, bj, G.s_j, G.R_j, k)
+        fi = sup.frame(S, bi, G.s_i, G.R_i, k)
+        slot = int(row[sup.C_SLOT])
+        if kind == CONVEX:
+            qi, qj, n = manifold.convex_core_points(row, sup.C_SIDE_I, fi, sup.C_SIDE_J, fj, slot)
+            return qi, qj, n, row[sup.C_SIDE_I + sup.S_RADIUS], row[sup.C_SIDE_J + sup.S_RADIUS]
+        qi, qj, n = plane_convex.plane_core_points(row, sup.C_SIDE_J, fi, fj, slot)
+        return qi, qj, n, 0.0, 0.0
     ci = shape_centre(S, bi, G.s_i, k)
     cj = shape_centre(S, bj, G.s_j, k)
     ri, rj = P[k, C_RI], P[k, C_RJ]
