@@ -6,6 +6,33 @@ import numpy as np
 
 from ..errors import ModelError
 
+#: controller types a model file's ``analysis.controllers`` may name: type -> factory(spec) ->
+#: a sampled controller. Registered by the packages that provide them (``"fmu"``:
+#: :mod:`spatialmbd.fmi.controller`, which ``spatialmbd run`` imports for such a file).
+CONTROLLER_TYPES: dict = {}
+
+
+def register_controller(name: str, factory) -> None:
+    """Make ``analysis.controllers`` entries of ``type: name`` buildable by ``factory(spec)``."""
+    CONTROLLER_TYPES[name] = factory
+
+
+def build_controllers(analysis) -> list:
+    """The sampled controllers of ``analysis.controllers`` (ModelError naming an entry whose
+    type has no provider loaded: for FMUs, ``import spatialmbd.fmi`` -- the extra
+    ``spatialmbd[fmi]`` -- first; the command line does it)."""
+    out = []
+    for k, spec in enumerate(getattr(analysis, "controllers", None) or []):
+        factory = CONTROLLER_TYPES.get(spec.get("type"))
+        if factory is None:
+            raise ModelError(f"analysis.controllers[{k}]: controllers of type "
+                             f"{spec.get('type')!r} need spatialmbd.fmi (pip install "
+                             "'spatialmbd[fmi]', then import spatialmbd.fmi before running "
+                             "the analysis from Python)")
+        out.append(factory(spec))
+    return out
+
+
 def run_analysis(analysis, model, progress=False, budget=None, stream=None):
     """Results (dynamic) or KinematicResults (kinematic) of ``analysis`` on ``model``; the
     result objects of spatialmbd.analyses for the engineering types. budget: a
@@ -30,7 +57,8 @@ def run_analysis(analysis, model, progress=False, budget=None, stream=None):
                     atol=a.atol, method_options=dict(a.method_options),
                     integrator_options=dict(a.integrator_options),
                     correct_initial=a.correct_initial, hold=a.hold, progress=progress,
-                    outputs=list(a.outputs), budget=budget, stream=stream)
+                    outputs=list(a.outputs), budget=budget, stream=stream,
+                    **({"controllers": build_controllers(a)} if a.controllers else {}))
 
 
 def _run_engineering(a, model):

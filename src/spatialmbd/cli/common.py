@@ -241,6 +241,12 @@ def run_analysis(model, analysis, progress: bool, budget=None, stream=None):
     """Run; return (results, wall time, warning texts). The estimate of a long run's work
     (budget.WorkEstimate) is printed as a note when it comes, before the run."""
     from ..budget import WorkEstimate
+    if any(c.get("type") == "fmu" for c in getattr(analysis, "controllers", None) or []):
+        try:                                  # registers the fmu controller type
+            from ..fmi import controller as _fmu_controllers  # noqa: F401
+        except ImportError as exc:
+            raise UsageError(f"the analysis names FMU controllers, which need the extra "
+                             f"spatialmbd[fmi] (pip install 'spatialmbd[fmi]'): {exc}") from None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         record = warnings.showwarning

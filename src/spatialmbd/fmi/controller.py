@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analyses.run import register_controller
 from ..errors import ModelError
 from ..forces.actuators.controller import SampledController
 from .cosim import check_step
@@ -159,3 +160,14 @@ class FMUController(SampledController):
             self.close()
         except Exception:  # noqa: BLE001 - interpreter shutdown
             pass
+
+
+def _from_spec(spec: dict) -> FMUController:
+    """An FMUController from an ``analysis.controllers`` entry of a model file (type fmu)."""
+    return FMUController(spec["file"], dict(spec.get("inputs_from") or {}),
+                         dict(spec.get("outputs_to") or {}), spec["step"],
+                         parameters=dict(spec.get("parameters") or {}) or None,
+                         name=spec.get("name"))
+
+
+register_controller("fmu", _from_spec)

@@ -51,6 +51,10 @@ class Analysis:
     steady: bool = False
     time: float = 0.0
     frame_rate: Optional[list] = None
+    #: dynamic only: controllers sampled during the run, as given in the file (dicts with a
+    #: ``type``; "fmu": an FMU driving actuators, ``file`` resolved against the model file's
+    #: folder) -- built by :func:`spatialmbd.analyses.run.build_controllers`
+    controllers: list = field(default_factory=list)
 
     def run(self, model, progress=False, budget=None, stream=None):
         """Run this analysis of ``model`` (:func:`spatialmbd.analyses.run.run_analysis`: the
@@ -87,6 +91,8 @@ class Analysis:
             if self.hold is not None:
                 out["hold"] = {str(b): ([c] if isinstance(c, str) else list(c))
                                for b, c in self.hold.items()}
+            if self.controllers:
+                out["controllers"] = [_plain(c) for c in self.controllers]
         return out
 
     @classmethod
@@ -312,4 +318,49 @@ def _parse_analysis(P, path, d, body_names) -> Optional[Analysis]:
                 out[body] = list(coords)
             if len(P) == n0:
                 a.hold = out
+    if "controllers" in d and d["controllers"] is not None:
+        a.controllers = _parse_controllers(P, tuple(path) + ("controllers",), d["controllers"])
     return a
+
+
+def _parse_controllers(P, path, value) -> list:
+    """The ``controllers`` entries (checked as far as the file can tell: the FMU itself is
+    opened when the run builds them)."""
+    from .schema import FMU_CONTROLLER_KEYS
+    out = []
+    if not _list(P, path, value, "controllers"):
+        return out
+    for k, entry in enumerate(value):
+        where = path + (k,)
+        if not isinstance(entry, dict) or entry.get("type") != "fmu":
+            P.add(where, "expected a controller {type: fmu, file, inputs_from, outputs_to, "
+                         "step} (the only controller type a model file names), got "
+                         + _describe(entry))
+            continue
+        if not _mapping(P, where, entry, FMU_CONTROLLER_KEYS,
+                        required=("file", "outputs_to", "step")):
+            continue
+        n0 = len(P)
+        _string(P, where + ("file",), entry["file"], "the path of the .fmu")
+        for key in ("inputs_from", "outputs_to", "parameters"):
+            mapping = entry.get(key, {})
+            if not isinstance(mapping, dict) or not all(isinstance(x, str)
+                                                        for x in mapping):
+                P.add(where + (key,), f"expected a mapping {{FMU variable: ...}}, got "
+                                      f"{_describe(mapping)}")
+        _number(P, where + ("step",), entry["step"], positive=True)
+        if len(P) > n0:
+            continue
+        spec = dict(entry)
+        spec["file"] = resolve_controller_file(entry["file"])
+        out.append(spec)
+    return out
+
+
+def resolve_controller_file(name: str) -> str:
+    """``name`` against the model file's folder (as meshes and time series are)."""
+    import os
+    from .schema import _BASE_DIR
+    base = _BASE_DIR.get()
+    full = os.path.expanduser(name)
+    return full if os.path.isabs(full) or base is None else os.path.join(base, full)

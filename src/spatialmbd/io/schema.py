@@ -71,8 +71,11 @@ SHAPE_REQUIRED = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": 
 #: the directory of the model file being read: mesh files are relative to it
 _BASE_DIR: contextvars.ContextVar = contextvars.ContextVar("model_file_dir", default=None)
 ANALYSIS_KEYS = ("type", "t_end", "output_step", "t_eval", "method", "integrator",
-                 "correct_initial", "hold", "steady", "time", "frame_rate")
-DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold")
+                 "correct_initial", "hold", "steady", "time", "frame_rate", "controllers")
+DYNAMIC_ONLY = ("method", "integrator", "correct_initial", "hold", "controllers")
+#: the keys of an ``analysis.controllers`` entry of type fmu (spatialmbd.fmi.controller)
+FMU_CONTROLLER_KEYS = ("type", "name", "file", "inputs_from", "outputs_to", "step",
+                       "parameters")
 #: engineering analyses (spatialmbd.analyses): inverse dynamics and quasi-static analysis over
 #: the output times; static equilibrium and modes at one time ("time", s, default 0)
 ENGINEERING_TYPES = ("inverse", "static", "quasi_static", "modal")
