@@ -199,6 +199,7 @@ class CoSimulation:
         self._rows = np.array([rows[n] for n in self.inputs], dtype=np.int64)
         self._index = {n: i for i, n in enumerate(self.inputs)}
         table, flaw = system.table, system.flaw
+        self._laws = flaw                     # held inputs and contact memories live here
         if table.has_drivers:
             table.set_time(self.t)
         self.held = flaw[self._rows, 0].copy()
@@ -285,6 +286,31 @@ class CoSimulation:
         self.y = np.asarray(res.y[-1], dtype=float)
         self.t = t_end
         self.steps += 1
+        self._values = self._evaluate()
+
+    # ------------------------------------------------------------------ state
+    def get_state(self) -> dict:
+        """Everything a later :meth:`set_state` needs to go on from here, as plain numbers
+        (FMI fmi2GetFMUstate): the time, the state vector, the held inputs and the law table
+        (the contacts' impact memories)."""
+        return {"t": float(self.t), "y": [float(x) for x in self.y],
+                "held": [float(x) for x in self.held],
+                "laws": [[float(x) for x in row] for row in self._laws],
+                "steps": int(self.steps)}
+
+    def set_state(self, state: dict) -> None:
+        """Back to a state of :meth:`get_state` (FMI fmi2SetFMUstate)."""
+        y = np.asarray(state["y"], dtype=float)
+        laws = np.asarray(state["laws"], dtype=float)
+        if y.shape != self.y.shape or laws.shape != self._laws.shape or \
+                len(state["held"]) != self.held.size:
+            raise ModelError(f"{self.name}: the FMU state does not belong to this model "
+                             f"(state vector {y.shape} against {self.y.shape})")
+        self.t = float(state["t"])
+        self.y = y.copy()
+        self.held[:] = state["held"]
+        self._laws[:] = laws
+        self.steps = int(state.get("steps", 0))
         self._values = self._evaluate()
 
     # ------------------------------------------------------------------ outputs

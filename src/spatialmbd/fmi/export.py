@@ -197,8 +197,10 @@ def export_fmu(model_or_path, path, inputs=None, outputs=None, parameters=None, 
         script.write_text(SCRIPT)
         build = work / "build"
         build.mkdir()
+        # the state can be saved and restored (fmi2Get/SetFMUstate) and serialized (JSON)
         written = builder.build_FMU(script, dest=build, project_files=[model_file,
-                                                                       work / INTERFACE_FILE])
+                                                                       work / INTERFACE_FILE],
+                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
         _add_initial_unknowns(Path(written), path)
     return path
 

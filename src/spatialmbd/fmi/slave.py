@@ -108,6 +108,24 @@ class SpatialMBDSlave:
         self._held = self.cosim.held
         self._values = self.cosim.output_values()
 
+    def _get_fmu_state(self) -> dict:
+        """fmi2GetFMUstate: the inputs, the co-simulation's state (None before the first
+        step) and the outputs, as JSON-compatible values."""
+        return {"inputs": dict(self.input_values),
+                "cosim": None if self.cosim is None else self.cosim.get_state(),
+                "values": [float(x) for x in self._values]}
+
+    def _set_fmu_state(self, state: dict) -> None:
+        """fmi2SetFMUstate: back to a state of :meth:`_get_fmu_state`."""
+        self.input_values.update({k: float(v) for k, v in state["inputs"].items()})
+        if state["cosim"] is not None:
+            if self.cosim is None:
+                self._build()
+            self.cosim.set_state(state["cosim"])
+            self._values = self.cosim._values
+        else:
+            self._values = list(state["values"])
+
     def do_step(self, current_time: float, step_size: float) -> bool:
         if self.cosim is None:
             self._build()
