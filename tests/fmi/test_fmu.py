@@ -571,3 +571,30 @@ def test_fmu_state_is_saved_restored_and_serialized(crank_fmu):
     fmu.freeFMUstate(saved)
     fmu.terminate()
     fmu.freeInstance()
+
+
+def test_imu_outputs_match_spatialmbd_outputs():
+    """<body>.<point>.imu.<quantity> outputs of the co-simulation (acceleration, specific force,
+    angular velocity of a point, body axes) = spatialmbd.outputs.imu of a run at its states;
+    an unknown point or quantity is named."""
+    from spatialmbd.outputs import imu
+    data = crank_dict(0.1)
+    data.pop("fmu")
+    data["bodies"][0]["points"] = {"tip": [0.0, 0.0, 0.04]}
+    model = load_model(data)[0]
+    res = simulate(model, t_end=0.2, method="projection", output_step=0.02, **TOL)
+    names = ["crank.tip.imu.ax", "crank.tip.imu.sfz", "crank.tip.imu.wx", "crank.x"]
+    sim = CoSimulation(model, outputs=names)
+    ref = imu(res, "crank.tip")
+    for k in range(len(res.t)):
+        sim.y[:7 * model.nb] = res.q[k].reshape(-1)
+        sim.y[7 * model.nb:13 * model.nb] = res.v[k].reshape(-1)
+        sim.t = float(res.t[k])
+        values = sim._evaluate()
+        for m, quantity in enumerate(("ax", "sfz", "wx")):
+            assert abs(values[m] - ref[quantity][k]) <= 1e-9 * max(1.0, abs(ref[quantity][k]))
+    assert abs(ref["sfz"]).max() > 1.0                   # gravity is in the specific force
+    with pytest.raises(ModelError, match="no named point 'crank.toe'"):
+        CoSimulation(model, outputs=["crank.toe.imu.ax"])
+    with pytest.raises(ModelError, match="an IMU measures"):
+        CoSimulation(model, outputs=["crank.tip.imu.speed"])

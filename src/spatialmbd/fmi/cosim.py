@@ -93,6 +93,17 @@ def check_outputs(model, names, who="co-simulation"):
         if reaction is not None:
             out.append(reaction)
             continue
+        if target.endswith(".imu"):               # <body>.<point>.imu.<quantity>
+            from ..outputs import QUANTITIES
+            point = target[:-len(".imu")]
+            if point not in model.points:
+                raise ModelError(f"{who}: output {name!r}: no named point {point!r} for an "
+                                 f"IMU (points: {', '.join(model.points) or 'none'})")
+            if quantity not in QUANTITIES["imu"]:
+                raise ModelError(f"{who}: output {name!r}: an IMU measures "
+                                 f"{', '.join(QUANTITIES['imu'])}")
+            out.append(("imu", point, quantity))
+            continue
         try:
             g, _, _ = model.element(target) if target else (None, None, None)
         except (ModelError, KeyError, ValueError):
@@ -108,7 +119,8 @@ def check_outputs(model, names, who="co-simulation"):
         raise ModelError(f"{who}: output {name!r} is not a result column of the model (body "
                          f"columns <body>.{'|'.join(BODY_COLUMNS[:3])}|..., <body>.ax|..., "
                          f"joint columns <joint>.angle, <joint>.angle_rate, ..., reactions "
-                         f"<joint>.<body>.fx|...|mz; bodies: {', '.join(bodies)})")
+                         f"<joint>.<body>.fx|...|mz, IMUs <body>.<point>.imu.ax|sfx|wx|...; "
+                         f"bodies: {', '.join(bodies)})")
     return out
 
 
@@ -321,7 +333,7 @@ class CoSimulation:
         model, nb = self.model, self.model.nb
         body_pos, body_idx, joints, slow = [], [], [], []
         self._solved = [(m, item) for m, item in enumerate(self._out)
-                        if item[0] in ("acceleration", "reaction")]
+                        if item[0] in ("acceleration", "reaction", "imu")]
         for m, (kind, target, quantity, *_) in enumerate(self._out):
             if kind == "body":
                 c = BODY_COLUMNS.index(quantity)
@@ -400,10 +412,16 @@ class CoSimulation:
             t=np.array([self.t]), y=self.y[None, :], status="success", message="",
             counters={}, wall_time=0.0, correction=None,
             redundant_joints=self._redundant_joints, messages=[], settings={})
-        reactions = None
+        reactions, imus = None, {}
         for m, (kind, target, *rest) in self._solved:
             if kind == "acceleration":
                 values[m] = res.vdot[0, target, ACCELERATION_COLUMNS.index(rest[0])]
+                continue
+            if kind == "imu":                      # spatialmbd.outputs.imu at this sample
+                if target not in imus:
+                    from ..outputs import imu
+                    imus[target] = imu(res, target)
+                values[m] = imus[target][rest[0]][0]
                 continue
             if reactions is None:
                 reactions = res.reactions()
