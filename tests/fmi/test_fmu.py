@@ -598,3 +598,30 @@ def test_imu_outputs_match_spatialmbd_outputs():
         CoSimulation(model, outputs=["crank.toe.imu.ax"])
     with pytest.raises(ModelError, match="an IMU measures"):
         CoSimulation(model, outputs=["crank.tip.imu.speed"])
+
+
+def test_force_element_outputs_match_spatialmbd_outputs():
+    """<element>.<quantity> outputs (an actuator's effort and power, a spring's torque) of the
+    co-simulation = spatialmbd.outputs.force_outputs of a run at its states; a quantity the
+    element does not have is named."""
+    from spatialmbd.outputs import force_outputs
+    data = crank_dict(0.1)
+    data.pop("fmu")
+    data.setdefault("forces", []).append({"name": "k", "type": "rotational_spring_damper",
+                                          "joint": "A", "stiffness": 0.5, "damping": 0.01})
+    model = load_model(data)[0]
+    res = simulate(model, t_end=0.2, method="projection", output_step=0.02, **TOL)
+    names = ["drive.effort", "drive.power", "k.torque"]
+    sim = CoSimulation(model, outputs=names)
+    refs = [force_outputs(res, "drive")["effort"], force_outputs(res, "drive")["power"],
+            force_outputs(res, "k")["torque"]]
+    for k in range(len(res.t)):
+        sim.y[:7 * model.nb] = res.q[k].reshape(-1)
+        sim.y[7 * model.nb:13 * model.nb] = res.v[k].reshape(-1)
+        sim.t = float(res.t[k])
+        values = sim._evaluate()
+        for m, ref in enumerate(refs):
+            assert abs(values[m] - ref[k]) <= 1e-12 * max(1.0, abs(ref[k]))
+    assert np.abs(refs[2]).max() > 0.0
+    with pytest.raises(ModelError, match="has the outputs"):
+        CoSimulation(model, outputs=["drive.speed"])

@@ -93,6 +93,10 @@ def check_outputs(model, names, who="co-simulation"):
         if reaction is not None:
             out.append(reaction)
             continue
+        force = _force_column(model, target, quantity, str(name), who)
+        if force is not None:                     # <force element>.<quantity>
+            out.append(force)
+            continue
         if target.endswith(".imu"):               # <body>.<point>.imu.<quantity>
             from ..outputs import QUANTITIES
             point = target[:-len(".imu")]
@@ -122,6 +126,27 @@ def check_outputs(model, names, who="co-simulation"):
                          f"<joint>.<body>.fx|...|mz, IMUs <body>.<point>.imu.ax|sfx|wx|...; "
                          f"bodies: {', '.join(bodies)})")
     return out
+
+
+def _force_column(model, target: str, quantity: str, name: str, who):
+    """("force", element, quantity) of a force element's output column (spring force,
+    actuator effort, ...: spatialmbd.outputs.force_outputs), None when ``target`` is not a
+    force element."""
+    groups = [g for g in model.force_groups if target in g.names]
+    if not groups:
+        return None
+    from ..outputs.vocabulary import QUANTITIES, _force_kind
+    g = groups[0]
+    kind = _force_kind(g)
+    if kind is None:
+        raise ModelError(f"{who}: output {name!r}: the elements of type {g.name} have no "
+                         "output columns of their own")
+    allowed = list(g.output_units(g.names.index(target)) if kind == "own" else
+                   QUANTITIES[kind])
+    if quantity not in allowed:
+        raise ModelError(f"{who}: output {name!r}: the {g.name} element {target!r} has the "
+                         f"outputs {', '.join(allowed)}")
+    return ("force", target, quantity)
 
 
 def _reaction(model, name: str, who):
@@ -333,7 +358,7 @@ class CoSimulation:
         model, nb = self.model, self.model.nb
         body_pos, body_idx, joints, slow = [], [], [], []
         self._solved = [(m, item) for m, item in enumerate(self._out)
-                        if item[0] in ("acceleration", "reaction", "imu")]
+                        if item[0] in ("acceleration", "reaction", "imu", "force")]
         for m, (kind, target, quantity, *_) in enumerate(self._out):
             if kind == "body":
                 c = BODY_COLUMNS.index(quantity)
@@ -412,16 +437,22 @@ class CoSimulation:
             t=np.array([self.t]), y=self.y[None, :], status="success", message="",
             counters={}, wall_time=0.0, correction=None,
             redundant_joints=self._redundant_joints, messages=[], settings={})
-        reactions, imus = None, {}
+        reactions, cache = None, {}
         for m, (kind, target, *rest) in self._solved:
             if kind == "acceleration":
                 values[m] = res.vdot[0, target, ACCELERATION_COLUMNS.index(rest[0])]
                 continue
+            if kind == "force":                    # spatialmbd.outputs.force_outputs, likewise
+                if ("force", target) not in cache:
+                    from ..outputs import force_outputs
+                    cache[("force", target)] = force_outputs(res, target)
+                values[m] = cache[("force", target)][rest[0]][0]
+                continue
             if kind == "imu":                      # spatialmbd.outputs.imu at this sample
-                if target not in imus:
+                if target not in cache:
                     from ..outputs import imu
-                    imus[target] = imu(res, target)
-                values[m] = imus[target][rest[0]][0]
+                    cache[target] = imu(res, target)
+                values[m] = cache[target][rest[0]][0]
                 continue
             if reactions is None:
                 reactions = res.reactions()
