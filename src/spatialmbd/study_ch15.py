@@ -272,7 +272,7 @@ def run_study(outdir, quick: bool = False, methods=None, echo=None) -> StudyRepo
             echo(f"{label}: {r['nfev']} function evaluations, {r['steps']} steps, max "
                  f"Phi^T Phi {r['max_phi_squared']:.3g}, angle error "
                  f"{phys['checks']['angle'][0]:.2e} rad against the exact solution"
-                 + ("" if quick else f" (text: {text_nfev} evaluations)"))
+                 + ("" if quick or text_nfev is None else f" (text: {text_nfev} evaluations)"))
     fig = _figure(outdir, runs, t_end)
     fig2 = _physics_figure(outdir, runs, pend)
     csv_path, md_path, md = _tables(outdir, rows)
