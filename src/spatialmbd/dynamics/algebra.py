@@ -271,13 +271,6 @@ def assemble_schur(M, R, P, use_mass):
 
 
 @njit(inline="always")
-def schur_factor(M, R, P, use_mass):
-    """Assemble and factorise S (or D D^T); False if it is not positive definite."""
-    assemble_schur(M, R, P, use_mass)
-    return spc.numeric(P[11], P[7], P[8], P[9])
-
-
-@njit(inline="always")
 def schur_factor_solve(M, R, P, use_mass, b):
     """b <- S^-1 b (or (D D^T)^-1 b): assemble, factorise and solve. Where S is nearly singular
     (a pivot below :data:`.sparse.SINGULAR_PIVOT` of its diagonal: a singular position) the
@@ -291,12 +284,6 @@ def schur_factor_solve(M, R, P, use_mass, b):
         spc.solve(P[11], P[8], b, P[10])
         return True
     return spc.solve_regularised(P[11], P[7], P[8], P[9], P[10], b)
-
-
-@njit(inline="always")
-def schur_solve(P, b):
-    """b <- S^-1 b with the factor of :func:`schur_factor`."""
-    spc.solve(P[11], P[8], b, P[10])
 
 
 @njit(inline="always")

@@ -45,7 +45,7 @@ from .algebra import (  # noqa: F401 -- re-exported: the methods import them fro
     FIELDS, KFIELDS, body_views, cons_views, field_view, force_views, pack, schur_views, fill,
     copy, finite, _M, _R, _P, congruence, body_terms, stage_state, _force_states_in,
     _force_states_out, _forces, _state, block_apply, minv_all, m_all, mass_apply, row_times,
-    add_transpose_times, assemble_schur, schur_factor, schur_factor_solve, schur_solve, finish,
+    add_transpose_times, assemble_schur, schur_factor_solve, finish,
     baumgarte_rhs, solve_multipliers, copy_v, write_ydot, _write_ydot, OK, SINGULAR, NOT_FINITE,
     NOT_CONVERGED, MP_STANDARD, MP_PENALTY, normalize_y, dependent_rows)
 
