@@ -87,18 +87,21 @@ def left_null_space(D: np.ndarray):
     return _left_null_space(D)
 
 
-def nonunique_joints(model, q, t: float = 0.0, exclude_rows=()) -> list:
+def nonunique_joints(model, q, t: float = 0.0, exclude_rows=(), rows=None) -> list:
     """The elements whose reactions are not unique at q: every element with an equation that a
     self-stress of D reaches (all the joints of a redundant loop), by the project's one rank
     decision (:mod:`spatialmbd.rank`). exclude_rows: rows not to name (drivers, whose
-    uniqueness is reported separately)."""
+    uniqueness is reported separately); rows: those rows if already known
+    (:func:`spatialmbd.rank.nonunique_rows` of D at q)."""
     if not model.n_eq:
         return []
-    D = dense(model.assembler.evaluate(np.asarray(q, dtype=float).reshape(model.nb, 7), None,
-                                       t).D)
+    if rows is None:
+        D = dense(model.assembler.evaluate(np.asarray(q, dtype=float).reshape(model.nb, 7),
+                                           None, t).D)
+        rows = nonunique_rows(D)
     skip = set(int(r) for r in exclude_rows)
     labels = model.equation_labels
-    return sorted({labels[r][0] for r in nonunique_rows(D) if int(r) not in skip})
+    return sorted({labels[r][0] for r in rows if int(r) not in skip})
 
 
 def potential_energy(model, q: np.ndarray, t: float, state=None) -> float:

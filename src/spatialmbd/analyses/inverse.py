@@ -34,7 +34,7 @@ from ..kinematics import JacobianFactor, apply_correction, mobility, solve_posit
 from ..state import BodyState
 from ..rank import nonunique_rows
 from .common import (dense, driver_rows, driver_units, kinetic_energy, left_null_space,
-                     potential_energy, reactions_frame, results_object)
+                     nonunique_joints, potential_energy, reactions_frame, results_object)
 
 
 class NonUniqueEffortsWarning(UserWarning):
@@ -326,8 +326,8 @@ def inverse_dynamics(model, t: Optional[Sequence[float]] = None, *, motion=None,
         # every joint of a redundant loop, not only the one whose equation was left out
         D0 = dense(model.assembler.evaluate(q, None, t[0]).D)
         loose = nonunique_rows(D0)
-        labels = model.equation_labels
-        redundant = sorted({labels[r][0] for r in loose if not mask[r]})
+        redundant = nonunique_joints(model, q, t[0], exclude_rows=np.flatnonzero(mask),
+                                     rows=loose)
         unique = not mask[loose].any()
         if unique:
             text = (f"{mob.n_redundant} redundant constraint equation(s) among the joints: the "
