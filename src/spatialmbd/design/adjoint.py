@@ -44,7 +44,7 @@ from ..sweep.params import points
 from ..sweep.sensitivity import _reduce_derivative, _state_index
 from . import adjoint_kernels as ak
 
-__all__ = ["Adjoint", "adjoint_gradients", "FD_EPS"]
+__all__ = ["Adjoint", "adjoint_gradients", "output_gradients", "FD_EPS"]
 
 #: relative step of the central differences of the right-hand side in the backward pass
 FD_EPS = 1e-6
@@ -146,10 +146,11 @@ class Adjoint:
         if self.every < 1:
             raise ModelError(f"adjoint gradient: checkpoint must be >= 1, got {self.checkpoint}")
 
-    def run(self, x) -> np.ndarray:
+    def run(self, x, derivatives: bool = True) -> np.ndarray:
         """Forward pass at parameter values x (p,): the states Y (n_out, n) at the output
         times :attr:`t_out` (a ModelError when the run fails: a value the model refuses, a
-        singular matrix, a non-finite state)."""
+        singular matrix, a non-finite state). derivatives=False skips dF/dp and dy0/dp (no
+        :meth:`gradient` afterwards)."""
         x = np.asarray(x, dtype=float)
         values = dict(zip(self.names, map(float, x)))
         F, y0 = self._pack(values)
@@ -158,14 +159,23 @@ class Adjoint:
         p = x.size
         dF = np.zeros((F.size, p))
         dy0 = np.zeros((y0.size, p))
-        for j, name in enumerate(self.names):
+        for j, name in enumerate(self.names if derivatives else []):
             d = self.relative_delta * _scale(x[j])
             plus, minus = dict(values), dict(values)
             plus[name] += d
             minus[name] -= d
-            Fa, ya = self._pack(plus)
-            Fb, yb = self._pack(minus)
-            dF[:, j] = (Fa - Fb) / (2 * d)
+            try:
+                Fa, ya = self._pack(plus)
+                Fb, yb = self._pack(minus)
+            except ModelError as exc:
+                if "differs in topology" not in str(exc):
+                    raise
+                raise ModelError(f"parameter {name!r} cannot be varied by the adjoint: it "
+                                 "changes a force law (a magnitude, command or reference "
+                                 "held in the work arrays) or the topology; use "
+                                 "jacobian='fd'") from None
+            with np.errstate(invalid="ignore"):            # inf limits: no derivative
+                dF[:, j] = np.where(Fa == Fb, 0.0, Fa - Fb) / (2 * d)
             dy0[:, j] = (ya - yb) / (2 * d)
         self.active = np.flatnonzero(np.any(dF != 0.0, axis=1)).astype(np.int64)
         self.F, self.y0, self.dF, self.dy0 = F, y0, dF, dy0
@@ -183,7 +193,7 @@ class Adjoint:
             raise ModelError(f"adjoint gradient: the run failed at t = {self.step_t[where]:.6g}"
                              f" s (right-hand side status {status}: singular or not finite) "
                              f"at {values}")
-        self.x = x.copy()
+        self.x = x.copy() if derivatives else None
         return self.Y
 
     # ------------------------------------------------------------------------- backward
@@ -243,21 +253,39 @@ def adjoint_gradients(model, params, outputs, analysis=None, *, step: Optional[f
     outs = parse_outputs(outputs)
     adj = Adjoint(model, list(params), analysis, step=step, checkpoint=checkpoint)
     x = np.array([float(v) for v in params.values()])
-    Y = adj.run(x)
-    nt, n = Y.shape
-    Wt = np.zeros((nt, n, len(outs)))
-    nominal = np.zeros(len(outs))
-    for k, o in enumerate(outs):
-        if o.series or o.function is not None or o.reduction is None:
-            raise ModelError(f"output {o.name!r}: the adjoint takes reductions of body state "
-                             "columns, e.g. final(pendulum.z)")
-        c = adj.column(o.column)
-        nominal[k], w = _reduce_derivative(o.reduction, adj.t_out, Y[:, c], np.eye(nt))
-        Wt[:, c, k] = w
-    G = adj.gradient(Wt)
+    nominal, G = output_gradients(adj, outs, x)
     return xr.Dataset(
         dict(derivative=(("output", "parameter"), G), nominal=(("output",), nominal)),
         coords=dict(output=[o.name for o in outs], parameter=adj.names,
                     value=(("parameter",), x)),
         attrs=dict(method="discrete adjoint of RK4", step=adj.h, checkpoint=adj.every,
                    n_active=int(adj.active.size)))
+
+
+def output_gradients(adj: Adjoint, outs, x, gradient: bool = True):
+    """(values (K,), d values / dx (K, p) or None) of parsed outputs (reductions of body state
+    columns) at x, from the forward run of ``adj`` and, when ``gradient``, its backward run
+    (all K outputs in one backward pass). The derivative of a reduction with respect to the
+    samples is :func:`spatialmbd.sweep.sensitivity._reduce_derivative` applied to the unit
+    sensitivities (it is linear in them)."""
+    for o in outs:
+        if o.series or o.function is not None or o.reduction is None:
+            raise ModelError(f"output {o.name!r}: the adjoint takes reductions of body state "
+                             "columns, e.g. final(pendulum.z)")
+    Y = adj.run(x, derivatives=gradient)
+    nt, n = Y.shape
+    eye = np.eye(nt)
+    values = np.zeros(len(outs))
+    times, rows, cols, vals = [], [], [], []
+    for k, o in enumerate(outs):
+        c = adj.column(o.column)
+        values[k], w = _reduce_derivative(o.reduction, adj.t_out, Y[:, c], eye)
+        nz = np.flatnonzero(w)
+        times.append(nz)
+        rows.append(np.full(nz.size, c))
+        cols.append(np.full(nz.size, k))
+        vals.append(w[nz])
+    if not gradient:
+        return values, None
+    return values, adj.gradient_sparse(len(outs), np.concatenate(times), np.concatenate(rows),
+                                       np.concatenate(cols), np.concatenate(vals))
