@@ -116,3 +116,59 @@ def test_bad_input():
                                                           method=dict(name="projection")))
     with pytest.raises(ModelError, match="call run"):
         Adjoint(PENDULUM, ["bodies.pendulum.mass"]).gradient(np.zeros((3, 14)))
+
+
+# ------------------------------------------------------- identify() and optimize() use it
+AN = dict(type="dynamic", t_end=1.0, output_step=0.01, method=dict(name="standard"),
+          integrator=dict(name="rk4", step=0.005))
+
+
+def test_optimize_auto_takes_the_adjoint_and_agrees_with_forward_sensitivities():
+    from spatialmbd.design import optimize
+    # the slowest swing: the rms rate over damping and initial rate, damping at its bound,
+    # the initial rate interior; two parameters, one output -> the adjoint under "auto"
+    p = {"forces.pivot_damper.damping": 0.8, "bodies.pendulum.angular_velocity.0": 0.5}
+    bounds = {"forces.pivot_damper.damping": (0.1, 3.0),
+              "bodies.pendulum.angular_velocity.0": (-5.0, 5.0)}
+    auto = optimize(PENDULUM, "rms(pendulum.wx)", p, bounds=bounds, analysis=AN)
+    forward = optimize(PENDULUM, "rms(pendulum.wx)", p, bounds=bounds, analysis=AN,
+                       jacobian="forward")
+    assert auto.jacobian == "adjoint" and forward.jacobian == "forward"
+    assert auto.success and forward.success, auto.report()
+    np.testing.assert_allclose(auto.x, forward.x, rtol=1e-6)
+    assert auto.x[0] == pytest.approx(3.0) and abs(auto.x[1]) < 4.0     # bound, interior
+    # with as many outputs as parameters "auto" keeps forward sensitivities
+    one = optimize(PENDULUM, "-rms(pendulum.wx)", {"forces.pivot_damper.damping": 2.0},
+                   bounds={"forces.pivot_damper.damping": (0.1, 5.0)}, analysis=AN,
+                   max_iterations=1)
+    assert one.jacobian == "forward"
+
+
+def test_identify_adjoint_jacobian_equals_forward_sensitivities():
+    from spatialmbd.design import identify
+    from spatialmbd.design.problem import Experiment, Problem
+    names = ["bodies.pendulum.mass", "forces.pivot_damper.damping",
+             "bodies.pendulum.angular_velocity.0", "bodies.pendulum.inertia.0"]
+    x = np.array([7.02, 0.8, 0.5, 0.5855265])
+    t = np.array([0.25, 0.5, 1.0])                         # 3 residuals < 4 parameters
+    e = Experiment("e", t, ["pendulum.wx"], np.zeros((t.size, 1)), {}, np.full(1, np.nan))
+    auto = Problem(PENDULUM, names, [e], AN)
+    fw = Problem(PENDULUM, names, [e], AN, jacobian="forward")
+    assert auto.kinds == ["adjoint"] and fw.kinds == ["forward"]
+    (ya,), (Ja,) = auto.evaluate(x, jacobian=True)
+    (yf,), (Jf,) = fw.evaluate(x, jacobian=True)
+    np.testing.assert_allclose(ya, yf, rtol=1e-12)
+    np.testing.assert_allclose(Ja, Jf, rtol=1e-7, atol=1e-9 * np.abs(Jf).max())
+    # a fit: 40 samples of the rate, mass and damping from 20 % off, both Jacobians
+    t = np.linspace(0.025, 1.0, 40)
+    ref = Problem(PENDULUM, names[:2], [Experiment("r", t, ["pendulum.wx"],
+                                                   np.zeros((t.size, 1)), {},
+                                                   np.full(1, np.nan))], AN, jacobian="forward")
+    (clean,), _ = ref.evaluate(x[:2])
+    rig = {"t": t, "pendulum.wx": clean[:, 0]}
+    start = {names[0]: 5.6, names[1]: 0.64}
+    fits = [identify(PENDULUM, rig, start, analysis=AN, jacobian=j) for j in ("adjoint",
+                                                                             "forward")]
+    for fit in fits:
+        np.testing.assert_allclose(fit.estimates, x[:2], rtol=1e-6)
+    np.testing.assert_allclose(fits[0].estimates, fits[1].estimates, rtol=1e-8)
