@@ -48,10 +48,105 @@ __all__ = ["Adjoint", "adjoint_gradients", "output_gradients", "FD_EPS"]
 
 #: relative step of the central differences of the right-hand side in the backward pass
 FD_EPS = 1e-6
+_E = np.zeros(1, dtype=np.int64)
+#: the structure argument of the dense path (unused there; the compiled signature needs one)
+_EMPTY_S = (_E,) * 12
 
 
 def _scale(x: float) -> float:
     return abs(x) if x != 0.0 else 1.0
+
+
+_BODY_FLOATS = ("mass", "Jl", "Jl_inv", "weight")
+_JOINT_FLOATS = ("s_i", "s_j", "R_i", "R_j", "param")
+_FORCE_FLOATS = ("fs_i", "fs_j", "fR_i", "fR_j", "fparam")
+
+
+def _packed_ints(system, name):
+    """The integer field ``name`` of a packed system (its header in I)."""
+    import math as _m
+    from ..dynamics import system as cs
+    for k, (fname, buf, ndim) in enumerate(cs.FIELDS):
+        if fname == name and buf == "I":
+            off = int(system.I[4 * k])
+            shape = tuple(int(v) for v in system.I[4 * k + 1:4 * k + 1 + ndim])
+            return np.asarray(system.I[off:off + _m.prod(shape)]).reshape(shape)
+    raise KeyError(name)
+
+
+def _greedy(supports):
+    """Colour classes of items whose (bodies, rows) supports must not intersect: (ptr, idx)."""
+    classes = []                    # [(members, bodies used, rows used)]
+    for j, (bodies, rows) in enumerate(supports):
+        for members, used_b, used_r in classes:
+            if not (used_b & bodies) and not (used_r & rows):
+                members.append(j)
+                used_b |= bodies
+                used_r |= rows
+                break
+        else:
+            classes.append(([j], set(bodies), set(rows)))
+    ptr = np.cumsum([0] + [len(c[0]) for c in classes]).astype(np.int64)
+    idx = np.array([j for c in classes for j in c[0]], dtype=np.int64)
+    return ptr, idx
+
+
+def _csr(sets):
+    ptr = np.cumsum([0] + [len(x) for x in sets]).astype(np.int64)
+    return ptr, np.array([v for x in sets for v in sorted(x)], dtype=np.int64)
+
+
+def structure(setup, active):
+    """The colouring of :func:`.adjoint_vjp.vjp_structured` for the packed floats ``active``,
+    or None when a float's owner is unknown (the dense path is then used)."""
+    system, nb = setup.system, setup.nb
+    real = lambda b: 0 <= b < nb                                       # noqa: E731
+    row_bi, row_bj = _packed_ints(system, "row_bi"), _packed_ints(system, "row_bj")
+    links = [(int(a), int(b)) for a, b in zip(row_bi, row_bj)]
+    try:
+        fbi, fbj = _packed_ints(system, "fbi"), _packed_ints(system, "fbj")
+        links += [(int(a), int(b)) for a, b in zip(fbi, fbj)]
+    except KeyError:
+        fbi = fbj = np.zeros(0, dtype=np.int64)
+    near = [{b} for b in range(nb)]
+    for a, b in links:
+        if real(a) and real(b):
+            near[a].add(b)
+            near[b].add(a)
+    touch = [set() for _ in range(nb)]
+    for r, (a, b) in enumerate(zip(row_bi, row_bj)):
+        for c in (int(a), int(b)):
+            if real(c):
+                touch[c].add(r)
+    # bodies: distance >= 3 in one class (their neighbourhoods disjoint)
+    cls_ptr, cls_body = _greedy([(near[b], set()) for b in range(nb)])
+    ji, jj = _packed_ints(system, "bi"), _packed_ints(system, "bj")
+    owners = []
+    for a in np.asarray(active).tolist():
+        owner = None
+        for name, off, shape in setup._slots:
+            size = int(np.prod(shape))
+            if off <= a < off + size:
+                inst = (a - off) // max(1, size // shape[0])
+                if name in _BODY_FLOATS:
+                    owner = ({inst}, set())
+                elif name in _JOINT_FLOATS:
+                    bodies = {int(b) for b in (ji[inst], jj[inst]) if real(int(b))}
+                    owner = (bodies, set().union(*[touch[b] for b in bodies]) if bodies
+                             else set())
+                elif name in _FORCE_FLOATS and inst < fbi.size:
+                    owner = ({int(b) for b in (fbi[inst], fbj[inst]) if real(int(b))}, set())
+                break
+        if owner is None:
+            return None
+        owners.append(owner)
+    fcl_ptr, fcl_idx = _greedy(owners)
+    nbr = _csr(near)
+    crw = _csr(touch)
+    fb = _csr([o[0] for o in owners])
+    fc = _csr([o[1] for o in owners])
+    return (cls_ptr, cls_body, nbr[0], nbr[1], crw[0], crw[1], fcl_ptr, fcl_idx,
+            fb[0], fb[1], fc[0], fc[1])
 
 
 class Adjoint:
@@ -98,6 +193,10 @@ class Adjoint:
         self.output_times = output_times
         self.n_builds = 0
         self.x = None
+        self.active = None
+        self.structured = False
+        self._groups = None
+        self._support = None
 
     # -------------------------------------------------------------------------- forward
     def _build(self, values):
@@ -159,25 +258,43 @@ class Adjoint:
         p = x.size
         dF = np.zeros((F.size, p))
         dy0 = np.zeros((y0.size, p))
-        for j, name in enumerate(self.names if derivatives else []):
-            d = self.relative_delta * _scale(x[j])
+        groups = self._groups if self._groups is not None else [[j] for j in range(p)]
+        for group in (groups if derivatives else []):
+            d = {j: self.relative_delta * _scale(x[j]) for j in group}
             plus, minus = dict(values), dict(values)
-            plus[name] += d
-            minus[name] -= d
+            for j in group:
+                plus[self.names[j]] += d[j]
+                minus[self.names[j]] -= d[j]
             try:
                 Fa, ya = self._pack(plus)
                 Fb, yb = self._pack(minus)
             except ModelError as exc:
                 if "differs in topology" not in str(exc):
                     raise
-                raise ModelError(f"parameter {name!r} cannot be varied by the adjoint: it "
+                which = self.names[group[0]] if len(group) == 1 else \
+                    f"one of {[self.names[j] for j in group]}"
+                raise ModelError(f"parameter {which!r} cannot be varied by the adjoint: it "
                                  "changes a force law (a magnitude, command or reference "
                                  "held in the work arrays) or the topology; use "
                                  "jacobian='fd'") from None
             with np.errstate(invalid="ignore"):            # inf limits: no derivative
-                dF[:, j] = np.where(Fa == Fb, 0.0, Fa - Fb) / (2 * d)
-            dy0[:, j] = (ya - yb) / (2 * d)
-        self.active = np.flatnonzero(np.any(dF != 0.0, axis=1)).astype(np.int64)
+                dFg = np.where(Fa == Fb, 0.0, Fa - Fb)
+            dyg = ya - yb
+            for j in group:                # a group's members move disjoint entries
+                fs, ys = self._support[j] if self._groups is not None else (None, None)
+                if fs is None:
+                    dF[:, j] = dFg / (2 * d[j])
+                    dy0[:, j] = dyg / (2 * d[j])
+                else:
+                    dF[fs, j] = dFg[fs] / (2 * d[j])
+                    dy0[ys, j] = dyg[ys] / (2 * d[j])
+        if derivatives and self._groups is None:
+            self._group_parameters(dF, dy0)
+        if derivatives:
+            active = np.flatnonzero(np.any(dF != 0.0, axis=1)).astype(np.int64)
+            if self.active is None or not np.array_equal(active, self.active):
+                self.active = active
+                self._choose_path(F, y0, dF[active])
         self.F, self.y0, self.dF, self.dy0 = F, y0, dF, dy0
         n = y0.size
         ns = self.step_t.size
@@ -195,6 +312,44 @@ class Adjoint:
                              f"at {values}")
         self.x = x.copy() if derivatives else None
         return self.Y
+
+    def _group_parameters(self, dF, dy0):
+        """After the first gradient (one build pair per parameter): parameters whose packed
+        floats and initial-state entries are disjoint share a build pair from now on (a
+        greedy colouring of their supports), so later gradients cost 2 n_groups builds."""
+        supports = []
+        for j in range(len(self.names)):
+            fs = np.flatnonzero(dF[:, j] != 0.0)
+            ys = np.flatnonzero(dy0[:, j] != 0.0)
+            supports.append((fs, ys))
+        ptr, idx = _greedy([(set(fs.tolist()), set(ys.tolist())) for fs, ys in supports])
+        self._support = supports
+        self._groups = [idx[ptr[k]:ptr[k + 1]].tolist() for k in range(ptr.size - 1)]
+
+    def _choose_path(self, F, y0, dF):
+        """The structured vector-Jacobian products (:mod:`.adjoint_vjp`) when the model's
+        floats have known owners and they agree with the dense products at the start state
+        (f_y^T kbar and f_F^T kbar dF/dp to 1e-6 of their largest entry, for a random
+        cotangent); else the dense ones. (Per float they differ: the solve reads J'^-1, the
+        residual J'; along dF/dp, which moves both consistently, they agree.)"""
+        S = structure(self.setup, self.active)
+        self.structured = False
+        self.S = S if S is not None else _EMPTY_S
+        if S is None:
+            return
+        n = y0.size
+        kbar = np.random.default_rng(1).standard_normal((n, 2))
+        kbar[-1] = 0.0                                      # no cost reads the work entry
+        W = self.setup.system.W.copy()
+        args = (0.0, y0, kbar, F.copy(), self.setup.system.I, W, self.setup.mp, self.active,
+                FD_EPS, S)
+        s1, yb1, fb1 = ak.vjp_at(*args, False)
+        s2, yb2, fb2 = ak.vjp_at(*args, True)
+        ok = s1 == 0 and s2 == 0
+        for a, b in ((yb1[:-1], yb2[:-1]), (fb1.T @ dF, fb2.T @ dF)):
+            ok = ok and np.all(np.isfinite(b)) and \
+                np.abs(a - b).max() <= 1e-6 * max(np.abs(a).max(), 1e-300)
+        self.structured = bool(ok)
 
     # ------------------------------------------------------------------------- backward
     def gradient(self, Wt) -> np.ndarray:
@@ -214,6 +369,8 @@ class Adjoint:
         if self.x is None:
             raise ModelError("adjoint gradient: call run(x) before gradient()")
         times = np.asarray(times, dtype=np.int64)
+        if np.any(np.asarray(rows) >= 13 * self.model.nb):
+            raise ModelError("adjoint gradient: costs read the body states (q, v) only")
         order = np.argsort(times, kind="stable")
         ptr = np.searchsorted(times[order], np.arange(self.t_out.size + 1)).astype(np.int64)
         status, ybar0, Fbar = ak.backward_pass(
@@ -221,7 +378,7 @@ class Adjoint:
             int(K), ptr, np.asarray(rows, dtype=np.int64)[order],
             np.asarray(cols, dtype=np.int64)[order], np.asarray(vals, dtype=float)[order],
             self.F.copy(), self.setup.system.I, self.W, self.setup.mp, self.model.nb,
-            self.active, FD_EPS)
+            self.active, FD_EPS, self.S, self.structured)
         if status != 0:
             raise ModelError("adjoint gradient: the right-hand side failed at a perturbed "
                              "state of the backward pass (a singular configuration?)")
@@ -230,11 +387,6 @@ class Adjoint:
     def column(self, name) -> int:
         """The state index of a body state column (<body>.x..e3, <body>.vx..wz)."""
         return _state_index(self.model, name)
-
-    def cost_evaluations(self) -> int:
-        """Right-hand-side evaluations of one backward pass (for the cost rule)."""
-        n = self.y0.size
-        return int(self.step_t.size * 4 * (2 * (n + self.active.size) + 2))
 
 
 def adjoint_gradients(model, params, outputs, analysis=None, *, step: Optional[float] = None,

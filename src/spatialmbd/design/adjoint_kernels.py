@@ -35,6 +35,7 @@ import numpy as np
 
 from ..dynamics.standard import rhs_standard
 from ..jit import njit
+from .adjoint_vjp import vjp_structured
 
 B_RK4 = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
 
@@ -143,7 +144,15 @@ def _vjp(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, fp, fm, eps):
 
 
 @njit
-def _step_adjoint(t, h, y, ybar, Fbar, F, I, W, mp, nb, active, eps, work):
+def _pvjp(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, fp, fm, eps, S, structured):
+    """The stage's vector-Jacobian product by the structured or the dense path."""
+    if structured:
+        return vjp_structured(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, eps, S)
+    return _vjp(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, fp, fm, eps)
+
+
+@njit
+def _step_adjoint(t, h, y, ybar, Fbar, F, I, W, mp, nb, active, eps, work, S, structured):
     """ybar (n, K): the cotangent of y+ on entry, of y on return (Fbar accumulated)."""
     n, K = ybar.shape
     k1, k2, k3, k4, Y2, Y3, Y4, yh, fp, fm = work
@@ -175,35 +184,37 @@ def _step_adjoint(t, h, y, ybar, Fbar, F, I, W, mp, nb, active, eps, work):
             for k in range(K):
                 kb[s, i, k] = w * ybar[i, k]
     Yb = np.zeros((n, K))
-    if _vjp(t + h, Y4, kb[3], Yb, Fbar, F, I, W, mp, active, fp, fm, eps):
+    if _pvjp(t + h, Y4, kb[3], Yb, Fbar, F, I, W, mp, active, fp, fm, eps, S, structured):
         return 1
     for i in range(n):
         for k in range(K):
             ybar[i, k] += Yb[i, k]
             kb[2, i, k] += h * Yb[i, k]
             Yb[i, k] = 0.0
-    if _vjp(t + 0.5 * h, Y3, kb[2], Yb, Fbar, F, I, W, mp, active, fp, fm, eps):
+    if _pvjp(t + 0.5 * h, Y3, kb[2], Yb, Fbar, F, I, W, mp, active, fp, fm, eps, S,
+                 structured):
         return 1
     for i in range(n):
         for k in range(K):
             ybar[i, k] += Yb[i, k]
             kb[1, i, k] += 0.5 * h * Yb[i, k]
             Yb[i, k] = 0.0
-    if _vjp(t + 0.5 * h, Y2, kb[1], Yb, Fbar, F, I, W, mp, active, fp, fm, eps):
+    if _pvjp(t + 0.5 * h, Y2, kb[1], Yb, Fbar, F, I, W, mp, active, fp, fm, eps, S,
+                 structured):
         return 1
     for i in range(n):
         for k in range(K):
             ybar[i, k] += Yb[i, k]
             kb[0, i, k] += 0.5 * h * Yb[i, k]
     y1 = y.copy()
-    if _vjp(t, y1, kb[0], ybar, Fbar, F, I, W, mp, active, fp, fm, eps):
+    if _pvjp(t, y1, kb[0], ybar, Fbar, F, I, W, mp, active, fp, fm, eps, S, structured):
         return 1
     return 0
 
 
 @njit
 def backward_pass(step_t, step_h, out_after, out0, checkpoints, every, K, ptr, rows, cols,
-                  vals, F, I, W, mp, nb, active, eps):
+                  vals, F, I, W, mp, nb, active, eps, S, structured):
     """The adjoint sweep: returns (status, ybar0 (n, K), Fbar (n_active, K)) for K costs
     whose derivatives with respect to the state at output time o are the entries
     ptr[o] .. ptr[o + 1] - 1 of (rows: state index, cols: cost index, vals: d cost / d y)."""
@@ -235,9 +246,21 @@ def backward_pass(step_t, step_h, out_after, out0, checkpoints, every, K, ptr, r
                     ybar[rows[e], cols[e]] += vals[e]
             y = seg[i - i0].copy()
             if _step_adjoint(step_t[i], step_h[i], y, ybar, Fbar, F, I, W, mp, nb, active,
-                             eps, work):
+                             eps, work, S, structured):
                 return 1, ybar, Fbar
     if out0 >= 0:
         for e in range(ptr[out0], ptr[out0 + 1]):
             ybar[rows[e], cols[e]] += vals[e]
     return 0, ybar, Fbar
+
+
+@njit
+def vjp_at(t, Y, kbar, F, I, W, mp, active, eps, S, structured):
+    """(f_y^T kbar, f_F[:, active]^T kbar) at one state (the set-up's check of the structured
+    path against the dense one)."""
+    n, K = kbar.shape
+    ybar = np.zeros((n, K))
+    Fbar = np.zeros((active.size, K))
+    st = _pvjp(t, Y.copy(), kbar, ybar, Fbar, F, I, W, mp, active, np.empty(n), np.empty(n),
+               eps, S, structured)
+    return st, ybar, Fbar
