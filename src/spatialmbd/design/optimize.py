@@ -64,8 +64,8 @@ class Optimization:
         w = max(len(n) for n in self.names)
         state = "converged" if self.success else "NOT converged"
         lines = [f"optimization: {self.message} ({state}), {self.n_iterations} iterations, "
-                 f"{self.n_runs} runs, "
-                 f"{self.wall_time:.3g} s, gradients: {self.jacobian}", f"objective {self.objective:.8g}", "",
+                 f"{self.n_runs} runs, {self.wall_time:.3g} s, gradients: {self.jacobian}",
+                 f"objective {self.objective:.8g}", "",
                  f"{'parameter':<{w}}  {'optimum':>13}  {'start':>11}"]
         lines += [f"{n:<{w}}  {x:13.6g}  {x0:11.4g}"
                   for n, x, x0 in zip(self.names, self.x, self.start)]
