@@ -3,6 +3,7 @@ pendulum (examples/design/pendulum_damped.yaml: mass, pivot damping, initial ang
 from 1,000 samples of a noisy recorded angle (pivot.angle, sigma 0.01 rad, 0..10 s).
 
     python bench/design.py [--repeats 5] [--seeds 30] [--out bench/results]
+    python bench/design.py --gradient-only   # only the gradient section of the results
 
 Measured in one run: the wall time of one identification (warm kernels; the shortest and the
 median of --repeats fits of the same data), for the engines "simulate" and "batch" (the
@@ -44,6 +45,7 @@ ANALYSIS = dict(type="dynamic", t_end=10.0, integrator=dict(name="rk45", rtol=1e
 FORWARD = dict(type="dynamic", t_end=10.0, method=dict(name="standard"),
                integrator=dict(name="rk4", step=0.01))
 SIGMA = 0.01
+MARK = "## Adjoint gradient, 100 parameters"
 T = np.linspace(0.0, 10.0, 1000)
 
 
@@ -172,9 +174,17 @@ def main(argv=None):
     ap.add_argument("--params", type=int, default=100)
     ap.add_argument("--gradient-only", action="store_true")
     args = ap.parse_args(argv)
-    if args.gradient_only:
-        text = "\n".join(gradient_benchmark(args.links, args.params, args.repeats)) + "\n"
+    if args.gradient_only:              # replace the gradient section of the results file
+        head = (f"{MARK} ({time.strftime('%Y-%m-%d %H:%M')}, {platform.node()}, load "
+                f"average {os.getloadavg()[0]:.2f})")
+        text = "\n".join([head] + gradient_benchmark(args.links, args.params,
+                                                     args.repeats)) + "\n"
         print(text)
+        path = Path(args.out) / "design.md"
+        old = path.read_text(encoding="utf-8") if path.exists() else ""
+        old = old.split(MARK)[0].rstrip("\n")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text((old + "\n\n" if old else "") + text, encoding="utf-8")
         return 0
     from spatialmbd.design import identify
     angle = data_for("pivot.angle", ANALYSIS, 0)
@@ -217,7 +227,7 @@ def main(argv=None):
     for j, name in enumerate(TRUTH):
         lines.append(f"| {name} | {truth[j]:g} | {est[:, j].mean():.5g} | {inside[j]:.2f} | "
                      f"{ratio[j]:.2f} |")
-    lines += gradient_benchmark(args.links, args.params, args.repeats)
+    lines += ["", MARK] + gradient_benchmark(args.links, args.params, args.repeats)
     text = "\n".join(lines) + "\n"
     print(text)
     out = Path(args.out)

@@ -33,6 +33,7 @@ SLIDE = dict(joint="translational", omega=(0.0, 0.0, 0.0), velocity=(0.0, 0.3, 0
 KINDS = {
     "body": (link([]), {"bodies.link.mass": 1.5, "bodies.link.inertia.0": 0.09,
                         "bodies.link.angular_velocity.0": 2.0, "gravity.2": -9.81}),
+    "joint_geometry": (link([]), {"joints.pin.point.1": 0.0, "joints.pin.point.2": 0.0}),
     "spring_damper": (link([{"name": "s", "type": "spring_damper", "body_i": "ground",
                              "body_j": "link", "point_i": [0.0, 0.3, 0.5],
                              "point_j": [0.0, 0.7, 0.0], "stiffness": 40.0, "damping": 1.5,
