@@ -59,6 +59,7 @@ def check(model, params, columns, analysis=None):
     adj.run(x)                     # again: parameters with disjoint floats now share builds
     G2 = adj.gradient(W)
     assert adj.structured          # the structured products passed their check at the start
+    assert np.all(np.abs(R[0]) > 1e-9 * np.abs(R[0]).max())    # every parameter matters
     scale = np.abs(R).max(axis=1, keepdims=True)   # per cost: zero entries compared to it
     for g in (G, G2):
         assert np.all(np.abs(g - R) <= RTOL * np.maximum(np.abs(R), 1e-3 * scale) + 1e-15), \
@@ -130,6 +131,8 @@ def test_bad_input():
     with pytest.raises(ModelError, match="'standard' or 'baumgarte'"):
         Adjoint(PENDULUM, ["bodies.pendulum.mass"], dict(type="dynamic", t_end=1.0,
                                                           method=dict(name="projection")))
+    with pytest.raises(ModelError, match="'bodies.pendulum.masss' does not exist"):
+        Adjoint(PENDULUM, ["bodies.pendulum.masss"])
     with pytest.raises(ModelError, match="call run"):
         Adjoint(PENDULUM, ["bodies.pendulum.mass"]).gradient(np.zeros((3, 14)))
 
@@ -175,6 +178,16 @@ def test_identify_adjoint_jacobian_equals_forward_sensitivities():
     (yf,), (Jf,) = fw.evaluate(x, jacobian=True)
     np.testing.assert_allclose(ya, yf, rtol=1e-12)
     np.testing.assert_allclose(Ja, Jf, rtol=1e-7, atol=1e-9 * np.abs(Jf).max())
+    # an experiment with a value of its own (its initial rate): the override reaches the run
+    own = Experiment("own", t, ["pendulum.wx"], np.zeros((t.size, 1)),
+                     {"bodies.pendulum.angular_velocity.0": 1.5}, np.full(1, np.nan))
+    pa = Problem(PENDULUM, names[:2], [own], AN, jacobian="adjoint")
+    pf = Problem(PENDULUM, names[:2], [own], AN, jacobian="forward")
+    (ya2,), (Ja2,) = pa.evaluate(x[:2], jacobian=True)
+    (yf2,), (Jf2,) = pf.evaluate(x[:2], jacobian=True)
+    assert np.abs(ya2 - ya).max() > 0.1                     # another run than the first
+    np.testing.assert_allclose(ya2, yf2, rtol=1e-12)
+    np.testing.assert_allclose(Ja2, Jf2, rtol=1e-7, atol=1e-9 * np.abs(Jf2).max())
     # a fit: 40 samples of the rate, mass and damping from 20 % off, both Jacobians
     t = np.linspace(0.025, 1.0, 40)
     ref = Problem(PENDULUM, names[:2], [Experiment("r", t, ["pendulum.wx"],

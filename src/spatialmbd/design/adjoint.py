@@ -177,6 +177,9 @@ class Adjoint:
         self.relative_delta = float(relative_delta)
         space = points({n: [0.0] for n in self.names + list(self.overrides)})
         self.job = _make_job(model, space, parse_outputs(["t"]), analysis, "batch", {})
+        if self.job.data is not None:
+            from .problem import start_values
+            start_values(self.job, self.names)      # a path the model lacks: named here
         an = self.job.analysis
         method = (an.get("method") or {}).get("name", "auto") \
             if isinstance(an.get("method"), dict) else an.get("method")
