@@ -23,10 +23,12 @@ floats the parameters move ("active"), and
 
     d cost / d p = ybar0 . dy0/dp + Fbar . dF/dp.
 
-Cost of one gradient: the forward run (4 evaluations per step), the recomputation of the
-segments between checkpoints (one more forward run) and, per RK4 stage, 2 (n + n_active)
-evaluations of the right-hand side (n = 13 nb + 1 states), independent of the number of
-parameters except through n_active.
+Cost of one gradient: the 2 p builds (after the first gradient, parameters whose floats and
+initial-state entries are disjoint share a build pair), the forward run (4 evaluations per
+step), the recomputation of the segments between checkpoints (one more forward run) and,
+per RK4 stage, the vector-Jacobian products: by :mod:`.adjoint_vjp` (one solve per cost and
+2 (13 n_colours + n_float_colours) evaluations of local residuals) when its check at the
+start state passes, else 2 (n + n_active) evaluations of the right-hand side (n = 13 nb + 1).
 """
 from __future__ import annotations
 
