@@ -40,8 +40,9 @@ def add_parser(command) -> None:
     p.add_argument("--loss", default="linear",
                    choices=("linear", "soft_l1", "huber", "cauchy", "arctan"),
                    help="robust loss of SciPy's least_squares (default linear)")
-    p.add_argument("--jacobian", default="auto", choices=("auto", "forward", "fd"),
-                   help="forward sensitivities or central differences (default auto)")
+    p.add_argument("--jacobian", default="auto", choices=("auto", "adjoint", "forward", "fd"),
+                   help="adjoint, forward sensitivities or central differences (default "
+                        "auto: docs/design.md)")
     p.add_argument("--engine", choices=("simulate", "batch"), default="simulate",
                    help="how the runs are made (batch: members of a Jacobian together)")
     common.add_analysis_options(p)

@@ -33,8 +33,9 @@ def add_parser(command) -> None:
                    help="a constraint, OP one of >=, <=, == (repeatable)")
     p.add_argument("--optimizer", default="SLSQP",
                    choices=("SLSQP", "trust-constr"), help="SciPy method (default SLSQP)")
-    p.add_argument("--jacobian", default="auto", choices=("auto", "forward", "fd"),
-                   help="forward sensitivities or central differences (default auto)")
+    p.add_argument("--jacobian", default="auto", choices=("auto", "adjoint", "forward", "fd"),
+                   help="adjoint, forward sensitivities or central differences (default "
+                        "auto: docs/design.md)")
     common.add_analysis_options(p)
     p.add_argument("-o", "--out", metavar="FILE",
                    help="optimised model file .yaml/.json (default <model stem>_opt.yaml)")

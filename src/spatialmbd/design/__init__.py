@@ -8,10 +8,13 @@
 
 Parameters are the sweep's paths (:mod:`spatialmbd.sweep.params`), outputs its columns and
 reductions (:mod:`spatialmbd.sweep.outputs`); the Jacobians come from its forward
-sensitivities or from central differences run as members of one chunk (:mod:`.problem`).
+sensitivities, from the adjoint (:mod:`.adjoint`) or from central differences run as members of
+one chunk (:mod:`.problem`).
 """
+from .adjoint import Adjoint, adjoint_gradients
 from .identify import Identification, identify
 from .optimize import Optimization, optimize
 from .problem import read_data
 
-__all__ = ["identify", "Identification", "optimize", "Optimization", "read_data"]
+__all__ = ["adjoint_gradients", "Adjoint", "identify", "Identification", "optimize",
+           "Optimization", "read_data"]

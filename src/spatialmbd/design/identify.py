@@ -260,8 +260,8 @@ def identify(model, data=None, params=(), *, outputs=None, weights: Optional[dic
     experiments: [(variant, data), ...] fitted together: variant a {path: value} dict of the
       experiment's own values (initial state, load) or a model of its own.
     analysis: the analysis (default the model's); its output times become the time stamps.
-    jacobian: "auto", "forward" or "fd" (:mod:`.problem`); engine: the sweep engine of the
-      runs; fd_step: relative step of the differences; tol: ftol = xtol = gtol.
+    jacobian: "auto", "adjoint", "forward" or "fd" (:mod:`.problem`); engine: the sweep
+      engine of the runs; fd_step: relative step of the differences; tol: ftol = xtol = gtol.
     """
     from scipy.optimize import least_squares
     start_time = time.perf_counter()

@@ -9,8 +9,13 @@ the largest of them (the minimax of a peak and a trough, ``["peak(T)", "-trough(
 peak |T| without the kink of ``absmax``) through the epigraph form: minimise s subject to
 s >= f_i(x). constraints: ``"spec >= value"``, ``"spec <= value"``, ``"spec == value"`` (or
 (spec, op, value) tuples). Gradients by forward sensitivities (method standard/baumgarte,
-reductions of body state columns) or central differences, all 2 p + 1 members of one gradient
-run as one chunk (:func:`spatialmbd.sweep.core.run_chunk`). SciPy's SLSQP or trust-constr
+reductions of body state columns), by the adjoint (the same cases, one forward and one
+backward run for all outputs: :mod:`.adjoint`) or central differences, all 2 p + 1 members
+of one gradient run as one chunk (:func:`spatialmbd.sweep.core.run_chunk`). jacobian="auto"
+takes the adjoint when the parameters outnumber the outputs it differentiates (objective
+terms plus constraints; the forward/reverse rule: forward sensitivities cost one system per
+parameter, the adjoint one cotangent per output), else forward sensitivities where they
+apply, else central differences. SciPy's SLSQP or trust-constr
 work in scaled variables u = x / |x0|.
 """
 from __future__ import annotations
@@ -49,6 +54,7 @@ class Optimization:
     failures: list = field(default_factory=list)
     wall_time: float = 0.0
     model_data: Optional[dict] = None
+    jacobian: str = ""       # how the gradients were computed: adjoint, forward or fd
 
     @property
     def values(self) -> dict:
@@ -58,8 +64,8 @@ class Optimization:
         w = max(len(n) for n in self.names)
         state = "converged" if self.success else "NOT converged"
         lines = [f"optimization: {self.message} ({state}), {self.n_iterations} iterations, "
-                 f"{self.n_runs} runs, "
-                 f"{self.wall_time:.3g} s", f"objective {self.objective:.8g}", "",
+                 f"{self.n_runs} runs, {self.wall_time:.3g} s, gradients: {self.jacobian}",
+                 f"objective {self.objective:.8g}", "",
                  f"{'parameter':<{w}}  {'optimum':>13}  {'start':>11}"]
         lines += [f"{n:<{w}}  {x:13.6g}  {x0:11.4g}"
                   for n, x, x0 in zip(self.names, self.x, self.start)]
@@ -126,14 +132,17 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
     spec, ``-spec`` (maximise), a callable f(results) -> float, or a list of specs (minimise
     the largest); constraints: strings ``"spec >= v"`` / ``<=`` / ``==`` or tuples; bounds:
     {path: (low, high)}; method: "SLSQP" or "trust-constr"; analysis: default the model's;
-    jacobian: "auto" (forward sensitivities where they apply), "forward" or "fd"; fd_step:
+    jacobian: "auto" (the adjoint when the parameters outnumber the outputs, else forward
+    sensitivities, where they apply; central differences elsewhere), "adjoint", "forward"
+    or "fd"; fd_step:
     relative step of the central differences; tol: the method's tolerance.
     """
     from scipy import optimize as so
     if method not in ("SLSQP", "trust-constr"):
         raise ModelError(f"method must be 'SLSQP' or 'trust-constr', got {method!r}")
-    if jacobian not in ("auto", "forward", "fd"):
-        raise ModelError(f"jacobian must be 'auto', 'forward' or 'fd', got {jacobian!r}")
+    if jacobian not in ("auto", "adjoint", "forward", "fd"):
+        raise ModelError(f"jacobian must be 'auto', 'adjoint', 'forward' or 'fd', got "
+                         f"{jacobian!r}")
     start_time = time.perf_counter()
     given = dict(params) if isinstance(params, dict) else \
         {p: None for p in ([params] if isinstance(params, str) else params)}
@@ -168,7 +177,15 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
     if jacobian == "forward" and not forward_ok:
         raise ModelError("forward sensitivities need the 'standard' or 'baumgarte' method and "
                          "reductions of body state columns; use jacobian='fd'")
-    use_forward = forward_ok and jacobian != "fd"
+    adjoint_ok = forward_ok and not any(n.startswith("analysis.") for n in names)
+    if jacobian == "adjoint" and not adjoint_ok:
+        raise ModelError("the adjoint needs the 'standard' or 'baumgarte' method, reductions "
+                         "of body state columns and no analysis.* parameter; use "
+                         "jacobian='fd'")
+    kind = jacobian if jacobian != "auto" else (
+        "adjoint" if adjoint_ok and len(names) > len(outs) else
+        "forward" if forward_ok else "fd")
+    adjoint = {}
     failures, history, counter = [], [], {"runs": 0}
     cache = {}
 
@@ -179,7 +196,18 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
         if not grad and (x.tobytes(), True) in cache:
             return cache[(x.tobytes(), True)]
         p = x.size
-        if use_forward:
+        if kind == "adjoint":
+            from .adjoint import Adjoint, output_gradients
+            counter["runs"] += 2 if grad else 1
+            try:
+                if "a" not in adjoint:
+                    adjoint["a"] = Adjoint(dict(job.data, analysis=job.analysis), names)
+                vals, G = output_gradients(adjoint["a"], list(outs), x, grad)
+            except ModelError as exc:
+                failures.append(dict(parameters=dict(zip(names, map(float, x))),
+                                     message=f"{type(exc).__name__}: {exc}"))
+                raise _Failed(failures[-1]["message"]) from None
+        elif kind == "forward":
             from ..sweep.sensitivity import forward_sensitivities
             data = dict(job.data, analysis=job.analysis)
             counter["runs"] += 1 + 2 * p
@@ -215,7 +243,7 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
             failures.append(dict(parameters=dict(zip(names, map(float, x))),
                                  message=f"{bad[0]} ({specs[bad[0]]}) is not finite"))
             raise _Failed(failures[-1]["message"])
-        cache[(x.tobytes(), grad or use_forward)] = (vals, G)
+        cache[(x.tobytes(), grad or kind == "forward")] = (vals, G)
         return vals, G
 
     nt = len(terms)
@@ -299,7 +327,8 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
         outputs={_label(specs[k]): float(v) for k, v in zip(specs, vals)}, success=success,
         message=message, n_iterations=nit, n_runs=counter["runs"], history=history,
         failures=failures, wall_time=time.perf_counter() - start_time,
-        model_data=None if job.data is None else dict(job.data, analysis=job.analysis))
+        model_data=None if job.data is None else dict(job.data, analysis=job.analysis),
+        jacobian=kind)
 
 
 def _label(spec) -> str:

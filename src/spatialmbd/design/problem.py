@@ -14,7 +14,13 @@ The Jacobian d(column at t_i)/d(parameter) comes from
   is then taken from the same RK4 integration, so residual and Jacobian belong together;
 * ``"fd"``: central differences (x_j +- h_j, h_j = fd_step max(|x_j|, 1e-8)), all 2 p members
   of one Jacobian run together (one :func:`spatialmbd.sweep.core.run_chunk`, either engine);
-* ``"auto"``: "forward" where it applies, else "fd".
+* ``"adjoint"``: the adjoint of the same RK4 run (:mod:`.adjoint`; the same cases as
+  "forward"): every residual is one cotangent of one backward pass, so the Jacobian costs one
+  forward and one backward run whatever the number of parameters, and its dot products grow
+  with the number of residuals m;
+* ``"auto"``: "adjoint" where it applies and the residuals are fewer than the parameters
+  (m < p: reverse mode pays when the Jacobian has fewer rows than columns), else "forward"
+  where it applies, else "fd".
 
 A member that fails (a trial mass below zero, a singular configuration, a step-size
 underflow) is recorded in :attr:`Problem.failures` with its parameters and message, and its
@@ -167,8 +173,9 @@ class Problem:
 
     def __init__(self, model, names, experiments, analysis=None, *, jacobian="auto",
                  engine="simulate", fd_step: float = 1e-4):
-        if jacobian not in ("auto", "forward", "fd"):
-            raise ModelError(f"jacobian must be 'auto', 'forward' or 'fd', got {jacobian!r}")
+        if jacobian not in ("auto", "adjoint", "forward", "fd"):
+            raise ModelError(f"jacobian must be 'auto', 'adjoint', 'forward' or 'fd', got "
+                             f"{jacobian!r}")
         if not fd_step > 0:
             raise ModelError(f"fd_step must be positive, got {fd_step}")
         self.names = list(names)
@@ -200,12 +207,18 @@ class Problem:
                 if isinstance(job.analysis.get("method"), dict) else job.analysis.get("method")
             forward_ok = (job.data is not None and method in ("standard", "baumgarte")
                           and all(_body_state_column(c) for c in e.columns))
-            if jacobian == "forward" and not forward_ok:
+            if jacobian in ("forward", "adjoint") and not forward_ok:
                 raise ModelError(f"{e.name}: forward sensitivities need a model file with the "
                                  "'standard' or 'baumgarte' method and body state columns "
                                  f"(<body>.x..wz), got method {method!r} and columns "
                                  f"{list(e.columns)}; use jacobian='fd'")
-            self.kinds.append("forward" if jacobian != "fd" and forward_ok else "fd")
+            adjoint_ok = forward_ok and not any(n.startswith("analysis.") for n in self.names)
+            if jacobian == "adjoint" or (jacobian == "auto" and adjoint_ok and
+                                         e.t.size * len(e.columns) < len(self.names)):
+                self.kinds.append("adjoint")
+            else:
+                self.kinds.append("forward" if jacobian != "fd" and forward_ok else "fd")
+        self._adjoints = {}
         self._cache_x = None
         self._cache = None
 
@@ -253,6 +266,30 @@ class Problem:
         idx = [_state_index(model, c) for c in e.columns]
         return fw["y"].values[:, idx], fw["S"].values[:, idx, :]
 
+    def _adjoint(self, k, x):
+        """(columns (nt, ncol), Jacobian (nt, ncol, p)) of experiment k by one forward and one
+        backward run, every sample of every column a cotangent (NaN and a recorded failure
+        when the run fails)."""
+        from .adjoint import Adjoint
+        e, job = self.experiments[k], self.jobs[k]
+        nt, nc, p = e.t.size, len(e.columns), len(self.names)
+        self.n_runs += 2
+        try:
+            if k not in self._adjoints:
+                self._adjoints[k] = Adjoint(dict(job.data, analysis=job.analysis), self.names,
+                                            overrides=e.overrides)
+            adj = self._adjoints[k]
+            Y = adj.run(x)
+            idx = [adj.column(c) for c in e.columns]
+            times = np.repeat(np.arange(nt), nc)
+            rows = np.tile(np.array(idx), nt)
+            J = adj.gradient_sparse(nt * nc, times, rows, np.arange(nt * nc), np.ones(nt * nc))
+        except ModelError as exc:
+            self.failures.append(dict(experiment=e.name, parameters=dict(
+                zip(self.names, map(float, x))), message=f"{type(exc).__name__}: {exc}"))
+            return np.full((nt, nc), np.nan), np.full((nt, nc, p), np.nan)
+        return Y[:, idx], J.reshape(nt, nc, p)
+
     def steps(self, x) -> np.ndarray:
         return self.fd_step * np.maximum(np.abs(x), 1e-8)
 
@@ -264,8 +301,8 @@ class Problem:
             return self._cache
         sims, jacs = [], []
         for k in range(len(self.experiments)):
-            if self.kinds[k] == "forward":
-                y, s = self._forward(k, x)
+            if self.kinds[k] in ("forward", "adjoint"):
+                y, s = (self._forward if self.kinds[k] == "forward" else self._adjoint)(k, x)
                 sims.append(y)
                 jacs.append(s)
                 continue
@@ -290,7 +327,7 @@ class Problem:
                 else:
                     J[..., j] = (Y[0] - minus) / h[j]
             jacs.append(J)
-        complete = jacobian or all(kind == "forward" for kind in self.kinds)
+        complete = jacobian or all(kind != "fd" for kind in self.kinds)
         result = (sims, jacs if complete else None)
         self._cache_x, self._cache = x.copy(), result
         return result
