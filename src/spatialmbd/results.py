@@ -191,26 +191,39 @@ class Results:
 
     def _constraint_rows(self):
         """(a, b, D, phi, nu) blocks of the outputs a:b: the constraint Jacobian rows
-        (rows, m, 12), Phi and nu (rows, m), evaluated by the compiled System, one call per
-        output (the Python constraint groups and the drivers' laws included, as in the run)."""
-        from .dynamics.system import System
+        (rows, m, 12), Phi and nu (rows, m), as the run evaluates them: the drivers' laws at
+        all times of a block at once (:meth:`JointTable.law_history`), then one compiled loop
+        over the block's outputs (:func:`evaluate_history`); the groups without a compiled
+        kernel (user types overriding evaluate) in Python, output by output."""
+        from .constraints.kernels import JointTable, evaluate_history
+        from .state import BodyState, state_into
         model = self.model
         nt, nb, m = len(self.t), model.nb, model.n_eq
         if m == 0 or nt == 0:
             return
-        system = System.for_model(model)
-        D, phi, nu = system.D, system.phi, system.nu
-        y = np.empty(13 * nb)
+        groups, offsets = model.constraint_groups, model.group_offsets
+        table = JointTable(groups, offsets)
+        python = [(g, off) for g, off in zip(groups, offsets) if not g.compiled]
+        state = BodyState.empty(nb)
         rows = max(1, min(nt, self._ROWS_PER_BLOCK))
         for a in range(0, nt, rows):
             b = min(nt, a + rows)
-            block, phis, nus = np.empty((b - a, m, 12)), np.empty((b - a, m)), np.empty((b - a, m))
-            for k in range(a, b):
-                y[:7 * nb] = self.q[k].ravel()
-                y[7 * nb:] = self.v[k].ravel()
-                system.evaluate(float(self.t[k]), y, False)
-                block[k - a], phis[k - a], nus[k - a] = D, phi, nu
-            yield a, b, block, phis, nus
+            q = np.ascontiguousarray(self.q[a:b], dtype=float)
+            v = np.ascontiguousarray(self.v[a:b], dtype=float)
+            out = (np.zeros((b - a, m)), np.zeros((b - a, m, 12)), np.zeros((b - a, m)),
+                   np.zeros((b - a, m)))
+            evaluate_history(table.kind, state.arrays(), table.G, table.rows, q, v,
+                             table.law_history(self.t[a:b]), out)
+            phi, D, nu, gamma = out
+            for k in range(b - a if python else 0):
+                state_into(q[k], v[k], False, *state.arrays())
+                state.t = t = float(self.t[a + k])
+                for g, off in python:
+                    e = g.evaluate(state, t)
+                    sl = slice(off, off + g.size)
+                    phi[k, sl], nu[k, sl] = e.phi.ravel(), e.nu.ravel()
+                    D[k, sl] = e.D.reshape(-1, 12)
+            yield a, b, D, phi, nu
 
     # ---------------------------------------------------------------------------- violation
     def constraint_violation(self) -> dict:
