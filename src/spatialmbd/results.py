@@ -152,17 +152,41 @@ class Results:
     # ---------------------------------------------------------------------------- reactions
     def reactions(self) -> dict:
         """JointReaction of every joint and driver, by name (from D^T lam, Eq. 10.10)."""
+        return self._reactions_from(self._row_pass(reactions=True, violation=False)[0])
+
+    def _row_pass(self, reactions: bool, violation: bool):
+        """One pass over the constraint rows of every output (:meth:`_constraint_rows`):
+        (gens, (phi_squared, velocity)) -- D^T lam per instance of each group (nt, n, 12) when
+        ``reactions``, Phi^T Phi and |D v - nu| (nt,) when ``violation`` (else None)."""
+        model = self.model
+        nt = len(self.t)
+        groups = list(zip(model.constraint_groups, model.group_offsets))
+        gens = [np.zeros((nt, g.n, 12)) for g, _ in groups] if reactions else None
+        sq, vel = np.zeros(nt), np.zeros(nt)
+        if violation and model.n_eq:
+            bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g in model.constraint_groups])
+            bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g in model.constraint_groups])
+        for a, b, D, phi, nu in self._constraint_rows():
+            if reactions:
+                lam = self.lam[a:b]
+                for (g, off), gen in zip(groups, gens):        # D^T lam per instance (n, 12)
+                    Dg = D[:, off:off + g.size].reshape(b - a, g.n, g.n_eq, 12)
+                    gen[a:b] = np.einsum("tnmc,tnm->tnc", Dg,
+                                         lam[:, off:off + g.size].reshape(b - a, g.n, g.n_eq))
+            if violation:
+                # D v - nu, row by row from the two 6-blocks (the ground, index nb, is fixed)
+                v = np.concatenate([self.v[a:b], np.zeros((b - a, 1, 6))], axis=1)
+                Dv = (np.einsum("tmc,tmc->tm", D[:, :, :6], v[:, bi])
+                      + np.einsum("tmc,tmc->tm", D[:, :, 6:], v[:, bj]))
+                sq[a:b] = np.einsum("tm,tm->t", phi, phi)
+                vel[a:b] = np.linalg.norm(Dv - nu, axis=1)
+        return gens, ((sq, vel) if violation else None)
+
+    def _reactions_from(self, gens) -> dict:
         model = self.model
         names = list(model.body_names) + ["ground"]
         nt, nb = len(self.t), model.nb
         groups = list(zip(model.constraint_groups, model.group_offsets))
-        gens = [np.zeros((nt, g.n, 12)) for g, _ in groups]
-        for a, b, D, _, _ in self._constraint_rows():
-            lam = self.lam[a:b]
-            for (g, off), gen in zip(groups, gens):        # D^T lam per instance (n, 12)
-                Dg = D[:, off:off + g.size].reshape(b - a, g.n, g.n_eq, 12)
-                gen[a:b] = np.einsum("tnmc,tnm->tnc", Dg,
-                                     lam[:, off:off + g.size].reshape(b - a, g.n, g.n_eq))
         # body rotations at every output, the ground (index nb) the identity
         A = np.empty((nt, nb + 1, 3, 3))
         A[:, :nb] = _rotations(self.q[:, :, 3:])
@@ -237,20 +261,7 @@ class Results:
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
         if not asm.couplers:                  # no angle to unwrap: the compiled rows
-            model = self.model
-            bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g in model.constraint_groups]
-                                ) if model.n_eq else np.zeros(0, np.int64)
-            bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g in model.constraint_groups]
-                                ) if model.n_eq else np.zeros(0, np.int64)
-            for a, b, D, phi, nu in self._constraint_rows():
-                # D v - nu, row by row from the two 6-blocks (the ground, index nb, is fixed)
-                v = np.concatenate([self.v[a:b], np.zeros((b - a, 1, 6))], axis=1)
-                Dv = (np.einsum("tmc,tmc->tm", D[:, :, :6], v[:, bi])
-                      + np.einsum("tmc,tmc->tm", D[:, :, 6:], v[:, bj]))
-                sq[a:b] = np.einsum("tm,tm->t", phi, phi)
-                vel[a:b] = np.linalg.norm(Dv - nu, axis=1)
-            pos[:] = np.sqrt(sq)
-            return dict(position=pos, phi_squared=sq, velocity=vel)
+            return self._violation_from(*self._row_pass(reactions=False, violation=True)[1])
         asm.set_coupler_references(self.coupler_references)
         try:
             for k in range(nt):
@@ -266,6 +277,18 @@ class Results:
         finally:
             asm.reset_couplers()              # the shared assembler left as it was found
         return dict(position=pos, phi_squared=sq, velocity=vel)
+
+    @staticmethod
+    def _violation_from(sq, vel) -> dict:
+        return dict(position=np.sqrt(sq), phi_squared=sq, velocity=vel)
+
+    def _reactions_and_violation(self):
+        """(reactions(), constraint_violation()) from one pass over the rows when there are no
+        couplers (whose angles the violation unwraps output by output)."""
+        if self.model.assembler.couplers:
+            return self.reactions(), self.constraint_violation()
+        gens, (sq, vel) = self._row_pass(reactions=True, violation=True)
+        return self._reactions_from(gens), self._violation_from(sq, vel)
 
     # ---------------------------------------------------------------------------- contacts
     def contacts(self) -> dict:
@@ -318,14 +341,14 @@ class Results:
                 cols[f"{name}.{c}"] = self.v[:, k, j]
             for j, c in enumerate(("ax", "ay", "az", "alphax", "alphay", "alphaz")):
                 cols[f"{name}.{c}"] = self.vdot[:, k, j]
-        for name, r in self.reactions().items():
+        reactions, viol = self._reactions_and_violation()
+        for name, r in reactions.items():
             for body, f, mom in ((r.body_i, r.force_i, r.moment_i),
                                  (r.body_j, r.force_j, r.moment_j)):
                 for j, c in enumerate("xyz"):
                     cols[f"{name}.{body}.f{c}"] = f[:, j]
                 for j, c in enumerate("xyz"):
                     cols[f"{name}.{body}.m{c}"] = mom[:, j]
-        viol = self.constraint_violation()
         cols["violation.position"] = viol["position"]
         cols["violation.velocity"] = viol["velocity"]
         en = self.energy()
