@@ -10,9 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
+import math
+
 import numpy as np
 
-from .state import BodyState
+from .constraints.kernels import JointRows, evaluate_instances
+from .jit import njit
+from .state import BodyState, state_into
 
 
 @dataclass
@@ -154,13 +158,17 @@ class Results:
         """JointReaction of every joint and driver, by name (from D^T lam, Eq. 10.10)."""
         return self._reactions_from(self._row_pass(reactions=True, violation=False)[0])
 
-    def _row_pass(self, reactions: bool, violation: bool):
-        """One pass over the constraint rows of every output (:meth:`_constraint_rows`):
-        (gens, (phi_squared, velocity)) -- D^T lam per instance of each group (nt, n, 12) when
-        ``reactions``, Phi^T Phi and |D v - nu| (nt,) when ``violation`` (else None)."""
+    def _row_pass(self, reactions: bool, violation: bool, compiled: bool = True):
+        """One pass over the constraint rows of every output: (gens, (phi_squared, velocity))
+        -- D^T lam per instance of each group (nt, n, 12) when ``reactions``, Phi^T Phi and
+        |D v - nu| (nt,) when ``violation`` (else None). Every group compiled: one compiled
+        loop over the outputs that reduces each output's rows as it evaluates them
+        (:func:`_reduce_rows`); else the rows in blocks (:meth:`_constraint_rows`)."""
         model = self.model
         nt = len(self.t)
         groups = list(zip(model.constraint_groups, model.group_offsets))
+        if compiled and model.n_eq and nt and all(g.compiled for g, _ in groups):
+            return self._row_pass_compiled(groups, reactions, violation)
         gens = [np.zeros((nt, g.n, 12)) for g, _ in groups] if reactions else None
         sq, vel = np.zeros(nt), np.zeros(nt)
         if violation and model.n_eq:
@@ -181,6 +189,33 @@ class Results:
                 sq[a:b] = np.einsum("tm,tm->t", phi, phi)
                 vel[a:b] = np.linalg.norm(Dv - nu, axis=1)
         return gens, ((sq, vel) if violation else None)
+
+    def _row_pass_compiled(self, groups, reactions: bool, violation: bool):
+        from .constraints.kernels import JointTable
+        model = self.model
+        nt, m = len(self.t), model.n_eq
+        table = JointTable(model.constraint_groups, model.group_offsets)
+        inst_offsets = np.cumsum([0] + [g.n for g, _ in groups])
+        row_inst = np.concatenate([start + np.repeat(np.arange(g.n), g.n_eq)
+                                   for (g, _), start in zip(groups, inst_offsets)])
+        row_bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g, _ in groups])
+        row_bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g, _ in groups])
+        gens = np.zeros((nt, int(inst_offsets[-1]) if reactions else 0, 12))
+        sq, vel = np.zeros(nt), np.zeros(nt)
+        state = BodyState.empty(model.nb)
+        scratch = (np.zeros(m), np.zeros((m, 12)), np.zeros(m), np.zeros(m))
+        rows = max(1, min(nt, self._ROWS_PER_BLOCK))
+        for a in range(0, nt, rows):            # the laws of a block of outputs at once
+            b = min(nt, a + rows)
+            _reduce_rows(table.kind, state.arrays(), table.G, table.rows,
+                         np.ascontiguousarray(self.q[a:b], dtype=float),
+                         np.ascontiguousarray(self.v[a:b], dtype=float),
+                         table.law_history(self.t[a:b]),
+                         np.ascontiguousarray(self.lam[a:b], dtype=float), row_inst.astype(
+                             np.int64), row_bi.astype(np.int64), row_bj.astype(np.int64),
+                         reactions, gens[a:b], sq[a:b], vel[a:b], scratch)
+        split = [gens[:, a:b] for a, b in zip(inst_offsets[:-1], inst_offsets[1:])]
+        return (split if reactions else None), ((sq, vel) if violation else None)
 
     def _reactions_from(self, gens) -> dict:
         model = self.model
@@ -388,6 +423,37 @@ class Results:
             lines.append(self.correction.summary())
         lines.extend(m for m in self.messages if m != self.message)
         return "\n".join(lines)
+
+
+@njit
+def _reduce_rows(kind, S, G, rows, q, v, law, lam, row_inst, row_bi, row_bj, reactions, gens,
+                 sq, vel, scratch):
+    """For each output k: the constraint rows at (q[k], v[k], law[k]) (the compiled dispatch,
+    into ``scratch`` = (phi, D, nu, gamma)), reduced at once: gens[k, i] = sum of D_r^T lam_r
+    over the rows r of instance i (Eq. 10.10; when ``reactions``), sq[k] = Phi^T Phi,
+    vel[k] = |D v - nu| (the ground, body nb, does not move)."""
+    phi, D, nu, _ = scratch
+    nb = q.shape[1]
+    for k in range(q.shape[0]):
+        state_into(q[k], v[k], False, S[0], S[1], S[2], S[3], S[4])
+        Gk = JointRows(G.bi, G.bj, G.s_i, G.s_j, G.R_i, G.R_j, G.param, law[k], G.coord)
+        evaluate_instances(kind, S, Gk, rows, scratch)
+        total, speed = 0.0, 0.0
+        for r in range(phi.size):
+            total += phi[r] * phi[r]
+            dv = -nu[r]
+            if row_bi[r] < nb:
+                for c in range(6):
+                    dv += D[r, c] * v[k, row_bi[r], c]
+            if row_bj[r] < nb:
+                for c in range(6):
+                    dv += D[r, 6 + c] * v[k, row_bj[r], c]
+            speed += dv * dv
+            if reactions:
+                for c in range(12):
+                    gens[k, row_inst[r], c] += D[r, c] * lam[k, r]
+        sq[k] = total
+        vel[k] = math.sqrt(speed)
 
 
 def _rotations(p: np.ndarray) -> np.ndarray:
