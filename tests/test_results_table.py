@@ -7,8 +7,8 @@ import pytest
 
 from spatialmbd import models
 from spatialmbd.dynamics.system import System
-from spatialmbd.motion import (Constant, ConstantVelocity, Harmonic, Polynomial, SmoothStep,
-                               TimeSeries, UserFunction)
+from spatialmbd.motion import (Constant, Harmonic, Polynomial, SmoothStep, TimeSeries,
+                               UserFunction)
 from spatialmbd.results import Results
 
 SAMPLES = dict(times=[0.0, 0.25, 0.5, 1.0], values=[0.1, -0.2, 0.3, 0.05])
