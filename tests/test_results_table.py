@@ -123,3 +123,33 @@ def test_compiled_reduction_equals_the_rows_reduced_in_numpy(build, monkeypatch)
     reactions, viol = res._reactions_and_violation()
     assert set(reactions) == set(res.model.joint_names) | set(res.model.driver_names)
     np.testing.assert_array_equal(viol["position"], np.sqrt(sq))
+
+
+def test_joint_reactions_equal_their_numpy_form():
+    """Forces, moments about the joint points and their joint-frame components, compiled, equal
+    the same formulas in NumPy (P = A s, m - P x f, T^T x with T = A_i R_i)."""
+    from spatialmbd.rotations import A_from_p
+    model = _every_law_model()
+    res = _results(model, 200, seed=2)
+    gens = res._row_pass(True, False)[0]
+    reactions = res.reactions()
+    nb = model.nb
+    A = np.concatenate([A_from_p(res.q[:, :, 3:]), np.broadcast_to(np.eye(3), (200, 1, 3, 3))],
+                       axis=1)
+    for g, gen in zip(model.constraint_groups, gens):
+        Pi = np.einsum("tnij,nj->tni", A[:, g.body_i], g.geometry.s_i)
+        Pj = np.einsum("tnij,nj->tni", A[:, g.body_j], g.geometry.s_j)
+        Ti = np.einsum("tnij,njk->tnik", A[:, g.body_i], g.geometry.R_i)
+        for n, name in enumerate(g.names):
+            fi, fj = gen[:, n, :3], gen[:, n, 6:9]
+            mi = gen[:, n, 3:6] - np.cross(Pi[:, n], fi)
+            mj = gen[:, n, 9:12] - np.cross(Pj[:, n], fj)
+            r = reactions[name]
+            for got, want in ((r.force_i, fi), (r.moment_i, mi), (r.force_j, fj),
+                              (r.moment_j, mj)):
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
+            for got, want in ((r.force_i_joint, fi), (r.moment_i_joint, mi),
+                              (r.force_j_joint, fj), (r.moment_j_joint, mj)):
+                want = np.einsum("tji,tj->ti", Ti[:, n], want)
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
+    assert nb == 6 and np.abs(reactions["W"].moment_i).max() > 0

@@ -228,21 +228,20 @@ class Results:
         A[:, nb] = np.eye(3)
         out = {}
         for (g, off), gen in zip(groups, gens):
-            Pi = np.einsum("tnij,nj->tni", A[:, g.body_i], g.geometry.s_i)
-            Pj = np.einsum("tnij,nj->tni", A[:, g.body_j], g.geometry.s_j)
-            Ti = np.einsum("tnij,njk->tnik", A[:, g.body_i], g.geometry.R_i)
+            # (nt, n, 8, 3): f_i, m_i, f_j, m_j in global axes, then in the joint frame
+            parts = np.empty((nt, g.n, 8, 3))
+            _joint_reactions(np.ascontiguousarray(gen), A, g.body_i.astype(np.int64),
+                             g.body_j.astype(np.int64), np.ascontiguousarray(g.geometry.s_i,
+                                                                              dtype=float),
+                             np.ascontiguousarray(g.geometry.s_j, dtype=float),
+                             np.ascontiguousarray(g.geometry.R_i, dtype=float), parts)
             for n, name in enumerate(g.names):
-                fi, fj = gen[:, n, :3], gen[:, n, 6:9]
-                mi = gen[:, n, 3:6] - np.cross(Pi[:, n], fi)    # moment about the joint point
-                mj = gen[:, n, 9:12] - np.cross(Pj[:, n], fj)
-                T = Ti[:, n]
-                to_joint = lambda x: np.einsum("nji,nj->ni", T, x)  # noqa: E731
+                x = [parts[:, n, c] for c in range(8)]
                 out[name] = JointReaction(
                     name=name, type=g.name, body_i=names[g.body_i[n]], body_j=names[g.body_j[n]],
-                    force_i=fi, moment_i=mi, force_j=fj, moment_j=mj,
-                    force_i_joint=to_joint(fi), moment_i_joint=to_joint(mi),
-                    force_j_joint=to_joint(fj), moment_j_joint=to_joint(mj),
-                    unique=name not in self.redundant_joints)
+                    force_i=x[0], moment_i=x[1], force_j=x[2], moment_j=x[3],
+                    force_i_joint=x[4], moment_i_joint=x[5], force_j_joint=x[6],
+                    moment_j_joint=x[7], unique=name not in self.redundant_joints)
         return out
 
     #: output rows per block of :meth:`_constraint_rows` (its D block is rows x m x 12 floats)
@@ -454,6 +453,40 @@ def _reduce_rows(kind, S, G, rows, q, v, law, lam, row_inst, row_bi, row_bj, rea
                     gens[k, row_inst[r], c] += D[r, c] * lam[k, r]
         sq[k] = total
         vel[k] = math.sqrt(speed)
+
+
+@njit
+def _joint_reactions(gen, A, bi, bj, s_i, s_j, R_i, out):
+    """Per output t and instance n, from its D^T lam = gen[t, n] (12: force and moment about
+    the centre of mass on body i, then on body j, global): out[t, n] = f_i, m_i, f_j, m_j
+    (moments about the joint points P = A s), then the four in the joint frame T = A_i R_i
+    (T^T x). A: (nt, nb + 1, 3, 3) rotations, the ground last."""
+    for t in range(gen.shape[0]):
+        for n in range(gen.shape[1]):
+            Ai, Aj = A[t, bi[n]], A[t, bj[n]]
+            for side in range(2):
+                Ab = Ai if side == 0 else Aj
+                s = s_i[n] if side == 0 else s_j[n]
+                p0 = Ab[0, 0] * s[0] + Ab[0, 1] * s[1] + Ab[0, 2] * s[2]
+                p1 = Ab[1, 0] * s[0] + Ab[1, 1] * s[1] + Ab[1, 2] * s[2]
+                p2 = Ab[2, 0] * s[0] + Ab[2, 1] * s[1] + Ab[2, 2] * s[2]
+                f = gen[t, n, 6 * side:6 * side + 3]
+                m = gen[t, n, 6 * side + 3:6 * side + 6]
+                o = 2 * side
+                for a in range(3):
+                    out[t, n, o, a] = f[a]
+                # moment about the joint point: m - P x f
+                out[t, n, o + 1, 0] = m[0] - (p1 * f[2] - p2 * f[1])
+                out[t, n, o + 1, 1] = m[1] - (p2 * f[0] - p0 * f[2])
+                out[t, n, o + 1, 2] = m[2] - (p0 * f[1] - p1 * f[0])
+            for c in range(4):                          # T^T x, T = A_i R_i
+                for a in range(3):
+                    value = 0.0
+                    for b in range(3):
+                        Tba = Ai[b, 0] * R_i[n, 0, a] + Ai[b, 1] * R_i[n, 1, a] \
+                            + Ai[b, 2] * R_i[n, 2, a]
+                        value += Tba * out[t, n, c, b]
+                    out[t, n, 4 + c, a] = value
 
 
 def _rotations(p: np.ndarray) -> np.ndarray:
