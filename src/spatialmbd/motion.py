@@ -31,6 +31,18 @@ class MotionLaw(abc.ABC):
     def evaluate_many(cls, laws: Sequence["MotionLaw"], t: float):
         """(f, f', f'') for each law of this class at time t: three arrays (n,)."""
 
+    @classmethod
+    def evaluate_times(cls, laws: Sequence["MotionLaw"], times: np.ndarray):
+        """(f, f', f'') for each law at every time: three arrays (nt, n). This default calls
+        :meth:`evaluate_many` once per time (a user's functions are called as in a run); the
+        built-in laws override it with one array expression over all times (the same
+        arithmetic per element, so the same values)."""
+        times = np.asarray(times, dtype=float).reshape(-1)
+        out = np.empty((3, times.size, len(laws)))
+        for k, t in enumerate(times):
+            out[0, k], out[1, k], out[2, k] = cls.evaluate_many(laws, float(t))
+        return out[0], out[1], out[2]
+
     def to_dict(self) -> dict:
         out = {"type": self.kind}
         out.update({k: v for k, v in self.__dict__.items()})
@@ -49,6 +61,12 @@ class Constant(MotionLaw):
         f = np.array([law.value for law in laws], dtype=float)
         return f, np.zeros_like(f), np.zeros_like(f)
 
+    @classmethod
+    def evaluate_times(cls, laws, times):
+        shape = (np.size(times), len(laws))
+        f = np.broadcast_to(cls.evaluate_many(laws, 0.0)[0], shape)
+        return f, np.zeros(shape), np.zeros(shape)
+
 
 @dataclass
 class ConstantVelocity(MotionLaw):
@@ -63,6 +81,11 @@ class ConstantVelocity(MotionLaw):
         rate = np.array([law.rate for law in laws], dtype=float)
         f0 = np.array([law.initial for law in laws], dtype=float)
         return f0 + rate * t, rate, np.zeros_like(rate)
+
+    @classmethod
+    def evaluate_times(cls, laws, times):
+        f, fd, fdd = cls.evaluate_many(laws, np.asarray(times, dtype=float).reshape(-1, 1))
+        return f, np.broadcast_to(fd, f.shape), np.zeros(f.shape)
 
 
 @dataclass
@@ -84,6 +107,10 @@ class Harmonic(MotionLaw):
         arg = w * t + ph
         s, co = np.sin(arg), np.cos(arg)
         return c + a * s, a * w * co, -a * w * w * s
+
+    @classmethod
+    def evaluate_times(cls, laws, times):
+        return cls.evaluate_many(laws, np.asarray(times, dtype=float).reshape(-1, 1))
 
 
 @dataclass
@@ -115,6 +142,10 @@ class SmoothStep(MotionLaw):
         df = f1 - f0
         return f0 + df * h, df * hd, df * hdd
 
+    @classmethod
+    def evaluate_times(cls, laws, times):
+        return cls.evaluate_many(laws, np.asarray(times, dtype=float).reshape(-1, 1))
+
 
 @dataclass
 class Polynomial(MotionLaw):
@@ -132,6 +163,16 @@ class Polynomial(MotionLaw):
             c = np.polynomial.Polynomial(law.coefficients)
             f[k], fd[k], fdd[k] = c(t), c.deriv(1)(t), c.deriv(2)(t)
         return f, fd, fdd
+
+    @classmethod
+    def evaluate_times(cls, laws, times):
+        times = np.asarray(times, dtype=float).reshape(-1)
+        out = np.empty((3, times.size, len(laws)))
+        for k, law in enumerate(laws):                 # Horner's rule over all times at once
+            c = np.polynomial.Polynomial(law.coefficients)
+            out[0, :, k], out[1, :, k], out[2, :, k] = c(times), c.deriv(1)(times), \
+                c.deriv(2)(times)
+        return out[0], out[1], out[2]
 
 
 @dataclass
@@ -212,6 +253,23 @@ class TimeSeries(MotionLaw):
         slope = (fk[k + 1] - fk[k]) / (tk[k + 1] - tk[k])
         return float(fk[k] + slope * (t - tk[k])), float(slope)
 
+    def sample_times(self, times: np.ndarray):
+        """(f, f') at every time (nt,): :meth:`sample` over an array."""
+        tk, fk = self._t, self._f
+        k = np.searchsorted(tk, times, side="right") - 1
+        before, after = k < 0, k >= tk.size - 1
+        inner = np.clip(k, 0, max(tk.size - 2, 0))
+        f = np.where(before, fk[0], fk[-1])
+        fd = np.zeros(times.size)
+        inside = ~before & ~after
+        if self.interpolation == "zoh":
+            f = np.where(inside, fk[inner], f)
+        elif tk.size > 1:
+            slope = (fk[inner + 1] - fk[inner]) / (tk[inner + 1] - tk[inner])
+            f = np.where(inside, fk[inner] + slope * (times - tk[inner]), f)
+            fd = np.where(inside, slope, 0.0)
+        return f, fd
+
     @classmethod
     def evaluate_many(cls, laws, t):
         f = np.empty(len(laws))
@@ -219,6 +277,14 @@ class TimeSeries(MotionLaw):
         for k, law in enumerate(laws):
             f[k], fd[k] = law.sample(t)
         return f, fd, np.zeros(len(laws))
+
+    @classmethod
+    def evaluate_times(cls, laws, times):
+        times = np.asarray(times, dtype=float).reshape(-1)
+        out = np.zeros((3, times.size, len(laws)))
+        for k, law in enumerate(laws):
+            out[0, :, k], out[1, :, k] = law.sample_times(times)
+        return out[0], out[1], out[2]
 
     def to_dict(self) -> dict:
         out = {"type": self.kind}
@@ -325,3 +391,13 @@ class MotionLawSet:
         for cls, idx, laws in self._groups:
             f[idx], fd[idx], fdd[idx] = cls.evaluate_many(laws, t)
         return f, fd, fdd
+
+    def over(self, times) -> np.ndarray:
+        """(nt, n, 3): f, f', f'' of every law at every time (one array call per law class
+        and all times for the built-in laws)."""
+        times = np.asarray(times, dtype=float).reshape(-1)
+        out = np.empty((times.size, self.n, 3))
+        for cls, idx, laws in self._groups:
+            f, fd, fdd = cls.evaluate_times(laws, times)
+            out[:, idx, 0], out[:, idx, 1], out[:, idx, 2] = f, fd, fdd
+        return out

@@ -10,9 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
+import math
+
 import numpy as np
 
-from .state import BodyState
+from .constraints.kernels import JointRows, evaluate_instances
+from .jit import njit
+from .state import BodyState, state_into
 
 
 @dataclass
@@ -152,38 +156,92 @@ class Results:
     # ---------------------------------------------------------------------------- reactions
     def reactions(self) -> dict:
         """JointReaction of every joint and driver, by name (from D^T lam, Eq. 10.10)."""
+        return self._reactions_from(self._row_pass(reactions=True, violation=False)[0])
+
+    def _row_pass(self, reactions: bool, violation: bool, compiled: bool = True):
+        """One pass over the constraint rows of every output: (gens, (phi_squared, velocity))
+        -- D^T lam per instance of each group (nt, n, 12) when ``reactions``, Phi^T Phi and
+        |D v - nu| (nt,) when ``violation`` (else None). Every group compiled: one compiled
+        loop over the outputs that reduces each output's rows as it evaluates them
+        (:func:`_reduce_rows`); else the rows in blocks (:meth:`_constraint_rows`)."""
+        model = self.model
+        nt = len(self.t)
+        groups = list(zip(model.constraint_groups, model.group_offsets))
+        if compiled and model.n_eq and nt and all(g.compiled for g, _ in groups):
+            return self._row_pass_compiled(groups, reactions, violation)
+        gens = [np.zeros((nt, g.n, 12)) for g, _ in groups] if reactions else None
+        sq, vel = np.zeros(nt), np.zeros(nt)
+        if violation and model.n_eq:
+            bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g in model.constraint_groups])
+            bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g in model.constraint_groups])
+        for a, b, D, phi, nu in self._constraint_rows():
+            if reactions:
+                lam = self.lam[a:b]
+                for (g, off), gen in zip(groups, gens):        # D^T lam per instance (n, 12)
+                    Dg = D[:, off:off + g.size].reshape(b - a, g.n, g.n_eq, 12)
+                    gen[a:b] = np.einsum("tnmc,tnm->tnc", Dg,
+                                         lam[:, off:off + g.size].reshape(b - a, g.n, g.n_eq))
+            if violation:
+                # D v - nu, row by row from the two 6-blocks (the ground, index nb, is fixed)
+                v = np.concatenate([self.v[a:b], np.zeros((b - a, 1, 6))], axis=1)
+                Dv = (np.einsum("tmc,tmc->tm", D[:, :, :6], v[:, bi])
+                      + np.einsum("tmc,tmc->tm", D[:, :, 6:], v[:, bj]))
+                sq[a:b] = np.einsum("tm,tm->t", phi, phi)
+                vel[a:b] = np.linalg.norm(Dv - nu, axis=1)
+        return gens, ((sq, vel) if violation else None)
+
+    def _row_pass_compiled(self, groups, reactions: bool, violation: bool):
+        from .constraints.kernels import JointTable
+        model = self.model
+        nt, m = len(self.t), model.n_eq
+        table = JointTable(model.constraint_groups, model.group_offsets)
+        inst_offsets = np.cumsum([0] + [g.n for g, _ in groups])
+        row_inst = np.concatenate([start + np.repeat(np.arange(g.n), g.n_eq)
+                                   for (g, _), start in zip(groups, inst_offsets)])
+        row_bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g, _ in groups])
+        row_bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g, _ in groups])
+        gens = np.zeros((nt, int(inst_offsets[-1]) if reactions else 0, 12))
+        sq, vel = np.zeros(nt), np.zeros(nt)
+        state = BodyState.empty(model.nb)
+        scratch = (np.zeros(m), np.zeros((m, 12)), np.zeros(m), np.zeros(m))
+        rows = max(1, min(nt, self._ROWS_PER_BLOCK))
+        for a in range(0, nt, rows):            # the laws of a block of outputs at once
+            b = min(nt, a + rows)
+            _reduce_rows(table.kind, state.arrays(), table.G, table.rows,
+                         np.ascontiguousarray(self.q[a:b], dtype=float),
+                         np.ascontiguousarray(self.v[a:b], dtype=float),
+                         table.law_history(self.t[a:b]),
+                         np.ascontiguousarray(self.lam[a:b], dtype=float), row_inst.astype(
+                             np.int64), row_bi.astype(np.int64), row_bj.astype(np.int64),
+                         reactions, gens[a:b], sq[a:b], vel[a:b], scratch)
+        split = [gens[:, a:b] for a, b in zip(inst_offsets[:-1], inst_offsets[1:])]
+        return (split if reactions else None), ((sq, vel) if violation else None)
+
+    def _reactions_from(self, gens) -> dict:
         model = self.model
         names = list(model.body_names) + ["ground"]
         nt, nb = len(self.t), model.nb
         groups = list(zip(model.constraint_groups, model.group_offsets))
-        gens = [np.zeros((nt, g.n, 12)) for g, _ in groups]
-        for a, b, D, _, _ in self._constraint_rows():
-            lam = self.lam[a:b]
-            for (g, off), gen in zip(groups, gens):        # D^T lam per instance (n, 12)
-                Dg = D[:, off:off + g.size].reshape(b - a, g.n, g.n_eq, 12)
-                gen[a:b] = np.einsum("tnmc,tnm->tnc", Dg,
-                                     lam[:, off:off + g.size].reshape(b - a, g.n, g.n_eq))
         # body rotations at every output, the ground (index nb) the identity
         A = np.empty((nt, nb + 1, 3, 3))
         A[:, :nb] = _rotations(self.q[:, :, 3:])
         A[:, nb] = np.eye(3)
         out = {}
         for (g, off), gen in zip(groups, gens):
-            Pi = np.einsum("tnij,nj->tni", A[:, g.body_i], g.geometry.s_i)
-            Pj = np.einsum("tnij,nj->tni", A[:, g.body_j], g.geometry.s_j)
-            Ti = np.einsum("tnij,njk->tnik", A[:, g.body_i], g.geometry.R_i)
+            # (nt, n, 8, 3): f_i, m_i, f_j, m_j in global axes, then in the joint frame
+            parts = np.empty((nt, g.n, 8, 3))
+            _joint_reactions(np.ascontiguousarray(gen), A, g.body_i.astype(np.int64),
+                             g.body_j.astype(np.int64), np.ascontiguousarray(g.geometry.s_i,
+                                                                              dtype=float),
+                             np.ascontiguousarray(g.geometry.s_j, dtype=float),
+                             np.ascontiguousarray(g.geometry.R_i, dtype=float), parts)
             for n, name in enumerate(g.names):
-                fi, fj = gen[:, n, :3], gen[:, n, 6:9]
-                mi = gen[:, n, 3:6] - np.cross(Pi[:, n], fi)    # moment about the joint point
-                mj = gen[:, n, 9:12] - np.cross(Pj[:, n], fj)
-                T = Ti[:, n]
-                to_joint = lambda x: np.einsum("nji,nj->ni", T, x)  # noqa: E731
+                x = [parts[:, n, c] for c in range(8)]
                 out[name] = JointReaction(
                     name=name, type=g.name, body_i=names[g.body_i[n]], body_j=names[g.body_j[n]],
-                    force_i=fi, moment_i=mi, force_j=fj, moment_j=mj,
-                    force_i_joint=to_joint(fi), moment_i_joint=to_joint(mi),
-                    force_j_joint=to_joint(fj), moment_j_joint=to_joint(mj),
-                    unique=name not in self.redundant_joints)
+                    force_i=x[0], moment_i=x[1], force_j=x[2], moment_j=x[3],
+                    force_i_joint=x[4], moment_i_joint=x[5], force_j_joint=x[6],
+                    moment_j_joint=x[7], unique=name not in self.redundant_joints)
         return out
 
     #: output rows per block of :meth:`_constraint_rows` (its D block is rows x m x 12 floats)
@@ -191,26 +249,39 @@ class Results:
 
     def _constraint_rows(self):
         """(a, b, D, phi, nu) blocks of the outputs a:b: the constraint Jacobian rows
-        (rows, m, 12), Phi and nu (rows, m), evaluated by the compiled System, one call per
-        output (the Python constraint groups and the drivers' laws included, as in the run)."""
-        from .dynamics.system import System
+        (rows, m, 12), Phi and nu (rows, m), as the run evaluates them: the drivers' laws at
+        all times of a block at once (:meth:`JointTable.law_history`), then one compiled loop
+        over the block's outputs (:func:`evaluate_history`); the groups without a compiled
+        kernel (user types overriding evaluate) in Python, output by output."""
+        from .constraints.kernels import JointTable, evaluate_history
+        from .state import BodyState, state_into
         model = self.model
         nt, nb, m = len(self.t), model.nb, model.n_eq
         if m == 0 or nt == 0:
             return
-        system = System.for_model(model)
-        D, phi, nu = system.D, system.phi, system.nu
-        y = np.empty(13 * nb)
+        groups, offsets = model.constraint_groups, model.group_offsets
+        table = JointTable(groups, offsets)
+        python = [(g, off) for g, off in zip(groups, offsets) if not g.compiled]
+        state = BodyState.empty(nb)
         rows = max(1, min(nt, self._ROWS_PER_BLOCK))
         for a in range(0, nt, rows):
             b = min(nt, a + rows)
-            block, phis, nus = np.empty((b - a, m, 12)), np.empty((b - a, m)), np.empty((b - a, m))
-            for k in range(a, b):
-                y[:7 * nb] = self.q[k].ravel()
-                y[7 * nb:] = self.v[k].ravel()
-                system.evaluate(float(self.t[k]), y, False)
-                block[k - a], phis[k - a], nus[k - a] = D, phi, nu
-            yield a, b, block, phis, nus
+            q = np.ascontiguousarray(self.q[a:b], dtype=float)
+            v = np.ascontiguousarray(self.v[a:b], dtype=float)
+            out = (np.zeros((b - a, m)), np.zeros((b - a, m, 12)), np.zeros((b - a, m)),
+                   np.zeros((b - a, m)))
+            evaluate_history(table.kind, state.arrays(), table.G, table.rows, q, v,
+                             table.law_history(self.t[a:b]), out)
+            phi, D, nu, gamma = out
+            for k in range(b - a if python else 0):
+                state_into(q[k], v[k], False, *state.arrays())
+                state.t = t = float(self.t[a + k])
+                for g, off in python:
+                    e = g.evaluate(state, t)
+                    sl = slice(off, off + g.size)
+                    phi[k, sl], nu[k, sl] = e.phi.ravel(), e.nu.ravel()
+                    D[k, sl] = e.D.reshape(-1, 12)
+            yield a, b, D, phi, nu
 
     # ---------------------------------------------------------------------------- violation
     def constraint_violation(self) -> dict:
@@ -224,20 +295,7 @@ class Results:
         nt = len(self.t)
         pos, sq, vel = np.zeros(nt), np.zeros(nt), np.zeros(nt)
         if not asm.couplers:                  # no angle to unwrap: the compiled rows
-            model = self.model
-            bi = np.concatenate([np.repeat(g.body_i, g.n_eq) for g in model.constraint_groups]
-                                ) if model.n_eq else np.zeros(0, np.int64)
-            bj = np.concatenate([np.repeat(g.body_j, g.n_eq) for g in model.constraint_groups]
-                                ) if model.n_eq else np.zeros(0, np.int64)
-            for a, b, D, phi, nu in self._constraint_rows():
-                # D v - nu, row by row from the two 6-blocks (the ground, index nb, is fixed)
-                v = np.concatenate([self.v[a:b], np.zeros((b - a, 1, 6))], axis=1)
-                Dv = (np.einsum("tmc,tmc->tm", D[:, :, :6], v[:, bi])
-                      + np.einsum("tmc,tmc->tm", D[:, :, 6:], v[:, bj]))
-                sq[a:b] = np.einsum("tm,tm->t", phi, phi)
-                vel[a:b] = np.linalg.norm(Dv - nu, axis=1)
-            pos[:] = np.sqrt(sq)
-            return dict(position=pos, phi_squared=sq, velocity=vel)
+            return self._violation_from(*self._row_pass(reactions=False, violation=True)[1])
         asm.set_coupler_references(self.coupler_references)
         try:
             for k in range(nt):
@@ -253,6 +311,18 @@ class Results:
         finally:
             asm.reset_couplers()              # the shared assembler left as it was found
         return dict(position=pos, phi_squared=sq, velocity=vel)
+
+    @staticmethod
+    def _violation_from(sq, vel) -> dict:
+        return dict(position=np.sqrt(sq), phi_squared=sq, velocity=vel)
+
+    def _reactions_and_violation(self):
+        """(reactions(), constraint_violation()) from one pass over the rows when there are no
+        couplers (whose angles the violation unwraps output by output)."""
+        if self.model.assembler.couplers:
+            return self.reactions(), self.constraint_violation()
+        gens, (sq, vel) = self._row_pass(reactions=True, violation=True)
+        return self._reactions_from(gens), self._violation_from(sq, vel)
 
     # ---------------------------------------------------------------------------- contacts
     def contacts(self) -> dict:
@@ -305,14 +375,14 @@ class Results:
                 cols[f"{name}.{c}"] = self.v[:, k, j]
             for j, c in enumerate(("ax", "ay", "az", "alphax", "alphay", "alphaz")):
                 cols[f"{name}.{c}"] = self.vdot[:, k, j]
-        for name, r in self.reactions().items():
+        reactions, viol = self._reactions_and_violation()
+        for name, r in reactions.items():
             for body, f, mom in ((r.body_i, r.force_i, r.moment_i),
                                  (r.body_j, r.force_j, r.moment_j)):
                 for j, c in enumerate("xyz"):
                     cols[f"{name}.{body}.f{c}"] = f[:, j]
                 for j, c in enumerate("xyz"):
                     cols[f"{name}.{body}.m{c}"] = mom[:, j]
-        viol = self.constraint_violation()
         cols["violation.position"] = viol["position"]
         cols["violation.velocity"] = viol["velocity"]
         en = self.energy()
@@ -352,6 +422,71 @@ class Results:
             lines.append(self.correction.summary())
         lines.extend(m for m in self.messages if m != self.message)
         return "\n".join(lines)
+
+
+@njit
+def _reduce_rows(kind, S, G, rows, q, v, law, lam, row_inst, row_bi, row_bj, reactions, gens,
+                 sq, vel, scratch):
+    """For each output k: the constraint rows at (q[k], v[k], law[k]) (the compiled dispatch,
+    into ``scratch`` = (phi, D, nu, gamma)), reduced at once: gens[k, i] = sum of D_r^T lam_r
+    over the rows r of instance i (Eq. 10.10; when ``reactions``), sq[k] = Phi^T Phi,
+    vel[k] = |D v - nu| (the ground, body nb, does not move)."""
+    phi, D, nu, _ = scratch
+    nb = q.shape[1]
+    for k in range(q.shape[0]):
+        state_into(q[k], v[k], False, S[0], S[1], S[2], S[3], S[4])
+        Gk = JointRows(G.bi, G.bj, G.s_i, G.s_j, G.R_i, G.R_j, G.param, law[k], G.coord)
+        evaluate_instances(kind, S, Gk, rows, scratch)
+        total, speed = 0.0, 0.0
+        for r in range(phi.size):
+            total += phi[r] * phi[r]
+            dv = -nu[r]
+            if row_bi[r] < nb:
+                for c in range(6):
+                    dv += D[r, c] * v[k, row_bi[r], c]
+            if row_bj[r] < nb:
+                for c in range(6):
+                    dv += D[r, 6 + c] * v[k, row_bj[r], c]
+            speed += dv * dv
+            if reactions:
+                for c in range(12):
+                    gens[k, row_inst[r], c] += D[r, c] * lam[k, r]
+        sq[k] = total
+        vel[k] = math.sqrt(speed)
+
+
+@njit
+def _joint_reactions(gen, A, bi, bj, s_i, s_j, R_i, out):
+    """Per output t and instance n, from its D^T lam = gen[t, n] (12: force and moment about
+    the centre of mass on body i, then on body j, global): out[t, n] = f_i, m_i, f_j, m_j
+    (moments about the joint points P = A s), then the four in the joint frame T = A_i R_i
+    (T^T x). A: (nt, nb + 1, 3, 3) rotations, the ground last."""
+    for t in range(gen.shape[0]):
+        for n in range(gen.shape[1]):
+            Ai, Aj = A[t, bi[n]], A[t, bj[n]]
+            for side in range(2):
+                Ab = Ai if side == 0 else Aj
+                s = s_i[n] if side == 0 else s_j[n]
+                p0 = Ab[0, 0] * s[0] + Ab[0, 1] * s[1] + Ab[0, 2] * s[2]
+                p1 = Ab[1, 0] * s[0] + Ab[1, 1] * s[1] + Ab[1, 2] * s[2]
+                p2 = Ab[2, 0] * s[0] + Ab[2, 1] * s[1] + Ab[2, 2] * s[2]
+                f = gen[t, n, 6 * side:6 * side + 3]
+                m = gen[t, n, 6 * side + 3:6 * side + 6]
+                o = 2 * side
+                for a in range(3):
+                    out[t, n, o, a] = f[a]
+                # moment about the joint point: m - P x f
+                out[t, n, o + 1, 0] = m[0] - (p1 * f[2] - p2 * f[1])
+                out[t, n, o + 1, 1] = m[1] - (p2 * f[0] - p0 * f[2])
+                out[t, n, o + 1, 2] = m[2] - (p0 * f[1] - p1 * f[0])
+            for c in range(4):                          # T^T x, T = A_i R_i
+                for a in range(3):
+                    value = 0.0
+                    for b in range(3):
+                        Tba = Ai[b, 0] * R_i[n, 0, a] + Ai[b, 1] * R_i[n, 1, a] \
+                            + Ai[b, 2] * R_i[n, 2, a]
+                        value += Tba * out[t, n, c, b]
+                    out[t, n, 4 + c, a] = value
 
 
 def _rotations(p: np.ndarray) -> np.ndarray:

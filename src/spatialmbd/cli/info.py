@@ -55,10 +55,25 @@ def cmd_info(args) -> int:
             lines.append(f"files outside the model's folder ({len(outside)}; refused with "
                          "--no-external-files):")
             lines += [f"  {place}: {real}" for place, real in outside]
+    lines += output_columns(model, requests)
     lines.append("mobility:")
     lines.append(textwrap.indent(mobility(model).report(), "  "))
     print("\n".join(lines))
     return 0
+
+
+def output_columns(model, requests=None) -> list:
+    """Lines naming the columns of a dynamic run (the sweep outputs' and tables' columns,
+    ``reduction(column)``), grouped by prefix: ``  pendulum.{x|y|z|...}``."""
+    from ..sweep.checks import column_names
+    groups: dict = {}
+    for name in column_names(model, requests or ()):
+        prefix, _, last = name.rpartition(".")
+        groups.setdefault(prefix, []).append(last)
+    lines = ["output columns (sweep outputs, tables):"]
+    for prefix, lasts in groups.items():
+        lines.append(f"  {prefix}.{{{'|'.join(lasts)}}}" if prefix else f"  {'|'.join(lasts)}")
+    return lines
 
 
 def _describe_analysis(analysis) -> str:

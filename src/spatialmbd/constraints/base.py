@@ -234,6 +234,10 @@ class ConstraintType:
         """(n, 3) f, f', f'' of the drivers' motion laws at t (None: not a driver)."""
         return None
 
+    def law_history(self, times: np.ndarray) -> np.ndarray | None:
+        """(nt, n, 3): :meth:`law_values` at every time of ``times`` (nt,) at once."""
+        return None
+
     def evaluate(self, state: BodyState, t: float) -> ConstraintEval:
         """Phi, D, nu, gamma of every instance at the given state and time."""
         return DISPATCH.evaluate_group(self, state, t)

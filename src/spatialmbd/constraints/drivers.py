@@ -91,6 +91,10 @@ class _Driver(ConstraintType):
         registry[self] = (t, out)
         return out
 
+    def law_history(self, times: np.ndarray) -> np.ndarray:
+        """(nt, n, 3) f, f', f'' at every time (the laws evaluated over all times at once)."""
+        return self._lawset.over(times)
+
 
 @register
 class AngleDriver(_Driver):

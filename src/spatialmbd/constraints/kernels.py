@@ -32,6 +32,7 @@ import numpy as np
 
 from .. import jit
 from ..jit import njit
+from ..state import state_into
 from . import base
 from .base import CONSTRAINT_TYPES, ConstraintEval
 
@@ -138,6 +139,31 @@ class JointTable:
                 self.law[sl] = values
         for setter in self.also_set:
             setter(t)
+
+    def law_history(self, times: np.ndarray) -> np.ndarray:
+        """(nt, n, 3): the column ``law`` at every time of ``times`` (nt,) -- what
+        :meth:`set_time` writes, for all times at once (zero rows for the other instances)."""
+        times = np.asarray(times, dtype=float).reshape(-1)
+        out = np.zeros((times.size,) + self.law.shape)
+        for sl, g in self._drivers:
+            values = g.law_history(times)
+            if values is not None:
+                out[:, sl] = values
+        return out
+
+
+@njit
+def evaluate_history(kind, S, G, rows, q, v, law, out):
+    """The rows of every instance with kind >= 0 at each of nt states: q (nt, nb, 7),
+    v (nt, nb, 6) (p used as given, as in a run's output), law (nt, n, 3) the table's column
+    ``law`` at each time (:meth:`JointTable.law_history`); out = (phi, D, nu, gamma) with
+    phi, nu, gamma (nt, m) and D (nt, m, 12). S: state work arrays (nb + 1 rows)."""
+    r, A, rdot, omega, p = S
+    phi, D, nu, gamma = out
+    for k in range(q.shape[0]):
+        state_into(q[k], v[k], False, r, A, rdot, omega, p)
+        Gk = JointRows(G.bi, G.bj, G.s_i, G.s_j, G.R_i, G.R_j, G.param, law[k], G.coord)
+        evaluate_instances(kind, S, Gk, rows, (phi[k], D[k], nu[k], gamma[k]))
 
 
 _TABLES = threading.local()

@@ -25,6 +25,8 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..errors import ModelError
+from .checks import (check_columns, check_factory_names, check_packages, check_paths,
+                     column_names)
 from .limits import SweepNote, cap_workers, check_memory
 from .outputs import Columns, parse_outputs
 from .params import ParameterSpace, as_space, plain_copy, set_path, split
@@ -337,7 +339,9 @@ def sweep(model, params, outputs, analysis=None, scheduler="serial", *, format="
         # serial: a chunk's members spread over the cores (threads); under Dask or
         # processes every worker is already one process per core
         batch_options["threads"] = kind == "serial" and (os.cpu_count() or 1) > 1
+    check_packages(kind)                 # the result is assembled in xarray, whatever format
     job = _make_job(model, space, outs, analysis, engine, batch_options)
+    _check_job(job, space)
     check_memory(n, len(space.names), _values_per_member(outs, job.analysis))
     if workers is None:
         workers = (os.cpu_count() or 1) if kind != "serial" else 1
@@ -425,12 +429,36 @@ def _make_job(model, space: ParameterSpace, outs, analysis, engine, batch_option
         data.pop("analysis", None)
     job = SweepJob(data=data, factory=factory, analysis=adict or {}, outputs=outs,
                    names=list(space.names), engine=engine, batch_options=batch_options)
-    if data is not None:                         # paths checked once, before any run
-        for name in space.names:
-            target = job.analysis if name.startswith("analysis.") else data
-            path = name[len("analysis."):] if name.startswith("analysis.") else name
-            set_path(copy.deepcopy(target), path, space.values[0, space.names.index(name)])
     return job
+
+
+def _check_job(job: SweepJob, space: ParameterSpace) -> None:
+    """Paths and output columns checked once, before any member runs (:mod:`.checks`)."""
+    if job.data is not None:
+        check_paths(job.data, job.analysis, space.names, space.values)
+    else:
+        check_factory_names(job.factory, space.names)
+    if all(o.function is not None for o in job.outputs):
+        return
+    if job.data is not None:
+        from ..io.modelfile import load_model
+        model, own = load_model(dict(plain_copy(job.data), analysis=plain_copy(job.analysis)))
+        adict = job.analysis
+    else:
+        try:                              # a member's own value may be wrong: its business
+            built = job.factory(**split(space.member(0), True)[0])
+        except Exception:
+            return
+        model, own = (built[0], built[1] if len(built) > 1 else None) \
+            if isinstance(built, tuple) else (built, None)
+        adict = job.analysis or (own.to_dict() if own is not None else {})
+    if str(adict.get("type", "dynamic")) != "dynamic":
+        return                            # other analyses' tables: checked at each member
+    if job.data is None:
+        from ..io.analysis import Analysis
+        own = Analysis.from_dict(plain_copy(adict), list(model.body_names))
+    requests = list(getattr(own, "outputs", None) or [])
+    check_columns(job.outputs, column_names(model, requests))
 
 
 def _read_plain(path) -> dict:

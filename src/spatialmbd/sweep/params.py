@@ -204,9 +204,12 @@ def _step(node, token, path, create):
         named = [i for i, item in enumerate(node) if isinstance(item, dict)
                  and item.get("name") == token]
         if not named:
+            from ..suggest import closest_first, suggest
             names = [item.get("name") for item in node if isinstance(item, dict)]
-            raise ModelError(f"parameter {path!r}: no item named {token!r}; names here: "
-                             f"{', '.join(map(str, names)) or 'none'}")
+            raise ModelError(f"parameter {path!r}: no item named {token!r}"
+                             f"{suggest(token, names)}; names here: "
+                             f"{', '.join(closest_first(token, names)) or 'none'} (the names "
+                             "of a model: spatialmbd info MODEL)")
         return node, named[0]
     if isinstance(node, dict):
         if token not in node:

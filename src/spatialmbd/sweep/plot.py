@@ -7,10 +7,23 @@ import pathlib
 import numpy as np
 
 
+def log_spaced(values) -> bool:
+    """True for at least three distinct positive values spaced evenly in log, not in linear
+    (start:stop:count:log, numpy.geomspace): the summary plot gives them a log axis."""
+    u = np.unique(np.asarray(values, dtype=float))
+    u = u[np.isfinite(u)]
+    if u.size < 3 or u[0] <= 0:
+        return False
+    step, logstep = np.diff(u), np.diff(np.log(u))
+    return bool(np.allclose(logstep, logstep.mean(), rtol=1e-6)
+                and not np.allclose(step, step.mean(), rtol=1e-6))
+
+
 def summary_plot(ds, path) -> pathlib.Path:
     """One panel per scalar output against the first parameter (one line per value of the
-    other grid parameters, at most eight; points and samples as markers); failed members as
-    red crosses on the axis."""
+    other grid parameters, at most eight; points and samples as markers), on a log axis when
+    the parameter's values are log-spaced (:func:`log_spaced`); failed members as red crosses
+    on the axis."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -25,6 +38,7 @@ def summary_plot(ds, path) -> pathlib.Path:
     table = to_dataframe(ds[[v for v in ds.data_vars if "time" not in ds[v].dims]])
     x = names[0]
     grid = ds.attrs.get("space") == "grid"
+    log_x = log_spaced(table[x].to_numpy())
     for ax, name in zip(axes[:, 0], panels):
         if name in series:
             da = ds[name].stack(member=names) if grid else ds[name]
@@ -49,6 +63,8 @@ def summary_plot(ds, path) -> pathlib.Path:
             ax.plot(bad[x], np.zeros(len(bad)), "x", color="red", label="failed")
         ax.set_xlabel(x)
         ax.set_ylabel(name)
+        if log_x:
+            ax.set_xscale("log")
         ax.grid(True, alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)

@@ -4,14 +4,24 @@
 (nominal x0) and each candidate step h (relative steps times |x0|, or times 1 if x0 = 0):
 
     D(h)   = (f(x0 + h) - f(x0 - h)) / (2 h)                 error c h^2 + ...
-    D(h/2) from the half step; Richardson: R(h) = (4 D(h/2) - D(h)) / 3,
-    error estimate of D(h/2): |D(h) - D(h/2)| / 3.
+    D(h/2) from the half step; Richardson: R(h) = (4 D(h/2) - D(h)) / 3.
 
-The step reported is the candidate whose error estimate is smallest (a step too large shows
-truncation error, one too small the integrator's noise: both make D(h) and D(h/2) disagree);
-the derivative is D(h/2) and ``error`` its estimate (Richardson's R(h) is also returned).
-Adaptive integrators make outputs slightly non-smooth in the parameters (the step sequence
-changes): use tight tolerances or a fixed step, and read the error estimate.
+The outputs f are those of a numerical integration, so D(h/2) carries two errors: the
+truncation T of the difference quotient, and I, the derivative with respect to x of the
+integration error of f (smooth in x, so it does not show in D(h) - D(h/2)). Both are estimated
+and ``error`` is their sum, a bound of |D(h/2) - df/dx|:
+
+    T: |D(h) - D(h/2)| / 3     (Richardson: D(h) - D(h/2) = 3 c (h/2)^2 when c h^2 leads)
+    I: 2 |D(h/2) - D~(h/2)|    D~ from the same members integrated 100 times tighter (rtol and
+                               atol / 100; a fixed step / 4). T cancels in the difference, and
+                               if the tighter run's integration error I~ is at most half of I,
+                               |I| <= |D - D~| + |I~| <= |D - D~| + |I| / 2, so |I| <= 2 |D - D~|.
+
+The step reported is the candidate with the smallest ``error`` (a step too large shows
+truncation error, one too small the integrator's noise amplified by 1/h: both grow the
+estimate); the derivative is D(h/2) at the analysis' own tolerance, ``error`` its estimate,
+with ``truncation`` and ``integration`` its two parts (Richardson's R(h) is also returned).
+Analyses without time integration (kinematic, static, ...) have I = 0 and no tighter members.
 
 :func:`forward_sensitivities` -- direct differentiation: the sensitivity equations
     S' = f_y S + f_p,  S(0) = dy0/dp
@@ -98,26 +108,27 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
     if not steps or any(not r > 0 for r in steps):
         raise ModelError(f"relative_steps must be positive numbers, got {relative_steps!r}")
     base = np.array([nominal[n] for n in names])
-    rows = [base.copy()]
+    tight = _tighter(model, names[0], base[0], analysis)       # {path: (as given, tighter)}
+    extra = list(tight)
+    loose = [v[0] for v in tight.values()]
+    fracs = (1.0, -1.0, 0.5, -0.5) + ((0.5, -0.5) if tight else ())
+    rows = [np.concatenate([base, loose])]
     index = {}
     for j, n in enumerate(names):
         scale = _scale(base[j])
         for k, r in enumerate(steps):
-            for s, frac in enumerate((1.0, -1.0, 0.5, -0.5)):
-                x = base.copy()
+            for s, frac in enumerate(fracs):
+                x = np.concatenate([base, [v[int(s >= 4)] for v in tight.values()]])
                 x[j] += frac * r * scale
                 index[(j, k, s)] = len(rows)
                 rows.append(x)
-    space = ParameterSpace(names, np.array(rows), "points")
+    space = ParameterSpace(names + extra, np.array(rows), "points")
     ds = sweep(model, space, outs, analysis, scheduler, engine=engine, progress=progress,
                workers=workers)
     vals = np.stack([ds[o.name].values for o in outs])              # (n_out, n_members)
     ok = ds["status"].values == SUCCESS
     n_out, n_par = len(outs), len(names)
-    deriv = np.full((n_out, n_par), np.nan)
-    err = np.full((n_out, n_par), np.nan)
-    rich = np.full((n_out, n_par), np.nan)
-    step = np.full((n_out, n_par), np.nan)
+    deriv, err, rich, step, trunc, integ = (np.full((n_out, n_par), np.nan) for _ in range(6))
     status = np.full(n_par, "failed", dtype=object)
     message = np.full(n_par, "", dtype=object)
     for j in range(n_par):
@@ -126,7 +137,7 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
         skipped = []
         for k, r in enumerate(steps):
             h = r * scale
-            ids = [index[(j, k, s)] for s in range(4)]
+            ids = [index[(j, k, s)] for s in range(len(fracs))]
             if not all(ok[i] for i in ids):
                 bad = [i for i in ids if not ok[i]][0]
                 skipped.append(f"step {h:.3g}: {ds['message'].values[bad]}")
@@ -134,28 +145,56 @@ def sensitivities(model, params, outputs, analysis=None, scheduler="serial", *,
             status[j] = "success"
             d1 = (vals[:, ids[0]] - vals[:, ids[1]]) / (2 * h)
             d2 = (vals[:, ids[2]] - vals[:, ids[3]]) / h
-            e = np.abs(d1 - d2) / 3.0
+            t_part = np.abs(d1 - d2) / 3.0
+            i_part = 2.0 * np.abs(d2 - (vals[:, ids[4]] - vals[:, ids[5]]) / h) if tight \
+                else np.zeros(n_out)
+            e = t_part + i_part
             better = e < best
             best = np.where(better, e, best)
-            deriv[:, j] = np.where(better, d2, deriv[:, j])
-            err[:, j] = np.where(better, e, err[:, j])
-            rich[:, j] = np.where(better, (4 * d2 - d1) / 3.0, rich[:, j])
-            step[:, j] = np.where(better, h, step[:, j])
+            for arr, value in ((deriv, d2), (err, e), (rich, (4 * d2 - d1) / 3.0),
+                               (step, h), (trunc, t_part), (integ, i_part)):
+                arr[:, j] = np.where(better, value, arr[:, j])
         if skipped:
             message[j] = "members failed at " + "; ".join(skipped)
     names_out = [o.name for o in outs]
     out = xr.Dataset(
         dict(derivative=(("output", "parameter"), deriv), error=(("output", "parameter"), err),
              richardson=(("output", "parameter"), rich), step=(("output", "parameter"), step),
+             truncation=(("output", "parameter"), trunc),
+             integration=(("output", "parameter"), integ),
              nominal=(("output",), vals[:, 0]),
              status=(("parameter",), status.astype(str)),
              message=(("parameter",), message.astype(str))),
         coords=dict(output=names_out, parameter=names,
                     value=(("parameter",), base)),
-        attrs=dict(method="central differences, Richardson-checked step",
+        attrs=dict(method="central differences, Richardson-checked step; error = truncation "
+                   "(Richardson) + integration (2 |D - D at a 100x tighter tolerance|)",
+                   tighter=json.dumps({p: v[1] for p, v in tight.items()}),
                    relative_steps=json.dumps(steps), n_members=int(space.n_members),
                    n_failed=int(np.sum(~ok)), wall_time=float(ds.attrs["wall_time"])))
     return out
+
+
+def _tighter(model, name, value, analysis) -> dict:
+    """{analysis path: (value as run, tighter value)} of the integration: rtol and atol / 100
+    for an adaptive integrator, the step / 4 for a fixed-step one; {} without integration."""
+    from ..integrators.base import INTEGRATORS
+    from ..io.analysis import Analysis
+    job = _make_job(model, points({name: [value]}), parse_outputs(["t"]), analysis,
+                    "simulate", {})
+    a = Analysis.from_dict(job.analysis) if job.analysis else Analysis()
+    if a.type != "dynamic":
+        return {}
+    cls = INTEGRATORS.get(a.integrator if isinstance(a.integrator, str) else "")
+    options = dict(a.integrator_options or {})
+    if (cls is not None and not cls.adaptive) or options.get("fixed_step") or \
+            options.get("adaptive") is False:
+        step = a.step if a.step is not None else 1e-3      # the fixed-step default
+        return {"analysis.integrator.step": (float(step), float(step) / 4.0)}
+    rtol = 1e-6 if a.rtol is None else float(a.rtol)
+    atol = 1e-9 if a.atol is None else float(a.atol)
+    return {"analysis.integrator.rtol": (rtol, rtol / 100.0),
+            "analysis.integrator.atol": (atol, atol / 100.0)}
 
 
 # ------------------------------------------------------------------------- forward sensitivity
