@@ -156,6 +156,10 @@ class JointElements:
                                    stiffness=stiffness, damping=damping)
         except ModelError as exc:          # e.g. a range of zero width (margins included)
             self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: {exc}")
+            return
+        self.leave("limit approximation", jn, f"range {lo:.6g} .. {hi:.6g}: MuJoCo's soft "
+                   f"limit (solref, solimp) as a linear stop, stiffness {stiffness:.6g}, "
+                   f"damping {damping:.6g}")
 
     def _friction(self, j) -> None:
         m, jn = self.m, self.jname(j)
@@ -178,6 +182,9 @@ class JointElements:
                                self._inertia(j), level)
         self.builder.add_force("joint_friction", self.fresh(f"{jn}_friction"), joint=ours,
                                frictionloss=level, creep_velocity=v_eps)
+        self.leave("frictionloss approximation", jn, f"{level:.6g}: MuJoCo's soft friction "
+                   "loss (solref, solimp) as regularized Coulomb friction, creep velocity "
+                   f"{v_eps:.6g}")
 
     def _spring(self, j) -> None:
         m, jn = self.m, self.jname(j)
