@@ -217,7 +217,7 @@ def install(meth, eom):
     if found is None:
         return meth
     RI, names = found
-    listed = ", ".join(names)
+    listed = ", ".join(repr(n) for n in names)
     if getattr(meth, "joint_coordinates", False):
         raise ModelError(f"joint friction proportional to the reaction ({listed}): method "
                          f"{meth.name!r} has no multipliers to read the reactions from; use "
