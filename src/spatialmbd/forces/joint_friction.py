@@ -195,7 +195,8 @@ def _reaction_levels(spec, builder, joint, coordinate, law):
 
 @register
 class JointFriction(JointCoordinateForce):
-    """Joint friction: Coulomb, Stribeck, viscous or LuGre friction on a joint coordinate."""
+    """Joint friction: Coulomb, Stribeck, viscous or LuGre friction on a joint coordinate, of a
+    constant level or one proportional to the joint's reaction."""
 
     name = "joint_friction"
     kernel = staticmethod(kernel)

@@ -133,10 +133,11 @@ class JointElements:
             return
         lo, hi = (float(x) for x in m.jnt_range[j])
         ours, where = self._where(j)
+        if where == "ball":
+            self._ball_limit(j, jn, ours, lo, hi)
+            return
         if where != "single":
-            reason = {"ball": "a ball joint's range limits its whole rotation angle (swing "
-                              "and twist); the cone limit here limits the swing only",
-                      "combined": f"part of the combined joint {ours!r}",
+            reason = {"combined": f"part of the combined joint {ours!r}",
                       None: "its joint is not imported"}[where]
             self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: {reason}")
             return
@@ -160,6 +161,33 @@ class JointElements:
         self.leave("limit approximation", jn, f"range {lo:.6g} .. {hi:.6g}: MuJoCo's soft "
                    f"limit (solref, solimp) as a linear stop, stiffness {stiffness:.6g}, "
                    f"damping {damping:.6g}")
+
+    def _ball_limit(self, j, jn, ours, lo, hi) -> None:
+        """MuJoCo limits a ball joint's rotation angle |quat2vel(qpos)| (swing and twist) by
+        max(range) (range[0] is unused): the joint_limit on the coordinate ``rotation`` (the
+        angle of the relative rotation from the assembly) when the assembly is qpos = identity,
+        with the soft constraint mapped as for hinges on the joint's first dof's inertia."""
+        m = self.m
+        adr = int(m.jnt_qposadr[j])
+        quat = self.qref[adr:adr + 4]
+        if np.abs(np.abs(quat) - (1.0, 0.0, 0.0, 0.0)).max() > 1e-12:
+            self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: a ball joint's range "
+                       "bounds the rotation from qpos = identity; the assembled configuration "
+                       "(the keyframe's) is rotated from it")
+            return
+        upper = max(lo, hi) - float(m.jnt_margin[j])
+        if not 0.0 < upper < math.pi:
+            self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: a ball joint's limit "
+                       "angle (less the margin) must lie in (0, pi) rad")
+            return
+        stiffness, damping = soft_spring(self.mujoco, m, m.jnt_solref[j], m.jnt_solimp[j],
+                                         self._inertia(j))
+        self.builder.add_force("joint_limit", self.fresh(f"{jn}_limit"), joint=ours,
+                               coordinate="rotation", upper=upper, law="linear",
+                               stiffness=stiffness, damping=damping)
+        self.leave("limit approximation", jn, f"ball range {max(lo, hi):.6g} rad: MuJoCo's "
+                   "soft limit (solref, solimp) as a linear stop on the rotation angle, "
+                   f"stiffness {stiffness:.6g}, damping {damping:.6g}")
 
     def _friction(self, j) -> None:
         m, jn = self.m, self.jname(j)
