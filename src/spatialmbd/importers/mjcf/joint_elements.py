@@ -166,7 +166,7 @@ class JointElements:
         """MuJoCo limits a ball joint's rotation angle |quat2vel(qpos)| (swing and twist) by
         max(range) (range[0] is unused): the joint_limit on the coordinate ``rotation`` (the
         angle of the relative rotation from the assembly) when the assembly is qpos = identity,
-        with the soft constraint mapped as for hinges on the joint's first dof's inertia."""
+        with the soft constraint mapped as for hinges on :meth:`_ball_inertia`."""
         m = self.m
         adr = int(m.jnt_qposadr[j])
         quat = self.qref[adr:adr + 4]
@@ -181,13 +181,26 @@ class JointElements:
                        "angle (less the margin) must lie in (0, pi) rad")
             return
         stiffness, damping = soft_spring(self.mujoco, m, m.jnt_solref[j], m.jnt_solimp[j],
-                                         self._inertia(j))
+                                         self._ball_inertia(j))
         self.builder.add_force("joint_limit", self.fresh(f"{jn}_limit"), joint=ours,
                                coordinate="rotation", upper=upper, law="linear",
                                stiffness=stiffness, damping=damping)
         self.leave("limit approximation", jn, f"ball range {max(lo, hi):.6g} rad: MuJoCo's "
                    "soft limit (solref, solimp) as a linear stop on the rotation angle, "
                    f"stiffness {stiffness:.6g}, damping {damping:.6g}")
+
+    def _ball_inertia(self, j) -> float:
+        """The largest inertia of a ball joint's rotation at the assembly, 1 / the smallest
+        eigenvalue of its 3 x 3 block of M^-1 (MuJoCo's own dof_invweight0 averages the three,
+        which a slender body's twist dominates): the swing's, where a limit is usually hit; a
+        twist reaching it meets a stiffer stop than MuJoCo's."""
+        m, dof = self.m, int(self.m.jnt_dofadr[j])
+        unit = np.zeros((m.nv, 3))
+        unit[dof:dof + 3] = np.eye(3)
+        out = np.zeros((3, m.nv))
+        self.mujoco.mj_solveM(m, self.d, out, np.ascontiguousarray(unit.T))
+        block = 0.5 * (out[:, dof:dof + 3] + out[:, dof:dof + 3].T)
+        return 1.0 / float(np.linalg.eigvalsh(block).min())
 
     def _friction(self, j) -> None:
         m, jn = self.m, self.jname(j)
