@@ -215,3 +215,11 @@ def test_cosimulation_closes_the_loop_as_simulate_does():
     for k in range(8):
         sim.do_step(0.1 * k, 0.1)
     assert sim.output("block.x") == pytest.approx(v0 ** 2 / (2 * mu * G), abs=1e-9)
+
+
+@pytest.mark.parametrize("analysis", ["inverse_dynamics", "linearize"])
+def test_analyses_that_do_not_close_the_loop_refuse_it(analysis):
+    from spatialmbd import analyses
+    run = getattr(analyses, analysis)
+    with pytest.raises(ModelError, match=r"does not close the loop .*\('fr'\).*frictionloss"):
+        run(block(0.3, 1.0), **({"t": [0.0, 0.1]} if analysis == "inverse_dynamics" else {}))

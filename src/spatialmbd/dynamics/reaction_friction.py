@@ -210,6 +210,16 @@ def reaction_rows(model):
     return np.array(rows, dtype=np.int64).reshape(-1, 3), names
 
 
+def refuse(model, analysis: str) -> None:
+    """ModelError naming the reaction-proportional friction elements of ``model``, which
+    ``analysis`` (one that does not close their loop) would leave out."""
+    found = reaction_rows(model)
+    if found is not None:
+        raise ModelError(f"{analysis} does not close the loop of joint friction proportional "
+                         f"to the joint reaction ({', '.join(repr(n) for n in found[1])}); "
+                         "run simulate(), or give the friction a constant 'frictionloss'")
+
+
 def install(meth, eom):
     """``meth`` itself for a model without reaction-proportional joint friction, else a copy
     whose compiled right-hand side and accelerations close the loop (no stage hook)."""
