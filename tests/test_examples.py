@@ -144,3 +144,17 @@ def test_robot_arm_servos_example_script_runs(tmp_path, capsys):
     assert tracking < np.radians(3.0)
     assert energy_error < 1e-8 * np.abs(res.work).max()
     assert (tmp_path / "robot_arm_servos.png").stat().st_size > 1000
+
+
+def test_slider_crank_bearing_friction_example_matches_its_closed_form(tmp_path, capsys):
+    """examples/slider_crank_bearing_friction.py: the crank bearing's reaction-proportional
+    friction loss per turn is 4 mu r P K((R/L)^2) (quasi-static two-force rod) and the slider
+    guide's 4 R P; the energy balance closes; the figure is written."""
+    import runpy
+    script = runpy.run_path(str(Path(__file__).resolve().parents[1] / "examples"
+                                / "slider_crank_bearing_friction.py"))
+    out = script["main"](tmp_path)
+    assert out["errors"]["bearing"] < 1e-8 and out["errors"]["guide"] < 1e-6
+    assert out["balance"] < 1e-7
+    assert (tmp_path / "slider_crank_bearing_friction.png").stat().st_size > 1000
+    assert "relative error" in capsys.readouterr().out

@@ -83,6 +83,38 @@ def test_strict_refuses_with_exit_status_2(arm, tmp_path, capsys):
         read_mjcf(arm, strict=True)
 
 
+def test_strict_refuses_the_approximations_the_default_lists_them(tmp_path, capsys):
+    """A file whose only mapped-but-approximate features are a hinge's soft limit, its
+    friction loss and a ball's range (issue 28): imported by default with the approximations
+    counted on the summary line (named with --verbose); --strict refuses, naming each one
+    and what would be approximated."""
+    xml = tmp_path / "approx.xml"
+    xml.write_text(
+        '<mujoco><compiler angle="radian"/><option><flag contact="disable"/></option>'
+        '<worldbody><body name="arm"><joint name="h" type="hinge" axis="0 1 0" '
+        'range="-0.5 0.5" frictionloss="0.2"/><geom type="capsule" fromto="0 0 0 0.4 0 0" '
+        'size="0.03"/><body name="tip" pos="0.4 0 0"><joint name="b" type="ball" '
+        'range="0 0.7"/><geom type="sphere" size="0.05"/></body></body></worldbody>'
+        '</mujoco>')
+    out = tmp_path / "approx.yaml"
+    assert main(["import", str(xml), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "note: approximated in approx.xml: 2 joint limits, 1 friction loss" in err, err
+    assert len(err.splitlines()) == 1
+    assert main(["import", str(xml), "-o", str(out), "--verbose"]) == 0
+    err = capsys.readouterr().err
+    for line in ("approximated joint limit 'h' (range -0.5 .. 0.5: MuJoCo's soft limit",
+                 "approximated friction loss 'h' (0.2: MuJoCo's soft friction loss",
+                 "approximated joint limit 'b' (ball range 0.7 rad"):
+        assert line in err, (line, err)
+    out.unlink()
+    assert main(["import", str(xml), "--strict", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "approximated joint limit 'h'" in err and "approximated friction loss 'h'" in err
+    assert "approximated joint limit 'b'" in err and "linear stop" in err
+    assert "Traceback" not in err and not out.exists()
+
+
 def test_left_out_is_structured(arm):
     with pytest.warns(UserWarning, match="left out: 2 actuators"):
         imported = read_mjcf(arm)

@@ -202,12 +202,15 @@ def test_unsupported_features_are_named():
     for word in ("tendon 'cable'", "actuator 'motor_a'", "equality constraint 'couple'",
                  "contact pair 'touch'", "armature value 'ja'", "strict=False"):
         assert word in text, (word, text)
-    assert "joint limit" not in text and "colliding geom" not in text   # never an error
+    # the soft limit mapped onto a linear stop is an approximation: refused too (issue 28)
+    assert "approximated joint limit 'ja'" in text and "colliding geom" not in text
     with pytest.warns(MJCFImportWarning) as record:
         imported = read_mjcf(BAD)                                      # the default
     messages = " ".join(str(w.message) for w in record)
     assert ("left out: 1 actuator, 1 tendon, 1 contact pair, 1 armature value, 1 equality "
-            "constraint, 2 colliding geoms") in messages, messages
+            "constraint, 2 colliding geoms; approximated: 1 joint limit") in messages, messages
+    assert [(x.kind, x.element) for x in imported.approximated] == [("limit approximation",
+                                                                     "ja")]
     kinds = {(x.kind, x.element) for x in imported.left_out}
     assert {("tendon", "cable"), ("actuator", "motor_a"),
             ("colliding geom", "ga"), ("colliding geom", "gb"), ("equality", "couple"),

@@ -310,6 +310,8 @@ def inverse_dynamics(model, t: Optional[Sequence[float]] = None, *, motion=None,
     if t is None:
         t = output_times(1.0 if t_end is None else t_end, output_step, None)
     t = np.atleast_1d(np.asarray(t, dtype=float))
+    from ..dynamics.reaction_friction import refuse
+    refuse(model, "inverse dynamics")
     nb = model.nb
     q = np.array(model.q0 if q_guess is None else q_guess, dtype=float).reshape(nb, 7)
     q, _ = solve_positions(model, q, t[0], tol, max_iter)

@@ -80,9 +80,11 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
                                                         "file)" if model_files else ""))
     g.add_argument("--strict", action="store_true",
                    help="refuse features with no counterpart (armature, tendons, actuators "
-                        "with dynamics, ...) instead of leaving them out")
+                        "with dynamics, ...) instead of leaving them out, and the "
+                        "approximations (MuJoCo's soft limits and friction loss as force "
+                        "laws) instead of making them")
     g.add_argument("--verbose", action="store_true",
-                   help="list every feature left out, not only their counts")
+                   help="list every feature left out or approximated, not only their counts")
     g.add_argument("--keyframe", metavar="NAME",
                    help="start from the file's keyframe NAME (its qpos, qvel and ctrl) "
                         "instead of qpos0 at rest")
@@ -104,16 +106,21 @@ def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool =
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         imported = read_mjcf(path, strict=strict, keyframe=keyframe)
-    if imported.left_out and not (quiet and not verbose):
-        err(f"note: left out of {pathlib.Path(path).name}: {imported.summary}"
-            + ("" if verbose else " (--verbose lists them; --strict refuses those with no "
-                                  "exact counterpart)"))
+    approximated = getattr(imported, "approximated", [])
+    if (imported.left_out or approximated) and not (quiet and not verbose):
+        name = pathlib.Path(path).name
+        parts = ([f"left out of {name}: {imported.summary}"] if imported.left_out else []) + (
+            [f"approximated{'' if imported.left_out else ' in ' + name}: "
+             f"{imported.approximation_summary}"] if approximated else [])
+        err("note: " + "; ".join(parts)
+            + ("" if verbose else " (--verbose lists them; --strict refuses the "
+                                  "approximations and those with no exact counterpart)"))
     if verbose:
-        for line in details(imported.left_out):
+        for line in details(imported.left_out) + details(approximated):
             err(f"  {line}")
     for w in caught:
         text = str(w.message)
-        if not text.startswith("left out:"):
+        if not text.startswith(("left out:", "approximated:")):
             err(f"warning: {text}")
     return imported.builder
 

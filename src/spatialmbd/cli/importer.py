@@ -45,7 +45,9 @@ def add_parser(command) -> None:
                 "fixed joints; meshes go once each into <output stem>.meshes.npz next to it. "
                 "What has no counterpart (actuators, tendons, armature, friction loss, joint "
                 "limits, contacts, ...) is left out and counted in one line (--verbose lists "
-                "it; --strict refuses the features with no exact counterpart, exit status 2). "
+                "it; MuJoCo's soft limits and friction loss are approximated by force laws "
+                "and listed the same way; --strict refuses the approximations and the "
+                "features with no exact counterpart, exit status 2). "
                 "`run`, `info`, `animate` and `plot` also accept these files directly, with "
                 "the same options (docs/import.md).",
                 """

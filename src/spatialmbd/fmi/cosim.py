@@ -228,6 +228,8 @@ class CoSimulation:
         mob = _start_mobility(model, eom, q, v, self.t)
         redundant = np.array([r[0] for r in mob.redundant], dtype=int) if mob else None
         meth.setup(eom, redundant)
+        from ..dynamics.reaction_friction import install
+        meth = install(meth, eom)              # joint friction from the joints' reactions
         self._eom, self._method = eom, meth
         self._redundant_joints = sorted({r[1] for r in mob.redundant}) if mob else []
         # inputs: held values in law column 0, rewritten after every setting of the laws

@@ -7,7 +7,10 @@ The coordinate x of the joint (``coordinate``):
 * ``translation``: the slide u_i . d of a translational, cylindrical or screw joint;
 * ``cone`` (spherical joints): the angle acos(u_i . u_j) between an axis fixed in body i and
   one fixed in body j (``axis_i``, ``axis_j`` in body axes; default the joint axis of each
-  body), limited by ``upper`` (the cone's half-angle).
+  body), limited by ``upper`` (the cone's half-angle): the swing only;
+* ``rotation`` (spherical joints, never the default): the angle theta in [0, pi] of the whole
+  relative rotation of body j from its assembled orientation relative to body i (swing and
+  twist, :func:`.kernel_tools.rotation_angle`), limited by ``upper``: MuJoCo's ball-joint range.
 
 A revolute, translational or spherical joint has one such coordinate (the default); a
 cylindrical or screw joint needs ``coordinate``. With the stops ``lower`` and/or ``upper``
@@ -53,14 +56,16 @@ from .base import check_unknown, register
 from .contact import laws as L
 from .contact.element import law_params
 from .joint_coordinate import JointCoordinateForce, joint_coordinate_kind
-from .kernel_tools import ANGLE, CONE, TRANSLATION, add_coordinate_force, joint_coordinate
+from .kernel_tools import (ANGLE, CONE, ROTATION_ANGLE, TRANSLATION, add_coordinate_force,
+                           joint_coordinate)
 
 #: parameter columns before the law's (C_LAW .. C_VMIN of :mod:`.contact.laws`)
 C_KIND, C_LOWER, C_UPPER, C_HAS_LOWER, C_HAS_UPPER, C_CENTRE = range(6)
 #: the details columns (:func:`details`); gap and gap rate first (the impact memory's)
 DETAIL_COLUMNS = ("gap", "gap_rate", "impact_velocity", "coordinate", "coordinate_rate",
                   "force", "active", "energy", "power")
-COORDINATES = {"angle": ANGLE, "translation": TRANSLATION, "cone": CONE}
+COORDINATES = {"angle": ANGLE, "translation": TRANSLATION, "cone": CONE,
+               "rotation": ROTATION_ANGLE}
 
 
 @njit(inline="always")
@@ -149,7 +154,10 @@ class JointLimit(JointCoordinateForce):
     @classmethod
     def _row(cls, spec, builder):
         check_unknown(spec, cls.allowed)
-        joint, coordinate = joint_coordinate_kind(spec, builder)
+        rotation = spec.params.get("coordinate") == "rotation"   # never the default
+        joint, coordinate = joint_coordinate_kind(
+            spec, builder, ("angle", "translation", "cone") + (("rotation",) if rotation
+                                                               else ()))
         lower, upper = _stop(spec, "lower"), _stop(spec, "upper")
         name = spec.name
         if lower is None and upper is None:
@@ -161,10 +169,11 @@ class JointLimit(JointCoordinateForce):
             if lower is not None and upper is not None and upper - lower >= 2 * math.pi:
                 raise ModelError(f"forces[{name!r}]: the range upper - lower = "
                                  f"{upper - lower:g} rad must be less than a turn (2 pi)")
-        if coordinate == "cone":
+        if coordinate in ("cone", "rotation"):
+            what = "the half-angle" if coordinate == "cone" else "the largest rotation angle"
             if lower is not None or not 0.0 < upper < math.pi:
-                raise ModelError(f"forces[{name!r}]: a cone limit takes only upper, the "
-                                 f"half-angle in (0, pi) rad; got lower={lower}, upper={upper}")
+                raise ModelError(f"forces[{name!r}]: a {coordinate} limit takes only upper, "
+                                 f"{what} in (0, pi) rad; got lower={lower}, upper={upper}")
         elif any(k in spec.params for k in ("axis_i", "axis_j")):
             raise ModelError(f"forces[{name!r}]: axis_i / axis_j belong to a cone limit "
                              "(coordinate: cone on a spherical joint)")

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..constraints.drivers import wrap_angle
 from ..constraints.primitives import (add_dot_row, angle_row, clear_row, dot_rate, dot_value,
                                       translation_row, vector)
@@ -22,8 +24,9 @@ def add_wrench(g, b, f0, f1, f2, n0, n1, n2):
         g[o + 5] += n2
 
 
-#: the joint coordinates a joint-limit or joint-friction element acts on (param column 0)
-ANGLE, TRANSLATION, CONE, ROTATION = 0, 1, 2, 3
+#: the joint coordinates a joint-limit or joint-friction element acts on (param column 0);
+#: ROTATION_ANGLE: the angle of a spherical joint's whole relative rotation (a joint limit)
+ANGLE, TRANSLATION, CONE, ROTATION, ROTATION_ANGLE = 0, 1, 2, 3, 4
 
 
 @njit(inline="always")
@@ -44,6 +47,8 @@ def joint_coordinate(S, G, k, D, centre):
     if kind == TRANSLATION:
         x, xd, _ = translation_row(S, i, j, G.s_i, G.s_j, G.R_i, k, D, 0)
         return x, xd
+    if kind == ROTATION_ANGLE:
+        return rotation_angle(S, G, k, D)
     u_i = vector(S, i, G.R_i, k, 0, 0)
     u_j = vector(S, j, G.R_j, k, 0, 1)
     c = dot_value(u_i, u_j)
@@ -55,6 +60,44 @@ def joint_coordinate(S, G, k, D, centre):
         return angle, 0.0
     add_dot_row(u_i, u_j, -1.0 / s, D, 0)
     return angle, -dot_rate(u_i, u_j) / s
+
+
+@njit
+def rotation_angle(S, G, k, D):
+    """(theta, theta') of the relative rotation C = F_i^T F_j of the joint frames F = A R
+    (C = I as assembled): theta = atan2(|vee(C - C^T)| / 2, (tr C - 1) / 2) in [0, pi], MuJoCo's
+    ball-joint angle |quat2vel|; theta' = n . (omega_j - omega_i) with the rotation axis n
+    (global), so D[0] = [0, -n, 0, n] (zero at theta = 0, where n is undefined)."""
+    A, w = S[1], S[3]
+    i, j = G.bi[k], G.bj[k]
+    Fi = np.empty((3, 3))
+    Fj = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            Fi[a, b] = A[i, a, 0] * G.R_i[k, 0, b] + A[i, a, 1] * G.R_i[k, 1, b] \
+                + A[i, a, 2] * G.R_i[k, 2, b]
+            Fj[a, b] = A[j, a, 0] * G.R_j[k, 0, b] + A[j, a, 1] * G.R_j[k, 1, b] \
+                + A[j, a, 2] * G.R_j[k, 2, b]
+    C = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            C[a, b] = Fi[0, a] * Fj[0, b] + Fi[1, a] * Fj[1, b] + Fi[2, a] * Fj[2, b]
+    s0, s1, s2 = 0.5 * (C[2, 1] - C[1, 2]), 0.5 * (C[0, 2] - C[2, 0]), 0.5 * (C[1, 0] - C[0, 1])
+    sn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    theta = math.atan2(sn, 0.5 * (C[0, 0] + C[1, 1] + C[2, 2] - 1.0))
+    clear_row(D, 0)
+    if sn < 1e-12:
+        return theta, 0.0
+    n = (Fi[0, 0] * s0 + Fi[0, 1] * s1 + Fi[0, 2] * s2,
+         Fi[1, 0] * s0 + Fi[1, 1] * s1 + Fi[1, 2] * s2,
+         Fi[2, 0] * s0 + Fi[2, 1] * s1 + Fi[2, 2] * s2)
+    rate = 0.0
+    for c in range(3):
+        nc = n[c] / sn
+        D[0, 3 + c] = -nc
+        D[0, 9 + c] = nc
+        rate += nc * (w[j, c] - w[i, c])
+    return theta, rate
 
 
 @njit(inline="always")

@@ -119,6 +119,8 @@ def _fused_eligible(eom, meth, integ, compiled, couplers, events, limits, callba
         return False
     if couplers or events or limits.active or n_z or system.table.has_drivers:
         return False
+    if getattr(meth, "reaction_friction", None):       # its loop: per right-hand side
+        return False
     if meth.name not in ("standard", "baumgarte", "projection") or \
             getattr(meth, "solver", "schur") == "kkt":
         return False

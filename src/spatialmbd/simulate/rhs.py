@@ -7,6 +7,7 @@ from typing import Optional
 import numpy as np
 
 from ..dynamics import EquationsOfMotion, get_method
+from ..dynamics import reaction_friction
 from ..dynamics import system as cs
 from ..integrators.base import check_finite
 from ..state import normalize_q, qdot_from_v
@@ -29,6 +30,7 @@ def right_hand_side(model, method="standard", method_options: Optional[dict] = N
     mob = _start_mobility(model, eom, normalize_q(np.asarray(model.q0, dtype=float)),
                           np.asarray(model.v0, dtype=float), 0.0)
     meth.setup(eom, np.array([r[0] for r in mob.redundant], dtype=int) if mob else None)
+    meth = reaction_friction.install(meth, eom)
     driver_rows = _driver_rows(model)
     track_work = bool(model.force_groups) or driver_rows.size > 0
     rhs = _compiled_rhs(model, eom, meth, track_work)

@@ -12,6 +12,7 @@ from .. import guards
 from ..budget import Budget, BudgetGuard
 from ..dynamics import EquationsOfMotion
 from ..assembly import advance_couplers, coupler_slices, reset_couplers
+from ..dynamics import reaction_friction
 from ..dynamics import system as cs
 from ..dynamics.correction import correct_initial_conditions, hold_mask
 from ..errors import ModelError
@@ -153,6 +154,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         warnings.warn(text, RedundantConstraintsWarning, stacklevel=2)
         messages.append(text)
     meth.setup(eom, redundant_rows)
+    meth = reaction_friction.install(meth, eom)      # joint friction from the reactions
 
     from ..forces.actuators.controller import control_run
     control = control_run(model, eom.system, controllers, t0, float(t_out[-1]), meth)

@@ -26,11 +26,13 @@ model and builds the equivalent :class:`~spatialmbd.model.builder.ModelBuilder` 
 
 What has no counterpart is left out and listed (:class:`.report.LeftOut`: kind, element,
 detail) in ``MJCFImport.left_out``, with one :class:`MJCFImportWarning` that counts them per kind
-(``left out: 6 armature values, 5 joint limits, 9 colliding geoms``). ``strict=True`` instead
-raises a ModelError naming every left-out feature with no counterpart (armature, tendons,
-actuators with dynamics, ...); joint limits, collisions and keyframes act only when reached,
-touching or chosen, and are never an error. The default is ``strict=False``, as in
-``spatialmbd import``.
+(``left out: 6 armature values, 5 joint limits, 9 colliding geoms``); what is imported only
+approximately -- MuJoCo's soft joint limits and friction loss as force laws -- is listed in
+``MJCFImport.approximated`` and counted in the same warning (``approximated: 4 joint limits``).
+``strict=True`` instead raises a ModelError naming every left-out feature with no counterpart
+(armature, tendons, actuators with dynamics, ...) and every approximation; left-out joint
+limits, collisions and keyframes act only when reached, touching or chosen, and are never an
+error. The default is ``strict=False``, as in ``spatialmbd import``.
 
 The imported values are checked with the model-file reader's range rules (a mass or position
 of 1e300 is refused here, not after the file is written).
@@ -71,11 +73,19 @@ class MJCFImport:
     left_out: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     mj_model: object = None
+    #: what is imported approximately (MuJoCo's soft limits and friction loss as force laws),
+    #: one :class:`LeftOut` each (``approximation`` True)
+    approximated: list = field(default_factory=list)
 
     @property
     def summary(self) -> str:
         """What was left out, counted per kind ("" when nothing)."""
         return summary(self.left_out)
+
+    @property
+    def approximation_summary(self) -> str:
+        """What was approximated, counted per kind ("" when nothing)."""
+        return summary(self.approximated)
 
 
 def _check_ranges(builder) -> None:
@@ -132,19 +142,24 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
     m, stem, text = compile_model(source)
     d = run_forward(mujoco, m, keyframe)     # qpos0, or the keyframe's qpos, qvel and ctrl
     builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name, keyframe)
-    unsupported = [item for item in left_out if item.unsupported]
+    approximated = [item for item in left_out if item.approximation]
+    left_out = [item for item in left_out if not item.approximation]
+    unsupported = [item for item in left_out if item.unsupported] + approximated
     if strict and unsupported:
         raise ModelError("MJCF/URDF features with no exact counterpart in spatialmbd: "
                          + "; ".join(details(unsupported)) + ". Remove them from the file, or "
-                         "import with strict=False (CLI: without --strict) to leave them out")
+                         "import with strict=False (CLI: without --strict) to leave them out "
+                         "or approximate them")
     _check_ranges(builder)
-    if left_out:
-        warnings.warn(f"left out: {summary(left_out)} (MJCFImport.left_out lists them; "
+    if left_out or approximated:
+        parts = ([f"left out: {summary(left_out)}"] if left_out else []) + (
+            [f"approximated: {summary(approximated)}"] if approximated else [])
+        warnings.warn("; ".join(parts) + " (MJCFImport.left_out and .approximated list them; "
                       "CLI: --verbose)", MJCFImportWarning, stacklevel=2)
     for note in notes:
         warnings.warn(note, MJCFImportWarning, stacklevel=2)
     return MJCFImport(builder=builder, groups=groups, left_out=left_out, notes=notes,
-                      mj_model=m)
+                      mj_model=m, approximated=approximated)
 
 
 def import_mjcf(source, *, strict: bool = False, name: Optional[str] = None,

@@ -133,10 +133,11 @@ class JointElements:
             return
         lo, hi = (float(x) for x in m.jnt_range[j])
         ours, where = self._where(j)
+        if where == "ball":
+            self._ball_limit(j, jn, ours, lo, hi)
+            return
         if where != "single":
-            reason = {"ball": "a ball joint's range limits its whole rotation angle (swing "
-                              "and twist); the cone limit here limits the swing only",
-                      "combined": f"part of the combined joint {ours!r}",
+            reason = {"combined": f"part of the combined joint {ours!r}",
                       None: "its joint is not imported"}[where]
             self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: {reason}")
             return
@@ -156,6 +157,50 @@ class JointElements:
                                    stiffness=stiffness, damping=damping)
         except ModelError as exc:          # e.g. a range of zero width (margins included)
             self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: {exc}")
+            return
+        self.leave("limit approximation", jn, f"range {lo:.6g} .. {hi:.6g}: MuJoCo's soft "
+                   f"limit (solref, solimp) as a linear stop, stiffness {stiffness:.6g}, "
+                   f"damping {damping:.6g}")
+
+    def _ball_limit(self, j, jn, ours, lo, hi) -> None:
+        """MuJoCo limits a ball joint's rotation angle |quat2vel(qpos)| (swing and twist) by
+        max(range) (range[0] is unused): the joint_limit on the coordinate ``rotation`` (the
+        angle of the relative rotation from the assembly) when the assembly is qpos = identity,
+        with the soft constraint mapped as for hinges on :meth:`_ball_inertia`."""
+        m = self.m
+        adr = int(m.jnt_qposadr[j])
+        quat = self.qref[adr:adr + 4]
+        if np.abs(np.abs(quat) - (1.0, 0.0, 0.0, 0.0)).max() > 1e-12:
+            self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: a ball joint's range "
+                       "bounds the rotation from qpos = identity; the assembled configuration "
+                       "(the keyframe's) is rotated from it")
+            return
+        upper = max(lo, hi) - float(m.jnt_margin[j])
+        if not 0.0 < upper < math.pi:
+            self.leave("joint limit", jn, f"range {lo:.6g} .. {hi:.6g}: a ball joint's limit "
+                       "angle (less the margin) must lie in (0, pi) rad")
+            return
+        stiffness, damping = soft_spring(self.mujoco, m, m.jnt_solref[j], m.jnt_solimp[j],
+                                         self._ball_inertia(j))
+        self.builder.add_force("joint_limit", self.fresh(f"{jn}_limit"), joint=ours,
+                               coordinate="rotation", upper=upper, law="linear",
+                               stiffness=stiffness, damping=damping)
+        self.leave("limit approximation", jn, f"ball range {max(lo, hi):.6g} rad: MuJoCo's "
+                   "soft limit (solref, solimp) as a linear stop on the rotation angle, "
+                   f"stiffness {stiffness:.6g}, damping {damping:.6g}")
+
+    def _ball_inertia(self, j) -> float:
+        """The largest inertia of a ball joint's rotation at the assembly, 1 / the smallest
+        eigenvalue of its 3 x 3 block of M^-1 (MuJoCo's own dof_invweight0 averages the three,
+        which a slender body's twist dominates): the swing's, where a limit is usually hit; a
+        twist reaching it meets a stiffer stop than MuJoCo's."""
+        m, dof = self.m, int(self.m.jnt_dofadr[j])
+        unit = np.zeros((m.nv, 3))
+        unit[dof:dof + 3] = np.eye(3)
+        out = np.zeros((3, m.nv))
+        self.mujoco.mj_solveM(m, self.d, out, np.ascontiguousarray(unit.T))
+        block = 0.5 * (out[:, dof:dof + 3] + out[:, dof:dof + 3].T)
+        return 1.0 / float(np.linalg.eigvalsh(block).min())
 
     def _friction(self, j) -> None:
         m, jn = self.m, self.jname(j)
@@ -178,6 +223,9 @@ class JointElements:
                                self._inertia(j), level)
         self.builder.add_force("joint_friction", self.fresh(f"{jn}_friction"), joint=ours,
                                frictionloss=level, creep_velocity=v_eps)
+        self.leave("frictionloss approximation", jn, f"{level:.6g}: MuJoCo's soft friction "
+                   "loss (solref, solimp) as regularized Coulomb friction, creep velocity "
+                   f"{v_eps:.6g}")
 
     def _spring(self, j) -> None:
         m, jn = self.m, self.jname(j)

@@ -1,11 +1,13 @@
-"""What an import left out: one :class:`LeftOut` per feature (kind, element, detail), counted
-per kind for the short summary the CLI prints (``left out: 6 armature values, 5 joint limits``)."""
+"""What an import left out or approximated: one :class:`LeftOut` per feature (kind, element,
+detail), counted per kind for the short summary the CLI prints (``left out: 6 armature values,
+5 joint limits``; ``approximated: 4 joint limits, 2 friction losses``)."""
 from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass
 
-__all__ = ["LeftOut", "KINDS", "summary", "details", "UNSUPPORTED_KINDS"]
+__all__ = ["LeftOut", "KINDS", "summary", "details", "UNSUPPORTED_KINDS",
+           "APPROXIMATION_KINDS"]
 
 #: kind -> (singular, plural) of the summary
 KINDS = {
@@ -22,7 +24,12 @@ KINDS = {
     "joint limit": ("joint limit", "joint limits"),
     "colliding geom": ("colliding geom", "colliding geoms"),
     "keyframe": ("keyframe", "keyframes"),
+    "limit approximation": ("joint limit", "joint limits"),
+    "frictionloss approximation": ("friction loss", "friction losses"),
 }
+#: kinds of what is imported, but approximately (MuJoCo's soft constraints as force laws):
+#: listed in the summary as approximated, refused with strict=True
+APPROXIMATION_KINDS = ("limit approximation", "frictionloss approximation")
 #: kinds with no exact counterpart (an error with strict=True); the others (limits,
 #: collisions, keyframes) act only when reached, touching or chosen, and are never an error
 UNSUPPORTED_KINDS = ("actuator", "actuator force range", "tendon", "contact pair", "flex",
@@ -47,8 +54,15 @@ class LeftOut:
         """Whether it has no exact counterpart (strict imports refuse it)."""
         return self.kind in UNSUPPORTED_KINDS
 
+    @property
+    def approximation(self) -> bool:
+        """Whether it is imported, but approximately (strict imports refuse it too)."""
+        return self.kind in APPROXIMATION_KINDS
+
     def __str__(self) -> str:
         text = f"{KINDS.get(self.kind, (self.kind,))[0]} {self.element!r}"
+        if self.approximation:
+            text = "approximated " + text
         return f"{text} ({self.detail})" if self.detail else text
 
 

@@ -133,6 +133,13 @@ class BatchSetup:
         if any(g.rheonomic for g in model.constraint_groups):
             raise ModelError(f"batch integration: model {model.name!r} has drivers (Python "
                              "motion laws); use engine='simulate'")
+        reaction = [n for g in model.force_groups if getattr(g, "reaction_dependent", False)
+                    for n in g.names]
+        if reaction:
+            raise ModelError(f"batch integration: model {model.name!r} has joint friction "
+                             f"proportional to the joint reaction ({', '.join(reaction)}), "
+                             "whose loop the batch drivers do not close; use "
+                             "engine='simulate'")
         stateful = [g.name for g in model.force_groups if np.any(g.state_rows())]
         if stateful:
             raise ModelError(f"batch integration: model {model.name!r} has force elements "
