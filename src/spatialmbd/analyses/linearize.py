@@ -244,6 +244,8 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
         seen in the turning frame. Default: a fixed frame.
     """
     from ..dynamics.eom import EquationsOfMotion
+    from ..forces.armature import refuse_armature
+    refuse_armature(model, "linearize")
     nb = model.nb
     q = np.array(model.q0 if q is None else q, dtype=float).reshape(nb, 7)
     q[:, 3:] /= np.linalg.norm(q[:, 3:], axis=1, keepdims=True)

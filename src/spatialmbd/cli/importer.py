@@ -43,8 +43,8 @@ def add_parser(command) -> None:
                 "bodies with their mass properties, hinge/slide/ball joints as revolute/"
                 "translational/spherical joints, connect/weld equalities as exact spherical/"
                 "fixed joints; meshes go once each into <output stem>.meshes.npz next to it. "
-                "What has no counterpart (actuators, tendons, armature, friction loss, joint "
-                "limits, contacts, ...) is left out and counted in one line (--verbose lists "
+                "What has no counterpart (tendons, actuators with dynamics, a ball joint's "
+                "armature, contacts, ...) is left out and counted in one line (--verbose lists "
                 "it; --strict refuses the features with no exact counterpart, exit status 2). "
                 "`run`, `info`, `animate` and `plot` also accept these files directly, with "
                 "the same options (docs/import.md).",
