@@ -190,7 +190,31 @@ def test_energy_balance_closes_with_the_rotor(method):
     assert np.abs(en["error"]).max() < 1e-8 * np.abs(en["total"]).max() + 1e-9
 
 
-def test_armature_reads_from_a_model_file_and_writes_back():
+def test_rotor_outputs_are_its_moment_energy_and_power():
+    """force_outputs of an armature: mu = -J theta'' (the pendulum's closed-form start), its
+    kinetic energy J theta'^2 / 2 and the power mu theta' = -dT/dt it takes."""
+    from spatialmbd.outputs import force_outputs
+    res = run(pendulum(J_ROTOR), "standard")
+    out = force_outputs(res, "rotor")
+    rate = res.v[:, 0, 4]                        # theta' = omega_y (pin axis +y)
+    acc = res.vdot[:, 0, 4]
+    np.testing.assert_allclose(out["coordinate_rate"], rate, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out["coordinate_acceleration"], acc, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(out["force"], -J_ROTOR * acc, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(out["energy"], 0.5 * J_ROTOR * rate ** 2, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out["power"], -J_ROTOR * acc * rate, rtol=0, atol=1e-9)
+    alpha = MASS * G * LENGTH / (I0 + MASS * LENGTH ** 2 + J_ROTOR)
+    assert abs(out["force"][0]) == pytest.approx(J_ROTOR * alpha, rel=1e-12)
+
+
+@pytest.mark.parametrize("analysis", ("linearize", "inverse_dynamics"))
+def test_analyses_without_the_rotor_refuse_it_by_name(analysis):
+    from spatialmbd import analyses
+    with pytest.raises(ModelError, match=rf"{analysis}: the armature element\(s\) rotor"):
+        getattr(analyses, analysis)(pendulum(J_ROTOR))
+
+
+def test_armature_reads_from_a_model_file_and_writes_back(tmp_path):
     from spatialmbd.io import load_model
     data = {"spatialmbd": 1, "name": "m", "gravity": [0, 0, -9.81],
             "bodies": [{"name": "arm", "mass": 1.0, "inertia": [0.1, 0.1, 0.1],
@@ -205,6 +229,11 @@ def test_armature_reads_from_a_model_file_and_writes_back():
     res = simulate(model, 0.01, rtol=1e-10, atol=1e-12)
     assert abs(res.vdot[0, 0, 4]) == pytest.approx(9.81 * 0.5 / (0.1 + 0.25 + 0.4),
                                                    rel=1e-12)
+    from spatialmbd.io import save_model
+    save_model(model, tmp_path / "m.yaml")
+    again, _ = load_model(tmp_path / "m.yaml")
+    assert again.force_groups[0].name == "armature"
+    assert again.force_groups[0].inertia.tolist() == [0.4]
 
 
 # ----------------------------------------------------------------------------- bad input

@@ -86,6 +86,21 @@ def rotor_energy(S, G, out):
         out[k, 1] = 0.5 * G.param[k, C_INERTIA] * rate * rate
 
 
+@njit
+def details(S, G, vdot, out):
+    """out[k] = (theta', theta'' = B vdot + B' v, J theta'^2 / 2) of every instance k; vdot
+    (nb + 1, 6): the bodies' accelerations, the ground's row zero."""
+    D = np.zeros((1, 12))
+    for k in range(out.shape[0]):
+        rate, quad = armature_row(S, G, k, D, 0)
+        i, j = G.bi[k], G.bj[k]
+        acc = quad
+        for c in range(6):
+            acc += D[0, c] * vdot[i, c] + D[0, 6 + c] * vdot[j, c]
+        out[k, 0], out[k, 1] = rate, acc
+        out[k, 2] = 0.5 * G.param[k, C_INERTIA] * rate * rate
+
+
 @register
 class Armature(JointCoordinateForce):
     """Armature: the rotor inertia J of a joint's coordinate (kinetic energy J theta'^2 / 2)."""
@@ -133,6 +148,37 @@ class Armature(JointCoordinateForce):
 
     def potential_energy(self, state, t, states=None) -> float:
         return 0.0
+
+    # ------------------------------------------------------------------------- outputs
+    #: output columns (spatialmbd.outputs); units on an angle / a translation
+    quantities = {"coordinate_rate": ("rad/s", "m/s"),
+                  "coordinate_acceleration": ("rad/s^2", "m/s^2"), "force": ("N m", "N"),
+                  "energy": ("J", "J"), "power": ("W", "W")}
+
+    def output_units(self, k) -> dict:
+        """{quantity: unit} of instance k."""
+        c = int(self.param[k, C_KIND] == TRANSLATION)
+        return {q: u[c] for q, u in self.quantities.items()}
+
+    def output_columns(self, results, k, states=None) -> dict:
+        """Of instance k at the output times: the coordinate's rate and acceleration, the
+        rotor's generalized force on the joint mu = -J theta'' (N m or N), its kinetic energy
+        J theta'^2 / 2 and the power mu theta' (= -dT/dt) it takes from the bodies."""
+        from ..state import BodyState
+        from .kernels import ForceTable
+        G = ForceTable([self], only_compiled=False).G
+        nt, nb = len(results.t), results.model.nb
+        out, row = np.zeros((nt, 3)), np.zeros((self.n, 3))
+        vdot = np.zeros((nb + 1, 6))
+        for it in range(nt):
+            state = (BodyState.from_qv(results.q[it], results.v[it], results.t[it])
+                     if states is None else states[it])
+            vdot[:nb] = np.asarray(results.vdot[it]).reshape(nb, 6)
+            details(state.arrays(), G, vdot, row)
+            out[it] = row[k]
+        force = -self.inertia[k] * out[:, 1]
+        return dict(coordinate_rate=out[:, 0], coordinate_acceleration=out[:, 1], force=force,
+                    energy=out[:, 2], power=force * out[:, 0])
 
     def kinetic_energy(self, state, t=0.0) -> float:
         """The rotors' kinetic energy sum J theta'^2 / 2 (J) at ``state``."""
