@@ -185,7 +185,8 @@ def test_energy_balance_closes_with_the_rotor(method):
     b.add_force("armature", "m2", joint="elbow", inertia=0.02)
     res = run(b.compile(), method, t_end=2.0)
     en = res.energy()
-    rotors = sum(g.kinetic_energy(s) for s in list(res.states())[-5:] for g in res.model.force_groups)
+    rotors = sum(g.kinetic_energy(s) for s in list(res.states())[-5:]
+                 for g in res.model.force_groups)
     assert rotors > 0.05                                # the rotors carry energy
     assert np.abs(en["error"]).max() < 1e-8 * np.abs(en["total"]).max() + 1e-9
 
