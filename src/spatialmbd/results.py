@@ -335,8 +335,9 @@ class Results:
 
     # ---------------------------------------------------------------------------- energy
     def energy(self) -> dict:
-        """Kinetic, gravitational and elastic energy, work of non-conservative forces and
-        drivers, total mechanical energy and the energy-balance error, each (nt,), in J.
+        """Kinetic (bodies and rotors: armature), gravitational and elastic energy, work of
+        non-conservative forces and drivers, total mechanical energy and the energy-balance
+        error, each (nt,), in J.
 
         error = (T + V_g + V_e)(t) - (T + V_g + V_e)(0) - W_nc(t): zero up to integration
         error for any model; for a conservative one simply the change of the total energy.
@@ -358,6 +359,8 @@ class Results:
                 st = {} if z is None else states_by_group(model.force_groups, z[k])
                 elastic[k] = sum(g.potential_energy(state, self.t[k], st.get(id(g)))
                                  for g in model.force_groups)
+                kinetic[k] += sum(g.kinetic_energy(state, self.t[k])   # rotors (armature)
+                                  for g in model.force_groups)
         total = kinetic + gravity + elastic
         error = total - (total[0] if total.size else 0.0) - self.work
         return dict(kinetic=kinetic, gravitational=gravity, elastic=elastic,

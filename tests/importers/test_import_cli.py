@@ -60,13 +60,12 @@ def test_import_succeeds_by_default_with_a_short_summary(arm, tmp_path, capsys):
     out = tmp_path / "arm.yaml"
     assert main(["import", str(arm), "-o", str(out)]) == 0
     err = capsys.readouterr().err
-    summary = ("left out of arm.xml: 2 actuators, 1 tendon, 1 armature value, 1 joint limit, "
-               "2 colliding geoms")
+    summary = ("left out of arm.xml: 2 actuators, 1 tendon, 1 joint limit, 2 colliding geoms")
     assert summary in err, err
     assert len(err.splitlines()) == 1 and "'m1'" not in err        # counts, not names
     assert main(["import", str(arm), "-o", str(out), "--verbose"]) == 0
     err = capsys.readouterr().err
-    for line in ("actuator 'm1'", "actuator 'm2'", "armature value 'shoulder' (0.1 kg m^2)",
+    for line in ("actuator 'm1'", "actuator 'm2'",
                  "joint limit 'shoulder' (range -7 .. 7 rad is a turn or more", "tendon 'tl'"):
         assert line in err, (line, err)
     assert main(["import", str(arm), "-o", str(out), "--lenient", "-q"]) == 0  # accepted
@@ -77,7 +76,7 @@ def test_strict_refuses_with_exit_status_2(arm, tmp_path, capsys):
     out = tmp_path / "arm.yaml"
     assert main(["import", str(arm), "--strict", "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "actuator 'm1'" in err and "armature value 'shoulder'" in err
+    assert "actuator 'm1'" in err and "tendon 'tl'" in err
     assert "Traceback" not in err and not out.exists()
     with pytest.raises(ModelError, match="tendon 'tl'"):
         read_mjcf(arm, strict=True)
@@ -123,11 +122,12 @@ def test_left_out_is_structured(arm):
     limit = next(x for x in imported.left_out if x.element == "shoulder" and
                  x.kind == "joint limit")
     assert limit.detail.startswith("range -7 .. 7 rad") and not limit.unsupported
-    assert imported.summary.startswith("2 actuators, 1 tendon, 1 armature value")
-    # what maps is imported: the elbow's limit, the shoulder's friction loss
+    assert imported.summary.startswith("2 actuators, 1 tendon, 1 joint limit")
+    # what maps is imported: the elbow's limit, the shoulder's friction loss and armature
     forces = imported.builder.forces
     assert forces["elbow_limit"].type == "joint_limit"
     assert forces["shoulder_friction"].params["frictionloss"] == 0.2
+    assert forces["shoulder_armature"].params == {"joint": "shoulder", "inertia": 0.1}
 
 
 # ------------------------------------------------------------------------------ sidecar

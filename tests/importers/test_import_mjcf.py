@@ -200,24 +200,26 @@ def test_unsupported_features_are_named():
         read_mjcf(BAD, strict=True)
     text = str(info.value)
     for word in ("tendon 'cable'", "actuator 'motor_a'", "equality constraint 'couple'",
-                 "contact pair 'touch'", "armature value 'ja'", "strict=False"):
+                 "contact pair 'touch'", "strict=False"):
         assert word in text, (word, text)
     # the soft limit mapped onto a linear stop is an approximation: refused too (issue 28)
     assert "approximated joint limit 'ja'" in text and "colliding geom" not in text
+    assert "armature" not in text                                       # imported
     with pytest.warns(MJCFImportWarning) as record:
         imported = read_mjcf(BAD)                                      # the default
     messages = " ".join(str(w.message) for w in record)
-    assert ("left out: 1 actuator, 1 tendon, 1 contact pair, 1 armature value, 1 equality "
-            "constraint, 2 colliding geoms; approximated: 1 joint limit") in messages, messages
+    assert ("left out: 1 actuator, 1 tendon, 1 contact pair, 1 equality constraint, 2 "
+            "colliding geoms; approximated: 1 joint limit") in messages, messages
     assert [(x.kind, x.element) for x in imported.approximated] == [("limit approximation",
                                                                      "ja")]
     kinds = {(x.kind, x.element) for x in imported.left_out}
     assert {("tendon", "cable"), ("actuator", "motor_a"),
             ("colliding geom", "ga"), ("colliding geom", "gb"), ("equality", "couple"),
-            ("contact pair", "touch"), ("armature", "ja")} == kinds
+            ("contact pair", "touch")} == kinds
     assert "polycoef" in next(x.detail for x in imported.left_out if x.kind == "equality")
     assert list(imported.builder.joints) == ["ja", "jb"]
     assert imported.builder.forces["ja_limit"].type == "joint_limit"     # imported now
+    assert imported.builder.forces["ja_armature"].params["inertia"] == 0.1
 
 
 def test_hinge_spring_damper_imported_exactly():

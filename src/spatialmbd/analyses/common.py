@@ -115,15 +115,19 @@ def potential_energy(model, q: np.ndarray, t: float, state=None) -> float:
 
 
 def kinetic_energy(model, q: np.ndarray, v: np.ndarray) -> float:
-    """1/2 v^T M v (J), omega global."""
+    """1/2 v^T M v (J), omega global, plus the rotors' (armature) 1/2 J theta'^2."""
     from ..rotations import A_from_p
     q = np.asarray(q, dtype=float).reshape(-1, 7)
     v = np.asarray(v, dtype=float).reshape(-1, 6)
     A = A_from_p(q[:, 3:])
     J = A @ model.inertia @ np.swapaxes(A, 1, 2)
     w = v[:, 3:]
-    return float(0.5 * np.sum(model.mass * np.sum(v[:, :3] ** 2, axis=1))
-                 + 0.5 * np.einsum("ni,nij,nj->", w, J, w))
+    value = float(0.5 * np.sum(model.mass * np.sum(v[:, :3] ** 2, axis=1))
+                  + 0.5 * np.einsum("ni,nij,nj->", w, J, w))
+    if model.force_groups:
+        state = BodyState.from_qv(q, v)
+        value += sum(g.kinetic_energy(state) for g in model.force_groups)
+    return value
 
 
 def conservative_forces_only(model) -> bool:

@@ -302,7 +302,9 @@ def inverse_dynamics(model, t: Optional[Sequence[float]] = None, *, motion=None,
     Returns :class:`InverseDynamicsResults`; efforts in N m (angle drivers) or N (translation
     and x/y/z drivers), positive when they do positive work as the coordinate increases.
     """
+    from ..forces.armature import refuse_armature
     from ..simulate import output_times
+    refuse_armature(model, "inverse_dynamics")
     if motion is not None:
         model, times = prescribed_motion_model(model, motion)
         if t is None and t_end is None:

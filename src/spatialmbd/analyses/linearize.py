@@ -246,6 +246,8 @@ def linearize(model, q=None, v=None, t: float = 0.0, *, steady: bool = False,
     from ..dynamics.eom import EquationsOfMotion
     from ..dynamics.reaction_friction import refuse
     refuse(model, "linearize")
+    from ..forces.armature import refuse_armature
+    refuse_armature(model, "linearize")
     nb = model.nb
     q = np.array(model.q0 if q is None else q, dtype=float).reshape(nb, 7)
     q[:, 3:] /= np.linalg.norm(q[:, 3:], axis=1, keepdims=True)

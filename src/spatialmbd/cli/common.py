@@ -79,7 +79,7 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
     g = parser.add_argument_group("MJCF/URDF import" + (" (when the input is a .xml or .urdf "
                                                         "file)" if model_files else ""))
     g.add_argument("--strict", action="store_true",
-                   help="refuse features with no counterpart (armature, tendons, actuators "
+                   help="refuse features with no counterpart (tendons, actuators "
                         "with dynamics, ...) instead of leaving them out, and the "
                         "approximations (MuJoCo's soft limits and friction loss as force "
                         "laws) instead of making them")

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from ..constraints.kernels import JointRows, evaluate_instances
+from ..forces.armature import armature_rows
 from ..forces.kernels import evaluate_forces
 from ..jit import array_view, njit
 from ..state import qdot_into, state_into
@@ -58,14 +59,17 @@ def _M(bo):
 
 @njit(inline="always")
 def _R(co):
-    return (co.D, co.row_bi, co.row_bj)
+    """The rows of the solves: the constraint rows, then the armature rows (their number is
+    that of P[12]); a loop over lam, gamma or rg of the model sees the constraint rows only."""
+    return (co.D_all, co.row_bi_all, co.row_bj_all)
 
 
 @njit(inline="always")
 def _P(sc):
     return (sc.keep, sc.inc_ptr, sc.inc_row, sc.inc_side, sc.pair_ptr, sc.pair_pos, sc.wk, sc.Cx,
             sc.Lx, sc.xs, sc.ys,
-            (sc.S_Cp, sc.S_Ci, sc.S_Lp, sc.S_Li, sc.S_Rp, sc.S_Rj, sc.S_Rpos, sc.S_perm))
+            (sc.S_Cp, sc.S_Ci, sc.S_Lp, sc.S_Li, sc.S_Rp, sc.S_Rj, sc.S_Rpos, sc.S_perm),
+            sc.arm_diag, sc.armature)
 
 
 # --------------------------------------------------------------------------------- bodies
@@ -106,9 +110,15 @@ def stage_state(t, y, normalize, F, I, W):
     normalize (a float, 1.0 or 0.0): use p / |p|. Returns False if g is not finite."""
     bo = body_views(F, I, W)
     fo = force_views(F, I, W)
-    _state(t, y, normalize, bo, cons_views(F, I, W))
+    co = cons_views(F, I, W)
+    _state(t, y, normalize, bo, co)
     _force_states_in(y, bo.mass.size, fo)
     _forces(bo, fo)
+    if co.arm_k.size:                     # the armature rows B, gamma_B (forces.armature)
+        armature_rows((bo.r, bo.A, bo.rdot, bo.omega, bo.p),
+                      JointRows(fo.fbi, fo.fbj, fo.fs_i, fo.fs_j, fo.fR_i, fo.fR_j, fo.fparam,
+                                fo.flaw, fo.fcoord),
+                      co.arm_k, co.D_all, co.gamma_all, co.rg_all, co.phi.size)
     return finite(bo.g)
 
 
@@ -242,10 +252,16 @@ def assemble_schur(M, R, P, use_mass):
     """Cx = values of S = D M^-1 D^T (use_mass) or D D^T over the kept rows, body by body:
     S = sum_b D_b W_b D_b^T with D_b the columns of body b. wk (rows incident to the body,
     12): the row of D_b (columns 6..11) and of D_b M_b^-1 (0..5), gathered once per body so
-    that the pairs below are 6-term products of contiguous rows."""
+    that the pairs below are 6-term products of contiguous rows.
+
+    The armature rows (the last P[12].size rows of D, forces.armature) add their compliance
+    1 / J to their diagonal in S; D D^T (the projections, the rank decisions) leaves them out:
+    their rows count as zero there, with 1 on their diagonal."""
     mass, J, Jinv = M
     D = R[0]
     keep, inc_ptr, inc_row, inc_side, pair_ptr, pair_pos, wk, Cx = P[:8]
+    arm_diag, armature = P[12], P[13]
+    m_con = D.shape[0] - arm_diag.size
     fill(Cx, 0.0)
     for b in range(mass.size):
         p0, p1 = inc_ptr[b], inc_ptr[b + 1]
@@ -253,8 +269,9 @@ def assemble_schur(M, R, P, use_mass):
             a = keep[inc_row[t]]
             c0 = 6 * inc_side[t]
             w = wk[t - p0]
+            scale = 0.0 if a >= m_con and not use_mass else 1.0
             for c in range(6):
-                w[6 + c] = D[a, c0 + c]
+                w[6 + c] = scale * D[a, c0 + c]
             if use_mass:                        # a row of D M^-1 (M^-1 is symmetric)
                 block_apply(mass, Jinv, b, w, 6, w, 0, True)
             else:
@@ -268,6 +285,11 @@ def assemble_schur(M, R, P, use_mass):
                 Cx[pair_pos[q]] += (wa[0] * wc[6] + wa[1] * wc[7] + wa[2] * wc[8]
                                     + wa[3] * wc[9] + wa[4] * wc[10] + wa[5] * wc[11])
                 q += 1
+    for a in range(arm_diag.size):
+        if use_mass:
+            Cx[arm_diag[a]] += 1.0 / armature[a]        # B M^-1 B^T + 1 / J
+        else:
+            Cx[arm_diag[a]] = 1.0
 
 
 @njit(inline="always")
@@ -309,7 +331,10 @@ def baumgarte_rhs(R, gamma, phi, nu, v, mode, alpha, beta, rg):
 @njit(inline="always")
 def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot):
     """lam = S^-1 (rg - D M^-1 g) over the kept rows (12.5) and vdot (12.4); False if S is
-    singular (bs then holds the right-hand side and Cx the values of S for a fallback)."""
+    singular (bs then holds the right-hand side and Cx the values of S for a fallback).
+
+    rg, lam: over all rows of R (co.rg_all, co.lam_all): with armatures, the rows B v' +
+    mu / J = gamma_B follow the constraint rows and vdot = M^-1 (g + D^T lam + B^T mu)."""
     keep = P[0]
     fill(lam, 0.0)
     if keep.size:

@@ -266,7 +266,7 @@ def rhs_joint(t, x, xd, y, T, F, I, W):
                     s += Ic[i, l] * H[l, j]
                 K[i, j] = s
         if n == 1:                               # one rate (revolute, translational)
-            dk = 0.0
+            dk = tv.armature[k]                  # D = J_a + H^T I_C H (forces.armature)
             hp0 = 0.0
             for l in range(6):
                 dk += H[l, 0] * K[l, 0]

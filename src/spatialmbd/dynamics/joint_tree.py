@@ -41,6 +41,9 @@ TREE_FIELDS = (
     ("TI", "f", ("nb", 6, 6)), ("Tp", "f", ("nb", 6)), ("TH", "f", ("n1", 6, 6)),
     ("Tc", "f", ("n1", 6)), ("TK", "f", ("n1", 6, 6)), ("Tu", "f", ("n1", 6)),
     ("w66", "f", (3, 6, 6)), ("w33", "f", (2, 3, 3)), ("w6", "f", (3, 6)), ("w4", "f", (2, 4)),
+    # the armature J of each joint's coordinate (forces.armature; 0 without), added to its
+    # articulated inertia D = H^T I H
+    ("armature", "f", ("nj",)),
 )
 Tree = namedtuple("Tree", [f[0] for f in TREE_FIELDS])
 
@@ -85,7 +88,8 @@ def tree_views(T):
         array_view(Tf, Ti[16], (n1, 6, 6)), array_view(Tf, Ti[17], (n1, 6)),
         array_view(Tf, Ti[18], (n1, 6, 6)), array_view(Tf, Ti[19], (n1, 6)),
         array_view(Tf, Ti[20], (3, 6, 6)), array_view(Tf, Ti[21], (2, 3, 3)),
-        array_view(Tf, Ti[22], (3, 6)), array_view(Tf, Ti[23], (2, 4)))
+        array_view(Tf, Ti[22], (3, 6)), array_view(Tf, Ti[23], (2, 4)),
+        array_view(Tf, Ti[24], (nj,)))
 
 
 class JointTree:
@@ -196,9 +200,19 @@ class JointTree:
                 zv.append(u @ (w[C] - w[P]))
         self.nq, self.nv = len(zq), len(zv)
         self.x0 = np.array(zq + zv + [0.0])
+        self._armature(model)
         self.quats[:] = [self.qo[t] + (3 if self.kind[t] == FREE else 0)
                          for t in range(nj) if self.kind[t] in (SPHERICAL, FREE)]
         self.nb = nb
+
+    def _armature(self, model):
+        """armature[t]: the J of the armatures (forces.armature) on joint t's coordinate."""
+        index = {name: t for t, name in enumerate(self.names)}
+        for f in model.force_groups:
+            if f.name != "armature":
+                continue
+            for n, joint in enumerate(f.joint_names):
+                self.armature[index[joint]] += f.inertia[n]
 
     def arrays(self):
         """The packs (Ti, Tf) the compiled kernels take (:data:`TREE_FIELDS`)."""

@@ -33,6 +33,11 @@ CONS_FIELDS = (
     ("R_j", "F", 3), ("param", "F", 2), ("law", "W", 2), ("phi", "W", 1),
     ("D", "W", 2), ("nu", "W", 1), ("gamma", "W", 1), ("row_bi", "I", 1),
     ("row_bj", "I", 1), ("lam", "W", 1), ("rg", "W", 1), ("drv", "I", 1),
+    # the rows of the multiplier solve: the constraint rows, then one row per armature
+    # (forces.armature); D, gamma, lam, rg, row_bi and row_bj are their leading constraint
+    # rows (PREFIX_OF). arm_k: the force-table instance of each armature, armature: its J
+    ("D_all", "W", 2), ("gamma_all", "W", 1), ("lam_all", "W", 1), ("rg_all", "W", 1),
+    ("row_bi_all", "I", 1), ("row_bj_all", "I", 1), ("arm_k", "I", 1),
 )
 SCHUR_FIELDS = (
     ("keep", "I", 1), ("inc_ptr", "I", 1), ("inc_row", "I", 1), ("inc_side", "I", 1),
@@ -40,6 +45,8 @@ SCHUR_FIELDS = (
     ("Lx", "W", 1), ("xs", "W", 1), ("ys", "W", 1), ("bs", "W", 1),
     ("S_Cp", "I", 1), ("S_Ci", "I", 1), ("S_Lp", "I", 1), ("S_Li", "I", 1),
     ("S_Rp", "I", 1), ("S_Rj", "I", 1), ("S_Rpos", "I", 1), ("S_perm", "I", 1),
+    # per armature row (the last rows of keep): the position of its diagonal in Cx, its J
+    ("arm_diag", "I", 1), ("armature", "F", 1),
 )
 #: the compiled force elements: their table (as the constraints' JointRows), per-instance
 #: energy and power of one evaluation, and a (1, 12) scratch row
@@ -49,6 +56,10 @@ FORCE_FIELDS = (
     ("flaw", "W", 2), ("fenergy", "W", 1), ("fpower", "W", 1), ("fscratch", "W", 2),
 )
 FIELDS = BODY_FIELDS + CONS_FIELDS + SCHUR_FIELDS + FORCE_FIELDS
+#: fields that are the leading part of another (field -> the field it starts): they take no
+#: room of their own, so every loop over the constraint rows sees exactly those
+PREFIX_OF = {"D": "D_all", "gamma": "gamma_all", "lam": "lam_all", "rg": "rg_all",
+             "row_bi": "row_bi_all", "row_bj": "row_bj_all"}
 Body = namedtuple("Body", [f[0] for f in BODY_FIELDS])
 Cons = namedtuple("Cons", [f[0] for f in CONS_FIELDS])
 Schur = namedtuple("Schur", [f[0] for f in SCHUR_FIELDS])
@@ -59,7 +70,7 @@ KFIELDS = (("blkpos", "I", 3), ("rowblk", "I", 2), ("K_Cp", "I", 1), ("K_Ci", "I
            ("K_Lp", "I", 1), ("K_Li", "I", 1), ("K_Rp", "I", 1), ("K_Rj", "I", 1),
            ("K_Rpos", "I", 1), ("K_perm", "I", 1),
            ("Kx", "W", 1), ("KLx", "W", 1), ("xk", "W", 1), ("yk", "W", 1), ("ck", "W", 1),
-           ("dtc", "W", 1), ("old", "W", 1))
+           ("dtc", "W", 1), ("old", "W", 1), ("rotor", "W", 1))   # rotor: the armatures' J
 KSys = namedtuple("KSys", [f[0] for f in KFIELDS])
 
 
@@ -76,19 +87,29 @@ VIEWS = (("body_views", "Body", BODY_FIELDS, 0, ("F", "I", "W")),
 
 def pack(fields, arrays: dict):
     """(F, I, W): the arrays of ``fields`` in three flat buffers; I starts with the header
-    (offset and three dimensions per field)."""
+    (offset and three dimensions per field). A field of :data:`PREFIX_OF` is laid over the
+    start of its parent (its array, which must be that start, is not copied)."""
     nf = len(fields)
     header = np.zeros(4 * nf, dtype=np.int64)
     chunks = {"F": [], "I": [], "W": []}
     sizes = {"F": 0, "I": 4 * nf, "W": 0}
+    where = {}
     for k, (name, buf, ndim) in enumerate(fields):
         a = np.asarray(arrays[name])
         if a.ndim != ndim:
             raise ValueError(f"field {name}: expected {ndim} dimensions, got shape {a.shape}")
-        header[4 * k] = sizes[buf]
         header[4 * k + 1:4 * k + 1 + ndim] = a.shape
+        if name in PREFIX_OF:
+            continue
+        header[4 * k] = where[name] = sizes[buf]
         chunks[buf].append(a.ravel())
         sizes[buf] += a.size
+    for k, (name, buf, ndim) in enumerate(fields):
+        if name in PREFIX_OF:
+            parent = np.asarray(arrays[PREFIX_OF[name]])
+            if np.asarray(arrays[name]).size > parent.size:
+                raise ValueError(f"field {name} is longer than {PREFIX_OF[name]}")
+            header[4 * k] = where[PREFIX_OF[name]]
     F = np.concatenate(chunks["F"]).astype(float) if chunks["F"] else np.zeros(0)
     I = np.concatenate([header] + chunks["I"]).astype(np.int64)
     W = np.concatenate(chunks["W"]).astype(float) if chunks["W"] else np.zeros(0)

@@ -108,11 +108,13 @@ from .system import (NOT_CONVERGED, NOT_FINITE, OK, SINGULAR, _M, _R, _write_ydo
 
 
 @njit
-def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
+def assemble_penalty(M, R, blkpos, rowblk, alpha, armature, Kx):
     """Kx = values of M + alpha D^T D (12.14): the body blocks of M, and alpha D_r^T D_r of
-    every row r into the blocks of its bodies."""
+    every row r into the blocks of its bodies; an armature row (the last armature.size rows,
+    forces.armature) adds J B^T B instead (M + J B^T B is the mass matrix with the rotor)."""
     mass, J, Jinv = M
     D = R[0]
+    m_con = D.shape[0] - armature.size
     fill(Kx, 0.0)
     for b in range(mass.size):
         for a in range(6):
@@ -129,9 +131,10 @@ def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
         bii, bjj, bij, flip = rowblk[r, 0], rowblk[r, 1], rowblk[r, 2], rowblk[r, 3]
         if flip < 0:                          # a redundant row left out (drop_penalty_rows)
             continue
+        weight = alpha if r < m_con else armature[r - m_con]
         for a in range(6):
-            da_i = alpha * D[r, a]
-            da_j = alpha * D[r, 6 + a]
+            da_i = weight * D[r, a]
+            da_j = weight * D[r, 6 + a]
             for c in range(6):
                 if bii >= 0:
                     pos = blkpos[bii, a, c]
@@ -147,8 +150,12 @@ def assemble_penalty(M, R, blkpos, rowblk, alpha, Kx):
 
 
 @njit
-def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
+def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6, armature):
     """Penalty (12.14) or augmented Lagrangian (12.16)-(12.18) accelerations and lam.
+
+    gamma, lam: over all rows of R, the constraint rows (as many as phi) and then the armature
+    rows, whose J (armature) puts J B^T B into the leading matrix and J B^T gamma_B into the
+    right-hand side, exactly (their lam is the rotor's mu = -J theta'').
 
     Returns the number of iterations (0 for the penalty method), SINGULAR if
     M + alpha D^T D is not positive definite, NOT_CONVERGED if the augmented Lagrangian
@@ -157,7 +164,8 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
     tol, max_it, floor = mp[5], int(mp[6]), mp[7]
     n = vdot.size
     m = phi.size
-    assemble_penalty(M, R, k.blkpos, k.rowblk, alpha, k.Kx)
+    na = armature.size
+    assemble_penalty(M, R, k.blkpos, k.rowblk, alpha, armature, k.Kx)
     sym = (k.K_Cp, k.K_Ci, k.K_Lp, k.K_Li, k.K_Rp, k.K_Rj, k.K_Rpos, k.K_perm)
     if not spc.numeric(sym, k.Kx, k.KLx, k.xk):
         return SINGULAR
@@ -168,6 +176,8 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
             continue
         phidot = row_times(R, a, v) - nu[a]
         k.ck[a] = -gamma[a] + 2.0 * mu * omega * phidot + omega * omega * phi[a]
+    for a in range(m, m + na):                # alpha c = -J gamma_B: g + J B^T gamma_B
+        k.ck[a] = -gamma[a] * (armature[a - m] / alpha)
     fill(k.dtc, 0.0)
     add_transpose_times(R, k.ck, k.dtc)
     if not al:
@@ -182,6 +192,8 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
         m_all(M, vdot, t6)                                            # M x
         for a in range(m):
             lam[a] = alpha * row_times(R, a, vdot) if k.rowblk[a, 3] >= 0 else 0.0
+        for a in range(m, m + na):
+            lam[a] = armature[a - m] * row_times(R, a, vdot)
         add_transpose_times(R, lam, t6)                               # + alpha D^T D x
         for j in range(n):
             t6[j] = g[j] - alpha * k.dtc[j] - t6[j]                   # residual
@@ -191,6 +203,7 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
         for a in range(m):
             lam[a] = (-alpha * (row_times(R, a, vdot) + k.ck[a]) if k.rowblk[a, 3] >= 0
                       else 0.0)
+        _rotor_mu(R, gamma, armature, m, vdot, lam)
         return OK
     minv_all(M, g, vdot)                                              # (12.16)
     fill(lam, 0.0)
@@ -198,6 +211,9 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
     for it in range(1, max_it + 1):
         copy(k.old, vdot)
         m_all(M, k.old, t6)
+        if it > 1:                # the rotors' (M + J B^T B) vdot_i - J B^T gamma_B (M vdot_0 = g)
+            for a in range(m, m + na):
+                _add_row(R, a, armature[a - m] * (row_times(R, a, k.old) - gamma[a]), t6)
         for j in range(n):
             vdot[j] = t6[j] - alpha * k.dtc[j]
         spc.solve(sym, k.KLx, vdot, k.yk)                            # (12.17)
@@ -212,9 +228,31 @@ def penalty_solve(M, R, phi, nu, gamma, g, v, k, mp, lam, vdot, t6):
         change = math.sqrt(change)
         at_floor = change <= floor * big and change > 0.5 * previous
         if change <= tol * big or at_floor:                           # (12.18)
+            _rotor_mu(R, gamma, armature, m, vdot, lam)
             return it
         previous = change
     return NOT_CONVERGED
+
+
+@njit(inline="always")
+def _add_row(R, a, w, out):
+    """out += w D[a]^T (row a of R over the columns of its two bodies)."""
+    D, row_bi, row_bj = R
+    nb = out.size // 6
+    bi, bj = row_bi[a], row_bj[a]
+    if bi < nb:
+        for c in range(6):
+            out[6 * bi + c] += D[a, c] * w
+    if bj < nb:
+        for c in range(6):
+            out[6 * bj + c] += D[a, 6 + c] * w
+
+
+@njit(inline="always")
+def _rotor_mu(R, gamma, armature, m, vdot, lam):
+    """lam of the armature rows m, m + 1, ...: mu = -J (B vdot - gamma_B) = -J theta''."""
+    for a in range(m, m + armature.size):
+        lam[a] = -armature[a - m] * (row_times(R, a, vdot) - gamma[a])
 
 
 @njit
@@ -246,8 +284,8 @@ def stages_penalty(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, KI, KW, mp, i
 @njit(inline="always")
 def _after_penalty(y, ydot, bo, co, fo, k, mp):
     copy_v(y, bo.v)
-    it = penalty_solve(_M(bo), _R(co), co.phi, co.nu, co.gamma, bo.g, bo.v, k, mp, co.lam,
-                       bo.vdot, bo.t6)
+    it = penalty_solve(_M(bo), _R(co), co.phi, co.nu, co.gamma_all, bo.g, bo.v, k, mp,
+                       co.lam_all, bo.vdot, bo.t6, k.rotor)
     if it < 0:
         return it
     _write_ydot(bo, co, fo, ydot)

@@ -20,13 +20,14 @@ def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx):
     near-dependent rows, which a first-order correction cannot remove, are left alone instead of
     amplified); False if D D^T has no positive definite shift either."""
     keep = P[0]
-    for k in range(keep.size):
-        bs[k] = rhs_rows[keep[k]]
+    for k in range(keep.size):             # the armature rows (keep[k] >= m) are left out
+        bs[k] = rhs_rows[keep[k]] if keep[k] < rhs_rows.size else 0.0
     if not schur_factor_solve(M, R, P, False, bs):
         return False
     fill(lam, 0.0)
     for k in range(keep.size):
-        lam[keep[k]] = -bs[k]
+        if keep[k] < lam.size:
+            lam[keep[k]] = -bs[k]
     fill(dx, 0.0)
     add_transpose_times(R, lam, dx)
     return True

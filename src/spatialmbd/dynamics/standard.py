@@ -36,9 +36,9 @@ def fallback_multipliers(system, W) -> None:
         lam = la.lstsq(S.toarray(), b, check_finite=False)[0]
     else:
         lam = spla.lsqr(S, b, atol=1e-15, btol=1e-15)[0]
-    full = system.fields(W, "lam")
+    full = system.fields(W, "lam_all")
     full[:] = 0.0
-    full[system.keep] = lam
+    full[system.keep_all] = lam
 
 
 def singular_error(t):
@@ -50,16 +50,26 @@ def singular_error(t):
 
 def solve_kkt(ev, rhs_gamma: np.ndarray, keep=None):
     """vdot, lam of [M, -D^T; D, 0][vdot; lam] = [g; rhs_gamma] (rows ``keep`` of D only) by a
-    dense pivoting LU of the whole augmented matrix (12.3): the solver="kkt" option."""
+    dense pivoting LU of the whole augmented matrix (12.3): the solver="kkt" option. With
+    armatures the rows [B, 0, 1/J] [vdot; lam; mu] = gamma_B join it (M vdot = g + D^T lam +
+    B^T mu)."""
     D = ev.cv.D
     m_all = D.shape[0]
     if keep is not None:
         D = D[keep]
         rhs_gamma = rhs_gamma[keep]
-    if D.shape[0] == 0:
+    B, J, gamma_B = _armature_rows(ev)
+    if B.shape[0]:                        # rows B vdot + mu / J = gamma_B (forces.armature)
+        Dd = D.toarray() if sp.issparse(D) else np.asarray(D)
+        sol = _kkt(ev, np.vstack([Dd, B]), np.concatenate([rhs_gamma, gamma_B]),
+                   np.concatenate([np.zeros(Dd.shape[0]), 1.0 / J]))
+        lam, mu = sol[:Dd.shape[0]], sol[Dd.shape[0]:]
+        vdot = ev.M.solve(ev.g + Dd.T @ lam + B.T @ mu)
+    elif D.shape[0] == 0:
         return ev.M.solve(ev.g), np.zeros(m_all)
-    lam = _kkt(ev, D, rhs_gamma)
-    vdot = ev.M.solve(ev.g + D.T @ lam)                           # Eq. (12.4)
+    else:
+        lam = _kkt(ev, D, rhs_gamma)
+        vdot = ev.M.solve(ev.g + D.T @ lam)                       # Eq. (12.4)
     if keep is not None:
         full = np.zeros(m_all)
         full[keep] = lam
@@ -67,7 +77,23 @@ def solve_kkt(ev, rhs_gamma: np.ndarray, keep=None):
     return vdot, lam
 
 
-def _kkt(ev, D, rhs_gamma):
+def _armature_rows(ev):
+    """(B (na, 6 nb) dense, J (na,), gamma_B (na,)) of the armature rows of the evaluation."""
+    sys_ = getattr(ev, "system", None)
+    na = 0 if sys_ is None else sys_.n_armature
+    if not na:
+        return np.zeros((0, ev.v.size)), np.zeros(0), np.zeros(0)
+    m, nb = sys_.m, sys_.nb
+    blocks = sys_.fields(ev.W, "D_all")[m:]
+    B = np.zeros((na, 6 * nb + 6))                 # the ground's columns 6 nb.. dropped below
+    rows, cols = np.arange(na)[:, None], np.arange(6)[None, :]
+    B[rows, 6 * sys_.row_bi_all[m:, None] + cols] += blocks[:, :6]
+    B[rows, 6 * sys_.row_bj_all[m:, None] + cols] += blocks[:, 6:]
+    J = sys_.field_values("armature")
+    return B[:, :6 * nb], J, sys_.fields(ev.W, "gamma_all")[m:].copy()
+
+
+def _kkt(ev, D, rhs_gamma, compliance=None):
     n = D.shape[1]
     m = D.shape[0]
     Dd = D.toarray() if sp.issparse(D) else D
@@ -75,6 +101,8 @@ def _kkt(ev, D, rhs_gamma):
     K[:n, :n] = ev.M.dense()
     K[:n, n:] = -Dd.T
     K[n:, :n] = Dd
+    if compliance is not None:
+        K[n:, n:] = np.diag(compliance)
     rhs = np.concatenate([ev.g, rhs_gamma])
     lu, piv = la.lu_factor(K, check_finite=False)
     if np.abs(np.diag(lu)).min() < 1e-14 * np.abs(np.diag(lu)).max():
@@ -221,8 +249,8 @@ def _after_standard(y, ydot, bo, co, sc, fo, mp):
     copy_v(y, bo.v)
     R = _R(co)
     baumgarte_rhs(R, co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
-    if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg, co.lam, sc.bs, bo.t6, bo.u6,
-                             bo.vdot):
+    if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg_all, co.lam_all, sc.bs, bo.t6,
+                             bo.u6, bo.vdot):
         return SINGULAR
     _write_ydot(bo, co, fo, ydot)
     return OK if finite(ydot) else NOT_FINITE
@@ -245,6 +273,6 @@ def stages_standard(t, y, h, A, C, K, s0, s1, out, t_last, F, I, W, mp):
 def fallback_finish(y, ydot, F, I, W):
     """vdot and ydot after a fallback solve that has put lam into co.lam."""
     bo, co = body_views(F, I, W), cons_views(F, I, W)
-    finish(_M(bo), _R(co), bo.g, co.lam, bo.t6, bo.vdot)
+    finish(_M(bo), _R(co), bo.g, co.lam_all, bo.t6, bo.vdot)
     _write_ydot(bo, co, force_views(F, I, W), ydot)
     return OK if finite(ydot) else NOT_FINITE

@@ -37,6 +37,7 @@ import copy as copy_module
 import numpy as np
 
 from ..constraints.kernels import JointTable
+from ..forces.armature import Armature
 from ..forces.kernels import ForceTable
 from ..jit import njit
 from ..state import BodyState
@@ -77,11 +78,27 @@ class System:
         self.driver_rows = np.array(drv, dtype=np.int64)
         keep = np.arange(m, dtype=np.int64) if keep is None else np.asarray(keep, np.int64)
         self.keep = keep
-        inc = self._incidence(keep)
         G = table.G
         self.force_table = ft = ForceTable(model.force_groups)
         self.python_forces = [g for g in model.force_groups if not g.compiled]
         Gf = ft.G
+        # the armature rows (forces.armature): rows m .. m + na - 1 of the multiplier solve
+        arm_k, arm_J, start = [], [], 0
+        for grp in ft.groups:
+            if grp.name == Armature.name:
+                arm_k += range(start, start + grp.n)
+                arm_J += list(grp.inertia)
+            start += grp.n
+        self.arm_k = arm_k = np.array(arm_k, dtype=np.int64)
+        self.n_armature = na = arm_k.size
+        self.row_bi_all = np.concatenate([row_bi, Gf.bi[arm_k].astype(np.int64)])
+        self.row_bj_all = np.concatenate([row_bj, Gf.bj[arm_k].astype(np.int64)])
+        #: the rows of the multiplier solve: the kept constraint rows, then the armature rows
+        self.keep_all = keep_all = np.concatenate([keep, np.arange(m, m + na, dtype=np.int64)])
+        inc = self._incidence(keep_all)
+        red = np.arange(keep.size, keep_all.size)
+        arm_diag = self.S.positions(red, red) if na else np.zeros(0, np.int64)
+        D_all = np.zeros((m + na, 12))
         arrays = dict(
             fkind=ft.kind, fbi=Gf.bi, fbj=Gf.bj, fs_i=Gf.s_i, fs_j=Gf.s_j, fR_i=Gf.R_i,
             fR_j=Gf.R_j, fparam=Gf.param, fcoord=Gf.coord, flaw=ft.law, fenergy=np.zeros(ft.n),
@@ -90,7 +107,10 @@ class System:
             weight=model.mass[:, None] * model.gravity[None, :],
             s_i=G.s_i, s_j=G.s_j, R_i=G.R_i, R_j=G.R_j, param=G.param,
             kind=table.kind, rows=table.rows, bi=G[0], bj=G[1], coord=G[8],
-            row_bi=row_bi, row_bj=row_bj, keep=keep, drv=self.driver_rows, **inc,
+            row_bi=row_bi, row_bj=row_bj, keep=keep_all, drv=self.driver_rows, **inc,
+            D_all=D_all, gamma_all=np.zeros(m + na), lam_all=np.zeros(m + na),
+            rg_all=np.zeros(m + na), row_bi_all=self.row_bi_all, row_bj_all=self.row_bj_all,
+            arm_k=arm_k, armature=np.array(arm_J, dtype=float), arm_diag=arm_diag,
             S_Cp=self.S.Cp, S_Ci=self.S.Ci, S_Lp=self.S.Lp, S_Li=self.S.Li, S_Rp=self.S.Rp,
             S_Rj=self.S.Rj, S_Rpos=self.S.Rpos, S_perm=self.S.perm,
             r=np.zeros((nb + 1, 3)), A=np.zeros((nb + 1, 3, 3)), rdot=np.zeros((nb + 1, 3)),
@@ -100,8 +120,8 @@ class System:
             lam=np.zeros(m), vdot=np.zeros(6 * nb), rg=np.zeros(m), t6=np.zeros(6 * nb),
             u6=np.zeros(6 * nb),
             wk=np.zeros((max(1, int(np.diff(inc["inc_ptr"]).max(initial=0))), 12)),
-            Cx=np.zeros(self.S.Ci.size), Lx=np.zeros(self.S.nnz_L), xs=np.zeros(keep.size),
-            ys=np.zeros(keep.size), bs=np.zeros(keep.size), q=np.zeros((nb, 7)),
+            Cx=np.zeros(self.S.Ci.size), Lx=np.zeros(self.S.nnz_L), xs=np.zeros(keep_all.size),
+            ys=np.zeros(keep_all.size), bs=np.zeros(keep_all.size), q=np.zeros((nb, 7)),
             v=np.zeros(6 * nb))
         self.F, self.I, self.W = pack(FIELDS, arrays)
         self._layout = {name: (int(self.I[4 * k]), int(np.asarray(arrays[name]).size),
@@ -155,10 +175,11 @@ class System:
 
     # ---------------------------------------------------------------- patterns
     def _incidence(self, keep):
-        """Rows incident to each body and the positions of their products in S."""
+        """Rows incident to each body and the positions of their products in S (keep: the
+        rows of the solve, armature rows included)."""
         nb = self.nb
         rk = keep.size
-        full_bi, full_bj = self.row_bi[keep], self.row_bj[keep]
+        full_bi, full_bj = self.row_bi_all[keep], self.row_bj_all[keep]
         body = np.concatenate([full_bi, full_bj])
         side = np.concatenate([np.zeros(rk, np.int64), np.ones(rk, np.int64)])
         red = np.concatenate([np.arange(rk), np.arange(rk)])
@@ -196,14 +217,14 @@ class System:
         KI, KW = self.penalty_pack()
         off, nr, nc = int(KI[4]), int(KI[5]), int(KI[6])        # KFIELDS[1] = rowblk
         rowblk = KI[off:off + nr * nc].reshape(nr, nc)
-        bi, bj = self.row_bi, self.row_bj
+        bi, bj = self.row_bi_all, self.row_bj_all
         rowblk[:, 3] = (bi > bj).astype(np.int64)
         if rows is not None and len(rows):
             rowblk[np.asarray(rows, dtype=np.int64), 3] = -1
 
     def _build_penalty(self):
-        nb, m = self.nb, self.m
-        bi, bj = self.row_bi, self.row_bj
+        nb, m = self.nb, self.m + self.n_armature      # the armature rows join J B^T B
+        bi, bj = self.row_bi_all, self.row_bj_all
         both = (bi < nb) & (bj < nb)
         lo, hi = np.minimum(bi[both], bj[both]), np.maximum(bi[both], bj[both])
         pairs = np.unique(lo * (nb + 1) + hi)
@@ -228,7 +249,7 @@ class System:
                       K_Li=K.Li, K_Rp=K.Rp, K_Rj=K.Rj, K_Rpos=K.Rpos, K_perm=K.perm,
                       Kx=np.zeros(K.Ci.size), KLx=np.zeros(K.nnz_L), xk=np.zeros(6 * nb),
                       yk=np.zeros(6 * nb), ck=np.zeros(m), dtc=np.zeros(6 * nb),
-                      old=np.zeros(6 * nb))
+                      old=np.zeros(6 * nb), rotor=self.field_values("armature").copy())
         _, KI, KW = pack(KFIELDS, arrays)
         self.K = K
         return KI, KW
@@ -263,7 +284,7 @@ class System:
         (among the kept rows) -- empty when the rows are independent."""
         y = np.concatenate([np.asarray(q, dtype=float).ravel(), np.zeros(6 * self.nb)])
         self.evaluate(t, y, False)
-        dropped = np.zeros(self.keep.size, dtype=np.int64)
+        dropped = np.zeros(self.keep_all.size, dtype=np.int64)   # armature rows: never
         if dependent_rows(self.F, self.I, self.W, tol, dropped) == 0:
             return np.zeros(0, dtype=np.int64)
         return np.sort(self.keep[self.S.perm[dropped == 1]])
@@ -276,6 +297,10 @@ class System:
         if len(shape) == 1:
             return W[o:o + size]
         return W[o:o + size].reshape(shape)
+
+    def field_values(self, name):
+        """A field of the model buffers F or I (read only: e.g. ``armature``)."""
+        return field_view(FIELDS, self.F, self.I, self.W, name)
 
     def set_force_states(self, z, W=None) -> None:
         """The force elements' internal states (``force_table.n_states``, in the order of y)

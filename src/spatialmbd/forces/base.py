@@ -130,6 +130,10 @@ class ForceType(abc.ABC):
             return 0.0
         return float(np.sum(self._run(state, t, states)[1]))
 
+    def kinetic_energy(self, state: BodyState, t: float = 0.0) -> float:
+        """Kinetic energy the elements add to the bodies' (J): rotor inertias (armature)."""
+        return 0.0
+
     def nonconservative_power(self, state: BodyState, t: float) -> float:
         """Power delivered to the bodies by non-conservative parts (W)."""
         if type(self).kernel is None:

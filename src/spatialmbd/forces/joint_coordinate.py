@@ -91,7 +91,9 @@ class JointCoordinateForce(ForceType):
                                        geom.s_i[0], geom.s_j[0], R_i, R_j, row)):
                 cols[c].append(value)
             coords.append(coordinate)
-        return cls([s.name for s in specs], *cols, coords)
+        group = cls([s.name for s in specs], *cols, coords)
+        group.joint_names = tuple(spec.params["joint"] for spec in specs)
+        return group
 
     def columns(self):
         return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,

@@ -18,21 +18,22 @@ model and builds the equivalent :class:`~spatialmbd.model.builder.ModelBuilder` 
   spanning space -> spherical, hinge + slide on one axis -> cylindrical.
 * what acts on the joints (:mod:`.joint_elements`): hinge, slide and ball springs and dampers
   (exact), limits -> joint_limit and friction loss -> joint_friction (MuJoCo's soft constraints
-  mapped through solref/solimp), motor/position/velocity/general actuators (exact, command 0),
-  fixed two-joint tendons held by a tendon equality -> couplers.
+  mapped through solref/solimp), hinge and slide armature -> armature (exact),
+  motor/position/velocity/general actuators (exact, command 0), fixed two-joint tendons held
+  by a tendon equality -> couplers.
 * equality constraints: connect -> spherical, weld -> fixed (both exact: MuJoCo's soft loop
   closure becomes a rigid one); joint equalities a0 + a1 x -> couplers.
 * gravity: ``opt.gravity`` (zero when gravity is disabled).
 
 What has no counterpart is left out and listed (:class:`.report.LeftOut`: kind, element,
 detail) in ``MJCFImport.left_out``, with one :class:`MJCFImportWarning` that counts them per kind
-(``left out: 6 armature values, 5 joint limits, 9 colliding geoms``); what is imported only
-approximately -- MuJoCo's soft joint limits and friction loss as force laws -- is listed in
+(``left out: 5 joint limits, 9 colliding geoms``); what is imported only approximately --
+MuJoCo's soft joint limits and friction loss as force laws -- is listed in
 ``MJCFImport.approximated`` and counted in the same warning (``approximated: 4 joint limits``).
 ``strict=True`` instead raises a ModelError naming every left-out feature with no counterpart
-(armature, tendons, actuators with dynamics, ...) and every approximation; left-out joint
-limits, collisions and keyframes act only when reached, touching or chosen, and are never an
-error. The default is ``strict=False``, as in ``spatialmbd import``.
+(tendons, actuators with dynamics, a ball joint's armature, ...) and every approximation;
+left-out joint limits, collisions and keyframes act only when reached, touching or chosen, and
+are never an error. The default is ``strict=False``, as in ``spatialmbd import``.
 
 The imported values are checked with the model-file reader's range rules (a mass or position
 of 1e300 is refused here, not after the file is written).

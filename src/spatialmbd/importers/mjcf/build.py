@@ -40,13 +40,12 @@ def left_out_features(mujoco, m, body_name, jname, keyframe=None) -> list:
                            "no contact here yet"))
     for f in range(m.nflex):
         out.append(LeftOut("flex", f"flex{f}", "deformable body"))
-    for j in range(m.njnt):
+    for j in range(m.njnt):               # (a hinge's or slide's: .joint_elements)
         dof = int(m.jnt_dofadr[j])
-        ndof = {int(J.mjJNT_FREE): 6, int(J.mjJNT_BALL): 3}.get(int(m.jnt_type[j]), 1)
-        dofs = slice(dof, dof + ndof)
-        if np.any(m.dof_armature[dofs] != 0):
+        if int(m.jnt_type[j]) == int(J.mjJNT_FREE) and np.any(m.dof_armature[dof:dof + 6]):
             out.append(LeftOut("armature", jname(j),
-                               f"{float(np.max(m.dof_armature[dofs])):.6g} kg m^2"))
+                               f"{float(np.max(m.dof_armature[dof:dof + 6])):.6g}: a free "
+                               "joint's armature has no counterpart here"))
     for k in range(m.nkey):
         if keyframe is not None and mujoco.mj_id2name(m, OBJ.mjOBJ_KEY, k) == keyframe:
             continue                                      # the one the model starts from

@@ -109,6 +109,7 @@ class JointElements:
             self._limit(j)
             self._friction(j)
             self._spring(j)
+            self._armature(j)
 
     def _where(self, j):
         """(our joint name or None, 'single' / 'ball' / 'combined' / None)."""
@@ -201,6 +202,32 @@ class JointElements:
         self.mujoco.mj_solveM(m, self.d, out, np.ascontiguousarray(unit.T))
         block = 0.5 * (out[:, dof:dof + 3] + out[:, dof:dof + 3].T)
         return 1.0 / float(np.linalg.eigvalsh(block).min())
+
+    def _armature(self, j) -> None:
+        """MuJoCo's armature (J added to the joint-space mass diagonal) of a hinge or slide:
+        an armature element on our joint's angle or translation (exact, forces.armature)."""
+        m, jn = self.m, self.jname(j)
+        dof = int(m.jnt_dofadr[j])
+        ndof = 3 if int(m.jnt_type[j]) == int(self.J.mjJNT_BALL) else 1
+        values = np.asarray(m.dof_armature[dof:dof + ndof], dtype=float)
+        if not np.any(values != 0):
+            return
+        ours, where = self._where(j)
+        hinge = int(m.jnt_type[j]) == int(self.J.mjJNT_HINGE)
+        coordinate = None
+        if where == "combined" and self.builder.joints[ours].type == "cylindrical":
+            coordinate = "angle" if hinge else "translation"
+        elif where != "single":
+            reason = {"ball": "a rotor inertia on a ball joint's three rotations has no "
+                              "counterpart here",
+                      "combined": f"part of the combined joint {ours!r}",
+                      None: "its joint is not imported"}[where]
+            self.leave("armature", jn, f"{float(values.max()):.6g} "
+                       f"{'kg m^2' if ndof == 3 or hinge else 'kg'}: {reason}")
+            return
+        extra = {} if coordinate is None else {"coordinate": coordinate}
+        self.builder.add_force("armature", self.fresh(f"{jn}_armature"), joint=ours,
+                               inertia=float(values[0]), **extra)
 
     def _friction(self, j) -> None:
         m, jn = self.m, self.jname(j)

@@ -1,5 +1,5 @@
 """What an import left out or approximated: one :class:`LeftOut` per feature (kind, element,
-detail), counted per kind for the short summary the CLI prints (``left out: 6 armature values,
+detail), counted per kind for the short summary the CLI prints (``left out: 2 actuators,
 5 joint limits``; ``approximated: 4 joint limits, 2 friction losses``)."""
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ class LeftOut:
 
 
 def summary(items) -> str:
-    """``"2 actuators, 6 armature values, 5 joint limits"`` (in the order of KINDS)."""
+    """``"2 actuators, 1 tendon, 5 joint limits"`` (in the order of KINDS)."""
     counts = Counter(item.kind for item in items)
     order = list(KINDS) + sorted(k for k in counts if k not in KINDS)
     parts = []
