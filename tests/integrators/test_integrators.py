@@ -321,25 +321,24 @@ def test_bdf4_beats_rk45_on_a_stiff_problem_in_evaluations():
     assert out["bdf4"].rejected < 0.2 * out["bdf4"].steps, out["bdf4"]
 
 
-def test_bdf4_loose_tolerance_takes_no_more_steps_on_the_flyball_governor():
-    """The stiff flyball governor (8e5 N/m springs whose directions turn with the shaft): a
-    looser tolerance never costs more steps. With the Newton contraction rate carried over
-    under a flat floor, one-iteration solves with a stale Jacobian held the step at 2e-4 s at
-    rtol 1e-3 (4,338 steps against 166 at rtol 1e-4); the error still follows rtol."""
+def test_bdf4_error_follows_the_tolerance_on_the_flyball_governor():
+    """The stiff flyball governor (8e5 N/m springs, 4e4 N s/m dampers, whose directions turn
+    with the shaft) over a grid of 11 tolerances from 3e-3 to 1e-5: the position error against
+    a tight reference stays within 10 rtol at every one (measured 0.4..3.5 rtol), and no
+    tolerance crawls (under 200 steps for 1 s; 4,338 steps once at rtol 1e-3 with a stale
+    Jacobian). Physics, not a step count that round-off can flip: the step counts themselves
+    are not monotone in rtol (see docs/integrators.md)."""
     from spatialmbd import models
     from spatialmbd.simulate import simulate
     model = models.flyball_governor().compile()
-    ref = simulate(model, 1.0, output_step=1.0, method="recursive", rtol=1e-11, atol=1e-13)
-    steps, errors = [], []
-    for rtol in (1e-3, 1e-4, 1e-5):
-        res = simulate(model, 1.0, output_step=1.0, method="projection", integrator="bdf4",
+    ref = simulate(model, 1.0, output_step=0.1, method="recursive", rtol=1e-11, atol=1e-13)
+    for rtol in (3e-3, 2e-3, 1e-3, 5e-4, 3e-4, 2e-4, 1e-4, 5e-5, 3e-5, 2e-5, 1e-5):
+        res = simulate(model, 1.0, output_step=0.1, method="projection", integrator="bdf4",
                        rtol=rtol, atol=rtol * 1e-2)
         assert res.success, res.message
-        steps.append(res.counters["steps"])
-        errors.append(np.abs(res.q[-1, :, :3] - ref.q[-1, :, :3]).max())
-    assert steps[0] <= 1.2 * steps[1] <= 1.2 * 1.2 * steps[2], steps
-    assert max(steps) < 200, steps
-    assert errors[2] < 1e-4 and errors[0] < 3e-3, errors
+        error = np.abs(res.q[:, :, :3] - ref.q[:, :, :3]).max()
+        assert error < 10 * rtol, (rtol, error)
+        assert res.counters["steps"] < 200, (rtol, res.counters)
 
 
 def test_bdf4_newton_failure_raises_with_time():

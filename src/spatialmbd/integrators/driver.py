@@ -62,6 +62,8 @@ class Step:
     failed: cause when the nonlinear (Newton) solve failed (the step is retried smaller).
     n_steps: internal steps this step stands for (a multistep start-up); progress_times their ends.
     h: the step size the controller scales (default t_new - t; a start-up's internal step).
+    k_retry: the exponent for a retry after a rejection when it differs from k (a multistep
+        method whose error at a shorter step is set by its history, see ``gear``).
     """
 
     t_new: float
@@ -74,6 +76,7 @@ class Step:
     n_steps: int = 1
     progress_times: Optional[list] = None
     h: Optional[float] = None
+    k_retry: Optional[float] = None
 
 
 class Stepper(abc.ABC):
@@ -293,7 +296,7 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                     continue
                 if adaptive and st.err is not None and not st.err <= 1.0:
                     counters.rejected += st.n_steps
-                    h = controller.reject(hs, st.err, st.k)
+                    h = controller.reject(hs, st.err, st.k_retry or st.k)
                     after_reject = True
                     last_cause = ("error test failed repeatedly" if math.isfinite(st.err) else
                                   "error estimate not finite; the derivative is not finite")
