@@ -271,19 +271,20 @@ def assemble_schur(M, R, P, use_mass):
 
 
 @njit(inline="always")
-def schur_factor_solve(M, R, P, use_mass, b):
+def schur_factor_solve(M, R, P, use_mass, b, pivot=spc.SINGULAR_PIVOT,
+                       shift=spc.TIKHONOV_SHIFT):
     """b <- S^-1 b (or (D D^T)^-1 b): assemble, factorise and solve. Where S is nearly singular
-    (a pivot below :data:`.sparse.SINGULAR_PIVOT` of its diagonal: a singular position) the
-    regularised solve of :func:`.sparse.solve_regularised` is used instead -- bounded, minimum-
-    norm-like multipliers, and accelerations continuous through the singular position, decided
-    by compiled arithmetic that is the same on every processor. False if S has no positive
-    definite shift either."""
+    (a pivot below ``pivot`` of its diagonal, default :data:`.sparse.SINGULAR_PIVOT`: a
+    singular position) the regularised solve of :func:`.sparse.solve_regularised` (relative
+    shift ``shift``) is used instead -- bounded, minimum-norm-like multipliers, and
+    accelerations continuous through the singular position, decided by compiled arithmetic that
+    is the same on every processor. False if S has no positive definite shift either."""
     assemble_schur(M, R, P, use_mass)
     ratio = spc.numeric_ratio(P[11], P[7], P[8], P[9])
-    if ratio > spc.SINGULAR_PIVOT:
+    if ratio > pivot:
         spc.solve(P[11], P[8], b, P[10])
         return True
-    return spc.solve_regularised(P[11], P[7], P[8], P[9], P[10], b)
+    return spc.solve_regularised(P[11], P[7], P[8], P[9], P[10], b, shift)
 
 
 @njit(inline="always")
@@ -307,16 +308,18 @@ def baumgarte_rhs(R, gamma, phi, nu, v, mode, alpha, beta, rg):
 
 
 @njit(inline="always")
-def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot):
-    """lam = S^-1 (rg - D M^-1 g) over the kept rows (12.5) and vdot (12.4); False if S is
-    singular (bs then holds the right-hand side and Cx the values of S for a fallback)."""
+def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot, pivot=spc.SINGULAR_PIVOT,
+                      shift=spc.TIKHONOV_SHIFT):
+    """lam = S^-1 (rg - D M^-1 g) over the kept rows (12.5) and vdot (12.4), regularised below
+    the pivot ratio ``pivot`` (:func:`schur_factor_solve`); False if S is singular (bs then
+    holds the right-hand side and Cx the values of S for a fallback)."""
     keep = P[0]
     fill(lam, 0.0)
     if keep.size:
         minv_all(M, g, u6)
         for k in range(keep.size):
             bs[k] = rg[keep[k]] - row_times(R, keep[k], u6)
-        if not schur_factor_solve(M, R, P, True, bs):
+        if not schur_factor_solve(M, R, P, True, bs, pivot, shift):
             return False
         for k in range(keep.size):
             lam[keep[k]] = bs[k]
@@ -356,7 +359,7 @@ def _write_ydot(bo, co, fo, ydot):
 OK, SINGULAR, NOT_FINITE, NOT_CONVERGED = 0, -1, -2, -3
 
 #: the parameter array ``mp`` of the standard / Baumgarte right-hand side
-MP_STANDARD = ("normalize", "mode", "alpha", "beta")
+MP_STANDARD = ("normalize", "mode", "alpha", "beta", "singular_pivot", "tikhonov_shift")
 
 
 #: the parameter array ``mp`` of the penalty / augmented Lagrangian right-hand side
