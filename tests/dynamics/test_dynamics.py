@@ -54,7 +54,7 @@ def test_all_methods_agree_on_a_closed_loop(crank, method):
 @pytest.mark.parametrize("integrator,options,tol", [
     ("euler", dict(step=2e-5), 2e-3), ("heun", dict(step=1e-3), 1e-5),
     ("rk4", dict(step=2e-3), 1e-7), ("abm4", dict(rtol=1e-9, atol=1e-11), 1e-7),
-    ("bdf4", dict(step=1e-3), 1e-6), ("rk45", dict(rtol=1e-9, atol=1e-11), 1e-7),
+    ("bdf4", dict(rtol=1e-9, atol=1e-11), 1e-7), ("rk45", dict(rtol=1e-9, atol=1e-11), 1e-7),
     ("scipy-dop853", dict(rtol=1e-10, atol=1e-12), 1e-7),
     ("scipy-radau", dict(rtol=1e-8, atol=1e-10), 1e-6),
     ("scipy-lsoda", dict(rtol=1e-9, atol=1e-11), 1e-6),

@@ -248,15 +248,16 @@ def add_transpose_times(R, lam, out):
 
 # --------------------------------------------------------------------------------- S = D W D^T
 @njit(inline="always")
-def assemble_schur(M, R, P, use_mass):
+def assemble_schur(M, R, P, use_mass, rows_only=False):
     """Cx = values of S = D M^-1 D^T (use_mass) or D D^T over the kept rows, body by body:
     S = sum_b D_b W_b D_b^T with D_b the columns of body b. wk (rows incident to the body,
     12): the row of D_b (columns 6..11) and of D_b M_b^-1 (0..5), gathered once per body so
     that the pairs below are 6-term products of contiguous rows.
 
     The armature rows (the last P[12].size rows of D, forces.armature) add their compliance
-    1 / J to their diagonal in S; D D^T (the projections, the rank decisions) leaves them out:
-    their rows count as zero there, with 1 on their diagonal."""
+    1 / J to their diagonal in S; D D^T (the projections, the rank decisions) and, with
+    ``rows_only``, D M^-1 D^T (the projection in the mass metric) leave them out: their rows
+    count as zero there, with 1 on their diagonal."""
     mass, J, Jinv = M
     D = R[0]
     keep, inc_ptr, inc_row, inc_side, pair_ptr, pair_pos, wk, Cx = P[:8]
@@ -269,7 +270,7 @@ def assemble_schur(M, R, P, use_mass):
             a = keep[inc_row[t]]
             c0 = 6 * inc_side[t]
             w = wk[t - p0]
-            scale = 0.0 if a >= m_con and not use_mass else 1.0
+            scale = 0.0 if a >= m_con and (rows_only or not use_mass) else 1.0
             for c in range(6):
                 w[6 + c] = scale * D[a, c0 + c]
             if use_mass:                        # a row of D M^-1 (M^-1 is symmetric)
@@ -286,26 +287,27 @@ def assemble_schur(M, R, P, use_mass):
                                     + wa[3] * wc[9] + wa[4] * wc[10] + wa[5] * wc[11])
                 q += 1
     for a in range(arm_diag.size):
-        if use_mass:
+        if use_mass and not rows_only:
             Cx[arm_diag[a]] += 1.0 / armature[a]        # B M^-1 B^T + 1 / J
         else:
             Cx[arm_diag[a]] = 1.0
 
 
 @njit(inline="always")
-def schur_factor_solve(M, R, P, use_mass, b):
+def schur_factor_solve(M, R, P, use_mass, b, pivot=spc.SINGULAR_PIVOT,
+                       shift=spc.TIKHONOV_SHIFT, rows_only=False):
     """b <- S^-1 b (or (D D^T)^-1 b): assemble, factorise and solve. Where S is nearly singular
-    (a pivot below :data:`.sparse.SINGULAR_PIVOT` of its diagonal: a singular position) the
-    regularised solve of :func:`.sparse.solve_regularised` is used instead -- bounded, minimum-
-    norm-like multipliers, and accelerations continuous through the singular position, decided
-    by compiled arithmetic that is the same on every processor. False if S has no positive
-    definite shift either."""
-    assemble_schur(M, R, P, use_mass)
+    (a pivot below ``pivot`` of its diagonal, default :data:`.sparse.SINGULAR_PIVOT`: a
+    singular position) the regularised solve of :func:`.sparse.solve_regularised` (relative
+    shift ``shift``) is used instead -- bounded, minimum-norm-like multipliers, and
+    accelerations continuous through the singular position, decided by compiled arithmetic that
+    is the same on every processor. False if S has no positive definite shift either."""
+    assemble_schur(M, R, P, use_mass, rows_only)
     ratio = spc.numeric_ratio(P[11], P[7], P[8], P[9])
-    if ratio > spc.SINGULAR_PIVOT:
+    if ratio > pivot:
         spc.solve(P[11], P[8], b, P[10])
         return True
-    return spc.solve_regularised(P[11], P[7], P[8], P[9], P[10], b)
+    return spc.solve_regularised(P[11], P[7], P[8], P[9], P[10], b, shift)
 
 
 @njit(inline="always")
@@ -329,9 +331,11 @@ def baumgarte_rhs(R, gamma, phi, nu, v, mode, alpha, beta, rg):
 
 
 @njit(inline="always")
-def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot):
-    """lam = S^-1 (rg - D M^-1 g) over the kept rows (12.5) and vdot (12.4); False if S is
-    singular (bs then holds the right-hand side and Cx the values of S for a fallback).
+def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot, pivot=spc.SINGULAR_PIVOT,
+                      shift=spc.TIKHONOV_SHIFT):
+    """lam = S^-1 (rg - D M^-1 g) over the kept rows (12.5) and vdot (12.4), regularised below
+    the pivot ratio ``pivot`` (:func:`schur_factor_solve`); False if S is singular (bs then
+    holds the right-hand side and Cx the values of S for a fallback).
 
     rg, lam: over all rows of R (co.rg_all, co.lam_all): with armatures, the rows B v' +
     mu / J = gamma_B follow the constraint rows and vdot = M^-1 (g + D^T lam + B^T mu)."""
@@ -341,7 +345,7 @@ def solve_multipliers(M, R, P, g, rg, lam, bs, t6, u6, vdot):
         minv_all(M, g, u6)
         for k in range(keep.size):
             bs[k] = rg[keep[k]] - row_times(R, keep[k], u6)
-        if not schur_factor_solve(M, R, P, True, bs):
+        if not schur_factor_solve(M, R, P, True, bs, pivot, shift):
             return False
         for k in range(keep.size):
             lam[keep[k]] = bs[k]
@@ -381,7 +385,7 @@ def _write_ydot(bo, co, fo, ydot):
 OK, SINGULAR, NOT_FINITE, NOT_CONVERGED = 0, -1, -2, -3
 
 #: the parameter array ``mp`` of the standard / Baumgarte right-hand side
-MP_STANDARD = ("normalize", "mode", "alpha", "beta")
+MP_STANDARD = ("normalize", "mode", "alpha", "beta", "singular_pivot", "tikhonov_shift")
 
 
 #: the parameter array ``mp`` of the penalty / augmented Lagrangian right-hand side

@@ -33,7 +33,8 @@ from .penalty import _PenaltyBase
 #: one lowers the round-off floor alpha |D^T c| eps when M + alpha D^T D is badly conditioned
 #: (bodies with large mass ratios), where a larger alpha never converges.
 ESCALATION = ((10.0, 4), (0.01, 4), (1e-4, 16))
-#: rows with a pivot below this fraction of the largest count as nearly dependent at an instant
+#: rows whose relative distance to the span of the rows before them is below this count as
+#: nearly dependent at an instant
 NEAR_DEPENDENT = 1e-3
 ALPHA_RANGE = (1e2, 1e11)
 
@@ -81,9 +82,9 @@ class AugmentedLagrangian(_PenaltyBase):
     def status(self, code, system, t, y, ydot, W=None):
         """On non-convergence, adapt before failing.
 
-        1. Near a singular position D has rows that are nearly dependent *here* (a singular
-           value below :data:`NEAR_DEPENDENT` x the largest): (12.17) barely contracts along
-           them. The instant is redone with those rows left out as well (for this instant
+        1. Near a singular position D has rows that are nearly dependent *here* (relative
+           distance to the rows before them below :data:`NEAR_DEPENDENT`): (12.17) barely
+           contracts along them. The instant is redone with those rows left out as well (for this instant
            only; the reactions are then carried by the others).
         2. Otherwise the settings of :data:`ESCALATION` (relative to the method's own) are
            tried in turn; the first that converges is kept for the rest of the run
@@ -125,10 +126,12 @@ class AugmentedLagrangian(_PenaltyBase):
         raise self._not_converged(t, tried)
 
     def _nearly_dependent_rows(self, system, t, y):
-        """Rows of D(q) (q from y) that pivoted QR of D^T finds (nearly) dependent on the
-        others here, besides the redundant ones: [] when none."""
-        import scipy.linalg as la
+        """Rows of D(q) (q from y) (nearly) dependent on the rows before them here (relative
+        distance to their span below :data:`NEAR_DEPENDENT`, the project's one rank decision
+        :func:`spatialmbd.rank.row_rank`, in the model's row order -- the same rows on every
+        machine), besides the redundant ones: [] when none."""
         from ..kinematics import _dense
+        from ..rank import row_rank
         from ..state import normalize_q
         model = system.model
         nb = model.nb
@@ -137,12 +140,7 @@ class AugmentedLagrangian(_PenaltyBase):
         keep = np.setdiff1d(np.arange(D.shape[0]), np.asarray(self._drop or [], dtype=int))
         if keep.size == 0:
             return []
-        _, R, piv = la.qr(D[keep].T, pivoting=True, mode="economic")
-        d = np.abs(np.diag(R))
-        if d.size == 0 or d[0] == 0.0:
-            return []
-        rank = int(np.sum(d > NEAR_DEPENDENT * d[0]))
-        return [int(keep[p]) for p in piv[rank:]]
+        return [int(keep[p]) for p in row_rank(D[keep], NEAR_DEPENDENT).dependent]
 
     def _not_converged(self, t, tried=()):
         extra = f" (nor with {', '.join(tried)})" if tried else ""

@@ -102,10 +102,14 @@ def _output_row(t, Y, Yd, Lam, row, y, F, I, W, mp, nb, lam_off, ydot):
         Lam[row, j] = W[lam_off + j]
 
 
-def projection_params(meth) -> np.ndarray:
-    """pp of :func:`project_state` for a method: [projects, tolerance, max_iterations]."""
-    return np.array([1.0 if meth.projects else 0.0, float(getattr(meth, "tolerance", 0.0)),
-                     float(getattr(meth, "max_iterations", 0))])
+def projection_params(meth, tolerance=None) -> np.ndarray:
+    """pp of :func:`project_state` for a method: [projects, tolerance, max_iterations,
+    mass metric] (tolerance: the run's, :meth:`.projection.Projection.tolerance_for`; default
+    the method's)."""
+    tol = getattr(meth, "tolerance", 0.0) if tolerance is None else tolerance
+    return np.array([1.0 if meth.projects else 0.0, float(tol),
+                     float(getattr(meth, "max_iterations", 0)),
+                     1.0 if getattr(meth, "metric", "mass") == "mass" else 0.0])
 
 
 @njit
@@ -118,7 +122,7 @@ def project_state(t, y, F, I, W, pp, nb, dx):
         return True
     for i in range(dx.size):
         dx[i] = 0.0
-    return project(t, y, F, I, W, pp[1], int(pp[2]), dx) >= 0
+    return project(t, y, F, I, W, pp[1], int(pp[2]), dx, pp[3] != 0.0) >= 0
 
 
 @njit

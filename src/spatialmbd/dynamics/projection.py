@@ -1,11 +1,14 @@
 """Coordinate projection (beyond the text, as its own remarks call for): the standard method
 for the accelerations, and after every accepted step the positions and velocities are projected
-back onto Phi = 0 and D v = nu with the corrections of chapter 14 (14.12, 14.19). No gains to
-choose -- the text notes there is no reliable rule for Baumgarte's.
+back onto Phi = 0 and D v = nu with the corrections of chapter 14 (14.12, 14.19), by default in
+the metric of the mass matrix (dx = -M^-1 D^T (D M^-1 D^T)^-1 Phi; metric="euclidean" for the
+text's -D^T (D D^T)^-1 Phi): the corrections then return exactly the constraint impulse a
+regularised solve withheld at a singular position (docs/choosing.md). No gains to choose --
+the text notes there is no reliable rule for Baumgarte's.
 
 The projection runs compiled (:func:`project`) on the same sparse Cholesky machinery as
-the multipliers (D D^T instead of D M^-1 D^T); if D D^T is singular at some instant the
-least-squares corrections of :mod:`.correction` are used for that instant.
+the multipliers; if that matrix is singular at some instant the least-squares (Euclidean)
+corrections of :mod:`.correction` are used for that instant.
 """
 from __future__ import annotations
 
@@ -14,10 +17,16 @@ from typing import Optional
 import numpy as np
 
 from ..errors import ConvergenceError
+from . import sparse as spc
 from .base import check_positive, register
 from .correction import _correct_positions_lstsq, _correct_velocities_lstsq
 from .projection_kernels import project
 from .standard import Standard
+
+
+#: the metrics of the corrections: "mass" (dx = -M^-1 D^T (D M^-1 D^T)^-1 Phi, the default) or
+#: "euclidean" (the text's dx = -D^T (D D^T)^-1 Phi, 14.12 and 14.19)
+METRICS = ("mass", "euclidean")
 
 
 @register
@@ -25,10 +34,32 @@ class Projection(Standard):
     name = "projection"
     projects = True
 
-    def __init__(self, tolerance: float = 1e-10, max_iterations: int = 10, solver: str = "schur"):
+    #: the wide window (docs/choosing.md): the projection returns the withheld impulse
+    regularisation = (spc.SINGULAR_PIVOT, spc.TIKHONOV_SHIFT)
+
+    def __init__(self, tolerance: float = 1e-10, max_iterations: int = 10, solver: str = "schur",
+                 metric: str = "mass"):
         super().__init__(solver)
+        if metric not in METRICS:
+            raise ValueError(f"projection method: unknown metric {metric!r}; valid: {METRICS}")
+        self.metric = metric
         self.tolerance = check_positive("projection tolerance", tolerance)
         self.max_iterations = int(check_positive("projection max_iterations", max_iterations))
+
+    def tolerance_for(self, integrator, q) -> float:
+        """The tolerance on max |Phi| of a run with ``integrator``: the method's, but never
+        coarser than the integrator's absolute tolerance (down to a round-off floor of the
+        positions' size, 64 eps max(1, |r|)). The projection must not leave more error than the
+        step control allows: near a singular position a residual eps of Phi hides a position
+        error of eps / sigma along the near-dependent direction (sigma the small singular value
+        of D), which the accelerations then amplify -- a loose projection at a tight rtol made
+        the steps crawl there (docs/choosing.md)."""
+        atol = getattr(integrator, "atol", None)
+        if atol is None:
+            return self.tolerance
+        q = np.asarray(q, dtype=float).reshape(-1, 7)
+        floor = 64.0 * np.finfo(float).eps * max(1.0, float(np.abs(q[:, :3]).max(initial=0.0)))
+        return min(self.tolerance, max(float(np.min(atol)), floor))
 
     def project_y(self, system, t, y, tolerance: Optional[float] = None) -> np.ndarray:
         """y (a copy) with q and v projected; raises ConvergenceError if Newton fails.
@@ -40,7 +71,7 @@ class Projection(Standard):
         it = -1
         if not system.python_groups:
             it = project(t, y, system.F, system.I, system.W, tol,
-                            self.max_iterations, np.zeros(6 * system.nb))
+                         self.max_iterations, np.zeros(6 * system.nb), self.metric == "mass")
         if it == -1 or it == -2:
             # D D^T singular here, or Newton on it stalled (D nearly rank deficient: a singular
             # position, where the iteration converges only linearly): least squares (SVD),
@@ -81,4 +112,4 @@ class Projection(Standard):
 
     def parameters(self):
         return {"tolerance": self.tolerance, "max_iterations": self.max_iterations,
-                "solver": self.solver}
+                "solver": self.solver, "metric": self.metric}

@@ -308,20 +308,29 @@ def multiply(sym, Cx, b, out):
 
 #: a pivot of the Cholesky factorisation at most this fraction of its diagonal entry marks the
 #: matrix as (nearly) singular: a singular position, where the multipliers are no longer unique
-#: but the accelerations are; the solve is then regularised (:func:`solve_regularised`)
-SINGULAR_PIVOT = 1e-8
+#: but the accelerations are; the solve is then regularised (:func:`solve_regularised`). Two
+#: windows (docs/choosing.md): the projection method's, wide, with the shift TIKHONOV_SHIFT --
+#: the right-hand side near a singular position amplifies the states' error by one over the
+#: small singular value of D, and the projection returns the impulse the regularised solve
+#: withholds --, and the narrow one of the methods that cannot return it (standard, Baumgarte),
+#: where every withheld impulse stays in the velocities as drift
+SINGULAR_PIVOT = 1e-6
 #: the relative diagonal shift of that regularisation
-TIKHONOV_SHIFT = 1e-12
+TIKHONOV_SHIFT = 1e-10
+#: the narrow window and its shift (standard and Baumgarte methods)
+SINGULAR_PIVOT_NARROW = 1e-8
+TIKHONOV_SHIFT_NARROW = 1e-12
 #: its iterations (iterated Tikhonov): the bias in a direction of relative eigenvalue s is
-#: (shift / (s + shift))^TIKHONOV_ITERATIONS
+#: (shift / (s + shift))^TIKHONOV_ITERATIONS; at the switch (s = pivot) it is (1e-4)^3 = 1e-12
+#: in both windows, so the switch is seamless
 TIKHONOV_ITERATIONS = 3
 
 
 @njit
-def solve_regularised(sym, Cx, Lx, x, y, b):
+def solve_regularised(sym, Cx, Lx, x, y, b, shift=TIKHONOV_SHIFT):
     """b <- the iterated Tikhonov solution of A lam = b, A = P^T C P (values Cx), for a nearly
     singular A: lam_0 = 0, lam_{i+1} = lam_i + (A + mu diag(A))^-1 (b - A lam_i), i <
-    TIKHONOV_ITERATIONS, mu = TIKHONOV_SHIFT.
+    TIKHONOV_ITERATIONS, mu = shift (default TIKHONOV_SHIFT).
 
     In the eigendirections of A with relative eigenvalue s >> mu this is the exact solution to a
     relative (mu / s)^2; in those with s << mu (the near-dependent rows of a singular position)
@@ -330,7 +339,7 @@ def solve_regularised(sym, Cx, Lx, x, y, b):
     them bounded and continuous through the singular position. Returns False if the shifted
     matrix is not positive definite either (a NaN, a negative diagonal)."""
     n = b.size
-    if factor_shifted(sym, Cx, Lx, x, 0.0, x[:0], TIKHONOV_SHIFT)[0] != 0:
+    if factor_shifted(sym, Cx, Lx, x, 0.0, x[:0], shift)[0] != 0:
         return False
     lam = np.zeros(n)
     r = b.copy()

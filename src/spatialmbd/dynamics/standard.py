@@ -19,6 +19,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SingularMatrixError
+from . import sparse as spc
 from . import system as cs
 from .base import Method, MethodOutput, register
 
@@ -149,10 +150,17 @@ class Standard(Method):
         """(alpha, beta) of the compiled right-hand side gamma - 2 alpha Phidot - beta^2 Phi."""
         return 0.0, 0.0
 
+    #: the regularisation window of the multiplier solve at singular positions (pivot ratio,
+    #: relative shift; :mod:`.sparse`): narrow here, since nothing returns the impulse a
+    #: regularised solve withholds; the projection method widens it
+    regularisation = (spc.SINGULAR_PIVOT_NARROW, spc.TIKHONOV_SHIFT_NARROW)
+
     def params(self) -> np.ndarray:
-        """mp of the compiled solve: normalize, mode, alpha, beta (:data:`.system.MP_STANDARD`)."""
+        """mp of the compiled solve: normalize, mode, alpha, beta, singular pivot, Tikhonov
+        shift (:data:`.system.MP_STANDARD`)."""
         alpha, beta = self.gains()
-        return np.array([1.0, float(self.mode), alpha, beta])
+        pivot, shift = self.regularisation
+        return np.array([1.0, float(self.mode), alpha, beta, pivot, shift])
 
     def rhs_gamma(self, ev):
         """The right-hand side of D vdot = ... (gamma; Baumgarte: (12.8)), from the compiled
@@ -250,7 +258,7 @@ def _after_standard(y, ydot, bo, co, sc, fo, mp):
     R = _R(co)
     baumgarte_rhs(R, co.gamma, co.phi, co.nu, bo.v, int(mp[1]), mp[2], mp[3], co.rg)
     if not solve_multipliers(_M(bo), R, _P(sc), bo.g, co.rg_all, co.lam_all, sc.bs, bo.t6,
-                             bo.u6, bo.vdot):
+                             bo.u6, bo.vdot, mp[4], mp[5]):
         return SINGULAR
     _write_ydot(bo, co, fo, ydot)
     return OK if finite(ydot) else NOT_FINITE

@@ -147,7 +147,8 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     F, I, W, mp = system.F, system.I, system.W, meth._mp
     nb, m = system.nb, system.model.n_eq
     lam_off = system._layout["lam"][0]
-    pp = fz.projection_params(meth)
+    pp = fz.projection_params(meth, meth.tolerance_for(integ, y0[:7 * nb])
+                              if hasattr(meth, "tolerance_for") else None)
     y = np.array(y0, dtype=float)
     nt, n = t_out.size, y.size
     streaming = emit is not None and chunk > 0

@@ -179,6 +179,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
     tight = getattr(integ, "multistep", False) and meth.projects \
         and hasattr(meth, "project_y")
     atol_min = float(np.min(getattr(integ, "atol", 1e-9))) if tight else 0.0
+    ptol = meth.tolerance_for(integ, q) if hasattr(meth, "tolerance_for") else None
 
     def project(t, y):
         y = y.copy()
@@ -189,7 +190,7 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
             y = meth.project_y(eom.system, t, y, min(meth.tolerance, max(1e-3 * atol_min,
                                                                           floor)))
         elif meth.projects and hasattr(meth, "project_y"):
-            y = meth.project_y(eom.system, t, y)
+            y = meth.project_y(eom.system, t, y, ptol)
         elif meth.projects:
             qq, vv = meth.project(eom, t, y[:n_q].reshape(nb, 7), y[n_q:n_q + n_v])
             y[n_q:n_q + n_v] = vv
