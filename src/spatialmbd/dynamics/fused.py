@@ -45,7 +45,7 @@ from ..integrators.controller import landing_steps, landing_time
 from ..jit import njit
 from . import system as cs
 from .projection_kernels import project
-from .standard import rhs_standard
+from .standard import rhs_standard, stages_standard
 
 __all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "STATUS_TEXT", "BodyProblem", "dopri_steps", "rk4_outputs",
@@ -99,19 +99,25 @@ BodyProblem = namedtuple("BodyProblem", ["F", "I", "W", "mp", "pp", "nb", "Y", "
                                          "lam_off", "ydot", "dx"])
 
 
-@njit
+@njit(inline="always")
 def _body_rhs(p, t, y, out):
     return rhs_standard(t, y, out, p.F, p.I, p.W, p.mp) >= 0
 
 
-@njit
+@njit(inline="always")
+def _body_stages(p, t, y, hs, tableau, nodes, K, s0, s1, out, t_last):
+    return stages_standard(t, y, hs, tableau, nodes, K, s0, s1, out, t_last, p.F, p.I, p.W,
+                           p.mp)
+
+
+@njit(inline="always")
 def _body_project(p, t, y):
     if not project_state(t, y, p.F, p.I, p.W, p.pp, p.nb, p.dx):
         return -1
     return CORRECTS_DENSE | (NEW_DERIVATIVE if p.pp[0] != 0.0 else 0)
 
 
-@njit
+@njit(inline="always")
 def _body_output(p, t, row, y, interpolated):
     if interpolated and not project_state(t, y, p.F, p.I, p.W, p.pp, p.nb, p.dx):
         return False
@@ -119,7 +125,7 @@ def _body_output(p, t, row, y, interpolated):
     return True
 
 
-register_problem(BodyProblem, _body_rhs, _body_project, _body_output)
+register_problem(BodyProblem, _body_rhs, _body_stages, _body_project, _body_output)
 
 
 @njit

@@ -50,6 +50,7 @@ import numpy as np
 from ..errors import ModelError
 from ..integrators.adaptive_driver import (OK, RHS_FAILED, STATUS_TEXT, UNDERFLOW,  # noqa: F401
                                            register_problem, rk_steps)
+from ..integrators.explicit import rk_combine
 from ..jit import njit
 from .layout import body_views
 
@@ -69,12 +70,23 @@ __all__ = ["JointTree", "JOINT_KINDS", "Recursive", "joint_kinematics", "rhs_joi
 JointProblem = namedtuple("JointProblem", ["T", "F", "I", "W", "yb", "X", "quats"])
 
 
-@njit
+@njit(inline="always")
 def _joint_rhs(p, t, x, out):
     return rhs_joint(t, x, out, p.yb, p.T, p.F, p.I, p.W)
 
 
-@njit
+@njit                      # (not inlined: Numba's inliner loses a variable of its loop)
+def _joint_stages(p, t, x, hs, tableau, nodes, K, s0, s1, out, t_last):
+    yb, T, F, I, W = p.yb, p.T, p.F, p.I, p.W
+    for s in range(s0, s1):
+        rk_combine(x, hs, tableau, K, s, out)
+        if not rhs_joint(t_last if s == s1 - 1 else t + nodes[s] * hs, out, K[s], yb, T, F, I,
+                         W):
+            return s
+    return s1
+
+
+@njit(inline="always")
 def _joint_project(p, t, x):
     """Euler parameters back to unit length (the right-hand side uses p / |p|, so the
     derivative stays and the dense output is not corrected: flags 0)."""
@@ -86,14 +98,14 @@ def _joint_project(p, t, x):
     return 0
 
 
-@njit
+@njit(inline="always")
 def _joint_output(p, t, row, x, interpolated):
     for i in range(x.size):
         p.X[row, i] = x[i]
     return True
 
 
-register_problem(JointProblem, _joint_rhs, _joint_project, _joint_output)
+register_problem(JointProblem, _joint_rhs, _joint_stages, _joint_project, _joint_output)
 
 
 @njit

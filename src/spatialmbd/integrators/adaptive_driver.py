@@ -7,10 +7,16 @@ rules of :mod:`.controller` (Hairer's starting step, the PI controller, the reje
 exactly the arithmetic of the Python path (:class:`.runge_kutta_adaptive.DormandPrinceStepper`
 with :class:`.controllers.PIController`, which call the same compiled rules). What it
 integrates is a *problem*: a named tuple of the arrays its hooks need, whose type was
-registered with :func:`register_problem` together with three compiled hooks (the compiled
+registered with :func:`register_problem` together with four compiled hooks (the compiled
 counterpart of :class:`.base.ODEProblem`):
 
 * ``rhs(problem, t, y, out) -> bool``: out = f(t, y); False when the right-hand side failed;
+* ``stages(problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last) -> int``: the stages
+  s0 .. s1-1 of a step, out = y + hs sum_j tableau[s, j] K[j], K[s] = f(t + nodes[s] hs, out)
+  (t_last for the last one), as ``ODEProblem.stages``: the first stage not completed (s1 when
+  all were). One hook call per step instead of one per stage: a call that takes the problem
+  costs the reference counts of its arrays, which per stage was measurable (the hooks are
+  inlined into the driver for the same reason);
 * ``project(problem, t, y) -> int``: the accepted state y mapped in place onto its manifold;
   -1 if that failed, else flags: :data:`CORRECTS_DENSE` (the dense output of the step gets the
   linear correction theta (y_proj - y_raw), as :mod:`.driver` does) and
@@ -39,12 +45,12 @@ import numpy as np
 from ..jit import ENABLED, njit
 from .controller import (end_step, min_step_size, pi_factor, rejected_factor,
                          start_first_guess, start_step)
-from .explicit import rk_combine
 from .pairs import DP8, pair_dense, pair_error, pair_interpolate, pair_stages
 
 __all__ = ["OK", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "NEED_ROOM", "STATUS_TEXT", "CORRECTS_DENSE", "NEW_DERIVATIVE",
-           "register_problem", "problem_rhs", "problem_project", "problem_output", "rk_start",
+           "register_problem", "problem_rhs", "problem_stages", "problem_project",
+           "problem_output", "rk_start",
            "rk_steps", "finite"]
 
 #: status codes (OK, or why a run stopped)
@@ -73,20 +79,25 @@ def problem_rhs(problem, t, y, out):
     return _HOOKS[type(problem)][0](problem, t, y, out)
 
 
+def problem_stages(problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last):
+    """The stages s0 .. s1-1 of a step; the first one not completed (s1: all were)."""
+    return _HOOKS[type(problem)][1](problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last)
+
+
 def problem_project(problem, t, y):
     """The accepted state projected in place; -1 (failed) or the flags."""
-    return _HOOKS[type(problem)][1](problem, t, y)
+    return _HOOKS[type(problem)][2](problem, t, y)
 
 
 def problem_output(problem, t, row, y, interpolated):
     """The output at t recorded into row ``row``; False when that failed."""
-    return _HOOKS[type(problem)][2](problem, t, row, y, interpolated)
+    return _HOOKS[type(problem)][3](problem, t, row, y, interpolated)
 
 
-def register_problem(cls, rhs, project, output) -> None:
+def register_problem(cls, rhs, stages, project, output) -> None:
     """Make the named-tuple class ``cls`` a problem of :func:`rk_steps`, with its compiled
     hooks (module docstring)."""
-    _HOOKS[cls] = (rhs, project, output)
+    _HOOKS[cls] = (rhs, stages, project, output)
     if not ENABLED:
         return
     from numba.core import types
@@ -95,17 +106,23 @@ def register_problem(cls, rhs, project, output) -> None:
     def mine(problem):
         return isinstance(problem, types.BaseNamedTuple) and problem.instance_class is cls
 
-    @overload(problem_rhs)
+    @overload(problem_rhs, inline="always")
     def _rhs(problem, t, y, out):
         if mine(problem):
             return lambda problem, t, y, out: rhs(problem, t, y, out)
 
-    @overload(problem_project)
+    @overload(problem_stages, inline="always")
+    def _stages(problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last):
+        if mine(problem):
+            return (lambda problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last:
+                    stages(problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last))
+
+    @overload(problem_project, inline="always")
     def _project(problem, t, y):
         if mine(problem):
             return lambda problem, t, y: project(problem, t, y)
 
-    @overload(problem_output)
+    @overload(problem_output, inline="always")
     def _output(problem, t, row, y, interpolated):
         if mine(problem):
             return lambda problem, t, row, y, interpolated: output(problem, t, row, y,
@@ -120,17 +137,6 @@ def finite(y):
     for i in range(y.size):
         s += y[i] * y[i]
     return math.isfinite(s)
-
-
-@njit
-def _stages(problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last):
-    """Stages s0 .. s1-1: out = y + hs sum_j tableau[s, j] K[j], K[s] = f(t + nodes[s] hs,
-    out) (t_last for the last one; its out stays). False if one failed."""
-    for s in range(s0, s1):
-        rk_combine(y, hs, tableau, K, s, out)
-        if not problem_rhs(problem, t_last if s == s1 - 1 else t + nodes[s] * hs, out, K[s]):
-            return False
-    return True
 
 
 @njit
@@ -219,9 +225,9 @@ def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, row
             if hs < h_min:
                 return UNDERFLOW, t, h, err_prev, k_out
             t_new = t_end if hs == t_end - t else t + hs
-            ok = _stages(problem, t, y, hs, tableau, nodes, K, 1, S, y_new, t_new)
+            done = problem_stages(problem, t, y, hs, tableau, nodes, K, 1, S, y_new, t_new)
             counters[0] += S - 1
-            err = pair_error(kind, y, y_new, K, hs, atol_v, rtol) if ok else math.inf
+            err = pair_error(kind, y, y_new, K, hs, atol_v, rtol) if done == S else math.inf
             if err <= 1.0:
                 break
             counters[2] += 1
@@ -251,8 +257,8 @@ def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, row
                 changed = changed or delta[i] != 0.0
         if k_out < nt and t_out[k_out] < t_new:      # an output inside: the dense output
             if kind == DP8:                          # its extra stages
-                if not _stages(problem, t, y, hs, tableau, nodes, K, S, S + 3, yo,
-                               t + nodes[S + 2] * hs):
+                if problem_stages(problem, t, y, hs, tableau, nodes, K, S, S + 3, yo,
+                                  t + nodes[S + 2] * hs) < S + 3:
                     return RHS_FAILED, t, h, err_prev, k_out
                 counters[0] += 3
             pair_dense(kind, y, y_raw, K, hs, coef)
