@@ -117,7 +117,7 @@ def _body_project(p, t, y):
     return CORRECTS_DENSE | (NEW_DERIVATIVE if p.pp[0] != 0.0 else 0)
 
 
-@njit(inline="always")
+@njit                      # (not inlined: Numba's inliner loses a variable of its branch)
 def _body_output(p, t, row, y, interpolated):
     if interpolated and not project_state(t, y, p.F, p.I, p.W, p.pp, p.nb, p.dx):
         return False
