@@ -10,8 +10,8 @@ import pytest
 from spatialmbd import ModelBuilder, models
 from spatialmbd.dynamics import get_method
 from spatialmbd.dynamics.eom import EquationsOfMotion
-from spatialmbd.dynamics.recursive import (JointTree, joint_kinematics, joint_right_hand_side,
-                                           rhs_joint)
+from spatialmbd.dynamics.recursive import (JointTree, body_rows, joint_kinematics,
+                                           joint_right_hand_side, rhs_joint)
 from spatialmbd.errors import ModelError
 from spatialmbd.simulate import simulate
 
@@ -128,6 +128,27 @@ def test_dop853_runs_agree_with_the_projection_method_and_keep_max_step(name):
     short = simulate(model, method="recursive", integrator="dop853",
                      integrator_options=dict(max_step=0.01), **kw)
     assert short.counters["steps"] >= 50
+
+
+@pytest.mark.parametrize("integrator", ["rk45", "dop853"])
+def test_joint_coordinates_take_the_python_drivers_steps(integrator):
+    """The joint coordinates through the one compiled driver take the steps of the Python
+    driver (its stepper, PIController and starting step) on the same right-hand side: a
+    revolute chain has no Euler parameters to renormalise, so both integrate the same ODE."""
+    from spatialmbd.integrators import ODEProblem, get_integrator
+    model = models.chain(3, "revolute").compile()
+    kw = dict(rtol=1e-9, atol=1e-11)
+    t_eval = np.linspace(0.0, 1.0, 21)
+    a = simulate(model, 1.0, method="recursive", integrator=integrator, output_step=0.05, **kw)
+    f, x0 = joint_right_hand_side(model)
+    b = get_integrator(integrator, **kw).integrate(ODEProblem(f), 0.0, x0, t_eval)
+    assert a.status == "success" and b.success
+    for key in ("nfev", "steps", "rejected"):
+        assert a.counters[key] == getattr(b.counters, key), key
+    tree = JointTree(model, model.q0, model.v0)
+    y = np.empty((t_eval.size, 13 * model.nb + 1))
+    body_rows(np.asarray(b.y), tree.arrays(), model.nb, tree.nq, y)
+    assert np.abs(a.q.reshape(t_eval.size, -1) - y[:, :7 * model.nb]).max() <= 1e-12
 
 
 def test_driver_error_follows_the_tolerance():

@@ -43,16 +43,15 @@ The state is x = [z (nj), zdot (nj), W] (W: the work of the non-conservative for
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from ..errors import ModelError
-from ..integrators.controller import (end_step, min_step_size, pi_factor, rejected_factor,
-                                      start_first_guess, start_step)
-from ..integrators.pairs import (DP8, pair_dense, pair_error, pair_interpolate,
-                                 pair_stages)
+from ..integrators.adaptive_driver import (OK, RHS_FAILED, STATUS_TEXT, UNDERFLOW,  # noqa: F401
+                                           register_problem, rk_steps)
+from ..integrators.explicit import rk_combine
 from ..jit import njit
-from .fused import OK, RHS_FAILED, UNDERFLOW, _rms
 from .layout import body_views
 
 from .joint_tree import (FREE, JOINT_KINDS, REVOLUTE, SIZES_Q, SIZES_V, SPHERICAL,  # noqa: F401
@@ -65,26 +64,48 @@ __all__ = ["JointTree", "JOINT_KINDS", "Recursive", "joint_kinematics", "rhs_joi
 
 
 # ----------------------------------------------------------------------------- the driver
-# dopri_joint shares the status codes (OK, RHS_FAILED, UNDERFLOW), the embedded pairs
-# (..integrators.pairs: rk45 and dop853 with their default controllers) and the weighted norm
-# of the compiled drivers of .fused
+#: the joint state x = [z, zdot, W] as a problem of the compiled driver: the tree (T), the
+#: model's packs (F, I, W), the body-state work row yb (13 nb + 1), the outputs X (nt, nx) and
+#: the offsets of the Euler parameters in x (quats)
+JointProblem = namedtuple("JointProblem", ["T", "F", "I", "W", "yb", "X", "quats"])
 
 
-@njit
-def _joint_stages(t, x, hs, tableau, nodes, K, s0, s1, tmp, t_last, yb, T, F, I, W):
-    """Stages s0 .. s1-1 of the joint state: tmp = x + hs sum_j tableau[s, j] K[j],
-    K[s] = f(t + nodes[s] hs, tmp) (t_last for the last). False if one failed."""
-    n = x.size
+@njit(inline="always")
+def _joint_rhs(p, t, x, out):
+    return rhs_joint(t, x, out, p.yb, p.T, p.F, p.I, p.W)
+
+
+@njit                      # (not inlined: Numba's inliner loses a variable of its loop)
+def _joint_stages(p, t, x, hs, tableau, nodes, K, s0, s1, out, t_last):
+    yb, T, F, I, W = p.yb, p.T, p.F, p.I, p.W
     for s in range(s0, s1):
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += tableau[s, j] * K[j, i]
-            tmp[i] = x[i] + hs * acc
-        ts = t_last if s == s1 - 1 else t + nodes[s] * hs
-        if not rhs_joint(ts, tmp, K[s], yb, T, F, I, W):
-            return False
+        rk_combine(x, hs, tableau, K, s, out)
+        if not rhs_joint(t_last if s == s1 - 1 else t + nodes[s] * hs, out, K[s], yb, T, F, I,
+                         W):
+            return s
+    return s1
+
+
+@njit(inline="always")
+def _joint_project(p, t, x):
+    """Euler parameters back to unit length (the right-hand side uses p / |p|, so the
+    derivative stays and the dense output is not corrected: flags 0)."""
+    for q in range(p.quats.size):
+        o = p.quats[q]
+        nrm = math.sqrt(x[o] ** 2 + x[o + 1] ** 2 + x[o + 2] ** 2 + x[o + 3] ** 2)
+        for i in range(4):
+            x[o + i] /= nrm
+    return 0
+
+
+@njit(inline="always")
+def _joint_output(p, t, row, x, interpolated):
+    for i in range(x.size):
+        p.X[row, i] = x[i]
     return True
+
+
+register_problem(JointProblem, _joint_rhs, _joint_stages, _joint_project, _joint_output)
 
 
 @njit
@@ -93,112 +114,14 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, pair, t0, t_out, k_out, rtol,
     """Up to ``max_steps`` accepted steps of the Dormand-Prince pair ``pair`` (rk45 or
     dop853 with its default controller) of the joint state x from t (FSAL derivative K0,
     proposed step h; h = 0 starts the run: output at t, K0 and Hairer's starting step), every
-    output time t_out[k_out:] reached written into X[k] (dense output). Returns
+    output time t_out[k_out:] reached written into X[k] (dense output):
+    :func:`..integrators.adaptive_driver.rk_steps` of a :class:`JointProblem`. Returns
     (status, t, h, err_prev, k_out); call again to continue. counters: (nfev, steps,
     rejected)."""
-    kind, tableau, nodes, ctrl = pair
-    k_inv, beta, safety, min_factor, max_factor = ctrl[0], ctrl[1], ctrl[2], ctrl[3], ctrl[4]
-    S = pair_stages(kind)
-    n = x.size
     nb = body_views(F, I, W).mass.size
-    yb = np.zeros(13 * nb + 1)
-    t_end = t_out[-1]
-    span = t_end - t0
-    nt = t_out.size
-    if h <= 0.0:
-        if k_out < nt and t_out[k_out] == t:
-            for i in range(n):
-                X[k_out, i] = x[i]
-            k_out += 1
-        if t >= t_end:
-            return OK, t, h, err_prev, k_out
-        if not rhs_joint(t, x, K0, yb, T, F, I, W):
-            return RHS_FAILED, t, h, err_prev, k_out
-        counters[0] += 1
-        scale = np.empty(n)
-        for i in range(n):
-            scale[i] = atol + abs(x[i]) * rtol
-        d0, d1 = _rms(x, scale), _rms(K0, scale)
-        h0 = start_first_guess(d0, d1, max_step, span)
-        x1 = np.empty(n)
-        f1 = np.empty(n)
-        for i in range(n):
-            x1[i] = x[i] + h0 * K0[i]
-        if not rhs_joint(t + h0, x1, f1, yb, T, F, I, W):
-            return RHS_FAILED, t, h, err_prev, k_out
-        counters[0] += 1
-        for i in range(n):
-            x1[i] = f1[i] - K0[i]
-        h = start_step(h0, d1, _rms(x1, scale) / h0, ctrl[5], max_step, span)
-    K = np.empty((tableau.shape[0], n))
-    for i in range(n):
-        K[0, i] = K0[i]
-    x_new = np.empty(n)
-    xo = np.empty(n)
-    tmp = np.empty(n)
-    atol_v = np.full(n, atol)
-    coef = np.empty((7, n))
-    empty = np.zeros(0)
-    alpha = k_inv - 0.75 * beta
-    after_reject = False
-    steps = 0
-    while t < t_end and steps < max_steps:
-        h_min = min_step_size(t, span, 0.0)
-        while True:
-            hs = end_step(t, h, t_end)
-            if hs < h_min:
-                return UNDERFLOW, t, h, err_prev, k_out
-            t_new = t_end if hs == t_end - t else t + hs
-            ok = _joint_stages(t, x, hs, tableau, nodes, K, 1, S, tmp, t_new, yb, T, F, I, W)
-            counters[0] += S - 1
-            if ok:
-                for i in range(n):
-                    x_new[i] = tmp[i]
-                err = pair_error(kind, x, x_new, K, hs, atol_v, rtol)
-            else:
-                err = math.inf
-            if err <= 1.0:
-                break
-            counters[2] += 1
-            h = hs * rejected_factor(err, k_inv, safety, min_factor)
-            after_reject = True
-        if k_out < nt and t_out[k_out] < t_new:      # an output inside: the dense output
-            if kind == DP8:
-                if not _joint_stages(t, x, hs, tableau, nodes, K, S, S + 3, tmp,
-                                     t + nodes[S + 2] * hs, yb, T, F, I, W):
-                    return RHS_FAILED, t, h, err_prev, k_out
-                counters[0] += 3
-            pair_dense(kind, x, x_new, K, hs, coef)
-        quats = tree_views(T).quats              # Euler parameters back to unit length
-        for q in range(quats.size):              # (the right-hand side uses p / |p|)
-            o = quats[q]
-            nrm = math.sqrt(x_new[o] ** 2 + x_new[o + 1] ** 2 + x_new[o + 2] ** 2
-                            + x_new[o + 3] ** 2)
-            for i in range(4):
-                x_new[o + i] /= nrm
-        fac, err_prev = pi_factor(err, err_prev, alpha, beta, safety, min_factor, max_factor,
-                                  after_reject)
-        after_reject = False
-        while k_out < nt and t_out[k_out] <= t_new:
-            to = t_out[k_out]
-            if to == t_new:
-                for i in range(n):
-                    X[k_out, i] = x_new[i]
-            else:
-                pair_interpolate(kind, x, hs, coef, (to - t) / hs, empty, xo)
-                for i in range(n):
-                    X[k_out, i] = xo[i]
-            k_out += 1
-        for i in range(n):
-            x[i] = x_new[i]
-            K[0, i] = K[S - 1, i]
-        t = t_new
-        h = min(hs * fac, max_step)
-        steps += 1
-        counters[1] += 1
-    for i in range(n):
-        K0[i] = K[0, i]
-    return OK, t, h, err_prev, k_out
+    problem = JointProblem(T, F, I, W, np.zeros(13 * nb + 1), X, tree_views(T).quats)
+    return rk_steps(problem, t, x, K0, h, err_prev, pair, t0, t_out, k_out, 0, X.shape[0],
+                    rtol, atol, max_step, max_steps, counters)
 
 
 # ----------------------------------------------------------------------------- the method

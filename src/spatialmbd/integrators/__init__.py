@@ -9,10 +9,11 @@ and the SciPy methods ``scipy-rk45``,
 Structure: every integrator is a stepper (its stepping formula, :class:`.driver.Stepper`) and an
 injected step-size controller (:mod:`.controllers`) run by the one loop :func:`.driver.run`,
 which owns output sampling, projection, counters, progress, events and partial results.
+Runs that need none of the Python loop's extras go through the one compiled adaptive driver
+:func:`.adaptive_driver.rk_steps` (the same pairs and step-size rules, compiled).
 """
 from .base import (INTEGRATORS, Counters, IntegrationResult, Integrator, ODEProblem,
                    check_finite, get_integrator, register)
-from .controller import StepController
 from .controllers import FixedStepController, IController, PIController
 from .driver import Event, EventRecord, Step, Stepper
 from .fixed_step import FixedStepIntegrator, ForwardEuler, Heun, RungeKutta4
@@ -25,7 +26,7 @@ from .scipy_ivp import (ScipyBDF, ScipyDOP853, ScipyIntegrator, ScipyLSODA, Scip
 
 __all__ = [
     "INTEGRATORS", "Counters", "IntegrationResult", "Integrator", "ODEProblem", "check_finite",
-    "get_integrator", "register", "StepController", "IController", "PIController",
+    "get_integrator", "register", "IController", "PIController",
     "FixedStepController", "Event", "EventRecord", "Step", "Stepper", "FixedStepIntegrator",
     "ForwardEuler",
     "Heun", "RungeKutta4", "AdamsBashforthMoulton4", "GearBDF4", "DormandPrince45",

@@ -2,12 +2,17 @@
 
 * option validation (:func:`positive`, :func:`validate_tolerances`, :func:`atol_vector`);
 * the weighted RMS error norm ||e|| = sqrt(mean((e_i / (atol_i + rtol |y_i|))^2)) (Hairer,
-  Norsett & Wanner, *Solving ODEs I*, Eq. II.4.11): a step is accepted when ||e|| <= 1;
-* the initial step-size selection of Hairer et al. (Sec. II.4, "starting step size");
-* :class:`StepController`: the standard (elementary) controller
-  h_new = h * safety * ||e||^(-1/k) and the PI controller of Gustafsson,
-  h_new = h * safety * ||e_n||^(-alpha) * ||e_(n-1)||^beta (Hairer & Wanner, Sec. IV.2), with
-  bounds on the change factor;
+  Norsett & Wanner, *Solving ODEs I*, Eq. II.4.11; of a step: each pair's compiled error
+  function): a step is accepted when ||e|| <= 1;
+* the initial step-size selection of Hairer et al. (Sec. II.4, "starting step size"): the
+  compiled rules :func:`start_first_guess` and :func:`start_step`, with the weighted norms and
+  the right-hand side's evaluation left to the caller (:func:`initial_step` for a Python
+  right-hand side);
+* the step-size rules, compiled and shared by every adaptive path (the controllers of
+  :mod:`.controllers` and the compiled driver :mod:`.adaptive_driver`): after a rejection
+  h_new = h safety ||e||^(-1/k) (:func:`rejected_factor`), after an accepted step Gustafsson's
+  PI controller h_new = h safety ||e_n||^(-alpha) ||e_(n-1)||^beta (Hairer & Wanner II,
+  Sec. IV.2; beta = 0: the elementary controller) (:func:`pi_factor`), both within bounds;
 * :func:`resample_matrix`: the Lagrange matrix that re-spaces the uniform history of a multistep
   method (derivatives for Adams, states for Gear/BDF) to a new step size, and
   :func:`lagrange_weights` for the dense output of the BDF history polynomial;
@@ -121,8 +126,8 @@ def newton_error(name: str, t: float, h: float, cause: str) -> SimulationError:
     return err
 
 
-# The rules below are shared by the Python driver and the compiled drivers of
-# ``dynamics.fused`` (compiled, callable from both), so both take the same steps.
+# The rules below are shared by the Python controllers (.controllers) and the compiled driver
+# (.adaptive_driver), compiled and callable from both, so both take the same steps.
 @njit(inline="always")
 def start_first_guess(d0: float, d1: float, max_step: float, span: float) -> float:
     """Hairer's first guess of the starting step, h0 = 0.01 d0 / d1 (1e-6 when either norm is
@@ -201,79 +206,21 @@ def landing_time(anchor: float, target: float, h: float, i: int) -> float:
 # ----------------------------------------------------------------------------- initial step
 def initial_step(rhs, t0: float, y0: np.ndarray, f0: np.ndarray, order: int, rtol: float,
                  atol: np.ndarray, max_step: float, span: float, counters) -> float:
-    """Starting step size by the algorithm of Hairer, Norsett & Wanner (Sec. II.4).
+    """Starting step size by the algorithm of Hairer, Norsett & Wanner (Sec. II.4): the
+    compiled rules :func:`start_first_guess` and :func:`start_step` (those of the compiled
+    driver, :func:`.adaptive_driver.rk_start`) on the weighted norms of y0, f0 and of the
+    difference of f at one more point, evaluated by the Python ``rhs``.
 
     order: order of the local error estimate (the error behaves like h^(order+1)).
     One extra right-hand-side evaluation (counted in ``counters.nfev``).
     """
     scale = atol + np.abs(y0) * rtol
-    d0 = rms_norm(y0 / scale)
     d1 = rms_norm(f0 / scale)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, max_step, abs(span))
-    y1 = y0 + h0 * f0
-    f1 = rhs(t0 + h0, y1)
+    h0 = start_first_guess(rms_norm(y0 / scale), d1, float(max_step), float(span))
+    f1 = rhs(t0 + h0, y0 + h0 * f0)
     counters.nfev += 1
     d2 = rms_norm((f1 - f0) / scale) / h0
-    if not math.isfinite(d2):
-        return h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
-    return min(100.0 * h0, h1, max_step, abs(span))
-
-
-# ----------------------------------------------------------------------------- controller
-class StepController:
-    """Step-size change factor from the error norm ||e|| (accept when ||e|| <= 1).
-
-    k: the local error estimate behaves like h^k (k = 5 for Dormand-Prince 5(4), ABM4 and BDF4).
-    kind: "standard": factor = safety ||e||^(-1/k);
-          "pi": factor = safety ||e||^(-alpha) ||e_prev||^beta, alpha = 1/k - 0.75 beta
-          (Gustafsson's PI controller as in Hairer's DOPRI5, beta = 0.04 by default).
-    The factor is clipped to [min_factor, max_factor]; after a rejection it is at most 1.
-    """
-
-    __slots__ = ("k_inv", "safety", "min_factor", "max_factor", "pi", "alpha", "beta",
-                 "err_prev")
-
-    def __init__(self, k: int, safety: float = 0.9, min_factor: float = 0.2,
-                 max_factor: float = 10.0, kind: str = "standard", beta: float = 0.04):
-        if kind not in ("standard", "pi"):
-            raise ValueError(f"option controller={kind!r} must be 'standard' or 'pi'")
-        if not 0.0 < safety < 1.0:
-            raise ValueError(f"option safety={safety!r} must lie in (0, 1)")
-        if not 0.0 < min_factor < 1.0:
-            raise ValueError(f"option min_factor={min_factor!r} must lie in (0, 1)")
-        if not max_factor > 1.0:
-            raise ValueError(f"option max_factor={max_factor!r} must be > 1")
-        self.k_inv = 1.0 / k
-        self.safety = safety
-        self.min_factor = min_factor
-        self.max_factor = max_factor
-        self.pi = kind == "pi"
-        self.beta = beta if self.pi else 0.0
-        self.alpha = self.k_inv - 0.75 * self.beta
-        self.err_prev = 1e-4
-
-    def accept(self, err: float, after_reject: bool) -> float:
-        """Factor for the next step after an accepted step with error norm err <= 1."""
-        if err == 0.0:
-            fac = self.max_factor
-        elif self.pi:
-            fac = self.safety * err ** (-self.alpha) * self.err_prev ** self.beta
-        else:
-            fac = self.safety * err ** (-self.k_inv)
-        self.err_prev = max(err, 1e-4)
-        fac = min(self.max_factor, max(self.min_factor, fac))
-        return min(fac, 1.0) if after_reject else fac
-
-    def reject(self, err: float) -> float:
-        """Factor (< 1) for retrying a rejected step (err > 1 or not finite)."""
-        if not math.isfinite(err):
-            return self.min_factor
-        return max(self.min_factor, min(0.9, self.safety * err ** (-self.k_inv)))
+    return start_step(h0, d1, d2, 1.0 / (order + 1), float(max_step), float(span))
 
 
 # ----------------------------------------------------------------------------- multistep history

@@ -2,7 +2,7 @@
 
 A controller only turns the error norm of an attempted step into the next step size; it knows
 nothing about the stepping formula (the stepper reports the error norm ||e|| in the weighted RMS
-norm of :func:`.controller.rms_norm`, accepted when ||e|| <= 1, and the exponent k with which
+norm (Hairer, Norsett & Wanner I, Eq. II.4.11), accepted when ||e|| <= 1, and the exponent k with which
 the local error behaves like h^k). The driver owns the rest (landing on t_end, max/min step,
 underflow, Newton failures). Controllers:
 
@@ -18,12 +18,13 @@ underflow, Newton failures). Controllers:
   fixed-step one-step methods: every output is a step point).
 
 Every controller has ``adaptive`` (whether the driver runs the error test) and ``reset()``.
+The factors themselves are the compiled rules of :mod:`.controller` (:func:`.controller.pi_factor`,
+:func:`.controller.rejected_factor`) that the compiled driver (:mod:`.adaptive_driver`) runs
+too: one controller, called from Python here.
 """
 from __future__ import annotations
 
-import math
-
-from .controller import positive
+from .controller import pi_factor, positive, rejected_factor
 
 
 class IController:
@@ -34,6 +35,8 @@ class IController:
 
     adaptive = True
     land_on_outputs = False
+    #: beta of the PI term (0: the elementary controller)
+    beta = 0.0
 
     def __init__(self, safety: float = 0.9, min_factor: float = 0.2, max_factor: float = 10.0,
                  deadband: float = 1.0):
@@ -54,29 +57,23 @@ class IController:
     def reset(self) -> None:
         self.err_prev = 1e-4
 
-    def _factor(self, err: float, k: int) -> float:
-        return self.safety * err ** (-1.0 / k)
-
     def accept(self, h: float, err: float, k: int, after_reject: bool, hold: bool = False) -> float:
         """Next step size after an accepted step of size h with error norm err <= 1.
 
         after_reject: the step followed a rejection (then h does not grow). hold: the stepper
         asks for a constant step (a multistep start-up); h may then only shrink.
         """
-        fac = self.max_factor if err == 0.0 else self._factor(err, k)
-        self.err_prev = max(err, 1e-4)
-        fac = min(self.max_factor, max(self.min_factor, fac))
-        if after_reject or hold:
-            fac = min(fac, 1.0)
+        alpha = 1.0 / k - 0.75 * self.beta
+        fac, self.err_prev = pi_factor(float(err), self.err_prev, alpha, self.beta, self.safety,
+                                       self.min_factor, self.max_factor,
+                                       bool(after_reject or hold))
         if self.deadband > 1.0 and fac < self.deadband:
             fac = 1.0
         return h * fac
 
     def reject(self, h: float, err: float, k: int) -> float:
         """Step size (< h) for retrying a step rejected with error norm err (> 1 or NaN)."""
-        if not math.isfinite(err):
-            return h * self.min_factor
-        return h * max(self.min_factor, min(0.9, self.safety * err ** (-1.0 / k)))
+        return h * rejected_factor(float(err), 1.0 / k, self.safety, self.min_factor)
 
     def failed(self, h: float) -> float:
         """Step size after a failure of the stepper's nonlinear solve (Newton): h / 2."""
@@ -90,10 +87,6 @@ class PIController(IController):
                  beta: float = 0.04, deadband: float = 1.0):
         self.beta = float(beta)
         super().__init__(safety, min_factor, max_factor, deadband)
-
-    def _factor(self, err: float, k: int) -> float:
-        alpha = 1.0 / k - 0.75 * self.beta
-        return self.safety * err ** (-alpha) * self.err_prev ** self.beta
 
 
 class FixedStepController:

@@ -1,7 +1,8 @@
-"""The embedded Runge-Kutta pairs of the compiled drivers (:mod:`..dynamics.fused`,
-:mod:`..dynamics.recursive`, :mod:`..sweep.batch`) as data, so that one compiled loop runs
-either: Dormand-Prince 5(4) (``rk45``, :mod:`.runge_kutta_adaptive`) and 8(5,3) (``dop853``,
-:mod:`.dop853`).
+"""The embedded Runge-Kutta pairs of the compiled adaptive driver (:mod:`.adaptive_driver`,
+run on the body coordinates by :mod:`..dynamics.fused`, on the joint coordinates by
+:mod:`..dynamics.recursive`, and by :mod:`..sweep.batch`) as data, so that one compiled loop
+runs either: Dormand-Prince 5(4) (``rk45``, :mod:`.runge_kutta_adaptive`) and 8(5,3)
+(``dop853``, :mod:`.dop853`).
 
 A pair is the tuple (kind, tableau, nodes, control):
 

@@ -15,7 +15,9 @@ linear correction theta (y_proj - y_raw) so it still passes through both (projec
 
 The arithmetic of a step (stages, error norm, continuous extension) is compiled
 (:func:`.explicit.rk_combine` with the tableau :data:`DOPRI_TABLEAU`, :func:`dopri_error`,
-:func:`dopri_interpolate`); the step-size control stays in Python. When the problem offers
+:func:`dopri_interpolate`); the step-size control is the compiled rules of :mod:`.controller`
+called from Python (:mod:`.controllers`, :func:`.controller.initial_step`), the same as the
+compiled driver's (:mod:`.adaptive_driver`). When the problem offers
 ``stages`` (a compiled evaluation of a run of stages, see :class:`.base.ODEProblem`), the six
 stages of an attempt are one call.
 """

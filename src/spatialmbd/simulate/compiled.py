@@ -1,6 +1,7 @@
-"""Runs in compiled code from start to end: the fused Dormand-Prince / RK4 drivers of
-:mod:`..dynamics.fused` and the recursive method's joint-coordinate driver, called in slices
-(progress and Ctrl-C between them)."""
+"""Runs in compiled code from start to end: the one compiled adaptive driver
+(:mod:`..integrators.adaptive_driver`) on the body coordinates (:mod:`..dynamics.fused`, with its
+RK4 driver) or on the joint coordinates of the recursive method (:mod:`..dynamics.recursive`),
+called in slices (progress and Ctrl-C between them)."""
 from __future__ import annotations
 
 import time
@@ -68,9 +69,8 @@ def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, str
     if code != rc.OK:
         status = "failed"
         message = (f"t = {t:.6g} s: " + {rc.RHS_FAILED: "the accelerations are not finite "
-                                         "(an articulated inertia is singular)",
-                                         rc.UNDERFLOW: "step size underflow (error test "
-                                         "failed repeatedly)"}.get(code, f"status {code}"))
+                                         "(an articulated inertia is singular)"}.get(
+                                             code, rc.STATUS_TEXT.get(code, f"status {code}")))
     wall = time.perf_counter() - start
     Y = np.empty((done, 13 * nb + 1))
     rc.body_rows(X[:done], T, nb, tree.nq, Y)

@@ -1,6 +1,7 @@
-"""The compiled part of a batch: one loop over the members, each integrated by the compiled
-Dormand-Prince / RK4 drivers of :mod:`...dynamics.fused` (body coordinates) or
-:func:`...dynamics.recursive.dopri_joint` (joint coordinates)."""
+"""The compiled part of a batch: one loop over the members, each integrated by the one compiled
+adaptive driver (:mod:`...integrators.adaptive_driver`) on the body coordinates
+(:func:`...dynamics.fused.dopri_run`, or the RK4 driver there) or on the joint coordinates
+(:func:`...dynamics.recursive.dopri_joint`)."""
 from __future__ import annotations
 
 import numpy as np
