@@ -16,15 +16,16 @@ consistent normals, every piece of contact counted once):
    The prisms over the faces of a flat or concave region tile it: a point on a shared edge
    belongs to both prisms and is found twice, once per face, with the same normal and depth;
    step 3 keeps one.
-2. Edges and vertices: a witness on an edge or a vertex of t (barycentric weight below 1e-9)
-   is a contact only if its normal lies strictly inside the normal cone of that feature, i.e.
-   n . (w - x) < -1e-9 |w - x| for every mesh vertex w adjacent to the feature (for an edge:
-   the far vertices of its two faces; for a vertex: the vertices of its fan). Such a normal
-   exists only at a convex edge or vertex, and is not any face's normal, so this contact is
-   none of step 1's. A border edge or vertex also needs n . N_t > 0 (one-sided). The normal
-   along an edge of a flat or concave region, or a normal within 1e-9 of a face's, is left to
-   the faces. The contact carries the face manifold along its normal (a box lying on a ridge
-   touches along the ridge's segment) or the witness pair.
+2. Edges and vertices: each edge and each vertex of the mesh is tried once, by the triangle
+   that owns it (the lower-numbered face of an edge, the lowest-numbered face of a vertex's
+   fan; only triangles that overlap the shape try theirs): the narrow phase of the feature
+   alone (a segment, a point) against the shape gives its contact, kept only if its normal
+   lies strictly inside the feature's normal cone, i.e. n . (w - x) < -1e-9 |w - x| for every
+   mesh vertex w adjacent to the feature (for an edge: the far vertices of its two faces; for
+   a vertex: the vertices of its fan). Such a normal exists only at a convex edge or vertex
+   and is no face's normal, so this contact is none of step 1's. A border edge or vertex also
+   needs n . N_t > 0 (one-sided). The contact carries the face manifold along its normal (a
+   box lying on a ridge touches along the ridge's segment) or the witness pair.
 3. Merging: contacts whose normals agree within 1.4e-6 rad form a patch; a patch keeps at most
    five points: the farthest from the patch's centroid, the farthest from that one, the one
    spanning the largest triangle with these two and the largest on the other side (all on
@@ -121,9 +122,10 @@ def candidates(P, k0, lo, hi, out):
 
 
 @njit
-def triangle_block(P, k0, t, fm, W):
-    """The core block of triangle t into W[0:SW] (a HULL of its 3 vertices about its
-    centroid, mesh axes) and its frame."""
+def triangle_block(P, k0, t, fm, W, first=0, nv=3):
+    """The core block of triangle t into W[0:SW] (a HULL of its nv vertices from vertex
+    ``first`` on -- the triangle, an edge or a vertex -- about the triangle's centroid, mesh
+    axes) and its frame."""
     c = [0.0, 0.0, 0.0]
     for m in range(3):
         x = _vertex(P, k0, t, m)
@@ -132,9 +134,9 @@ def triangle_block(P, k0, t, fm, W):
     for a in range(SW):
         W[a] = 0.0
     W[sup.S_KIND] = sup.HULL
-    W[sup.S_NV] = 3
-    for m in range(3):
-        x = _vertex(P, k0, t, m)
+    W[sup.S_NV] = nv
+    for m in range(nv):
+        x = _vertex(P, k0, t, (first + m) % 3)
         for a in range(3):
             W[sup.S_VERTS + 3 * m + a] = x[a] - c[a]
             W[sup.S_D0 + a] = max(W[sup.S_D0 + a], abs(x[a] - c[a]))
@@ -172,6 +174,9 @@ def _in_cone(P, k0, t, nl, wts):
     if zero == 1:                                   # the edge opposite the zero weight m
         m = 0 if wts[0] < TOL_FEATURE else (1 if wts[1] < TOL_FEATURE else 2)
         x = _vertex(P, k0, t, (m + 1) % 3)
+        e = v_sub(_vertex(P, k0, t, (m + 2) % 3), x)
+        if abs(v_dot(nl, e)) > TOL_FEATURE * math.sqrt(v_dot(e, e)):
+            return False                            # the nearest point is an end: a vertex's
         if _outside(nl, x, _vertex(P, k0, t, m)):
             return False
         u = int(P[k0 + t, MS.C_NB + (m + 1) % 3])   # edge m + 1 joins vertices m + 1, m + 2
@@ -255,11 +260,21 @@ def triangle_contacts(P, k0, t, fm, W, fs, r, C, count, Y):
         depth = v_dot(Nl, v_sub(ab[0], sl))
         if inside and depth + r > 0.0:
             count = _push(C, count, v_add(s, v_scale(depth, N)), s, N, -depth - r)
-    # step 2: convex edges and vertices
-    al = _local(fm, a)
-    wts = triangle_weights(v_sub(ab[0], al), v_sub(ab[1], al), v_sub(ab[2], al))
-    nl = sup.to_local(fm, n)
-    if _in_cone(P, k0, t, nl, wts):
+    # step 2: the vertices and edges t owns, each against the shape (a canonical contact of
+    # the feature, computed once), kept where the normal lies strictly in the feature's cone
+    for f in range(6):
+        if P[k0 + t, MS.C_OWN + f] == 0.0:
+            continue
+        first, nv = (f, 1) if f < 3 else (f - 3, 2)
+        ft = triangle_block(P, k0, t, fm, W, first, nv)
+        a, b, n = manifold.narrow(W, 0, ft, SW, fs)
+        if v_dot(n, v_sub(b, a)) - r >= 0.0:
+            continue
+        wts = [0.0, 0.0, 0.0]                        # the feature's barycentric weights
+        for m in range(nv):
+            wts[(first + m) % 3] = 1.0 / nv
+        if not _in_cone(P, k0, t, sup.to_local(fm, n), (wts[0], wts[1], wts[2])):
+            continue
         ny, nref, ref_i, r0, u, w = manifold.face_manifold(W, 0, ft, SW, fs, n, Y)
         if ny > 0:
             for m in range(ny):
@@ -348,9 +363,14 @@ def merge(C, count, size, keep):
 @njit
 def collect(S, G, k0):
     """(C, kept indices, count kept) of the mesh-shape pair of element row k0."""
-    P = G.param
     fm = sup.frame(S, G.bi[k0], G.s_i, G.R_i, k0)
     fs = sup.frame(S, G.bj[k0], G.s_j, G.R_j, k0)
+    return collect_at(G.param, k0, fm, fs)
+
+
+@njit
+def collect_at(P, k0, fm, fs):
+    """:func:`collect` for the mesh of rows P[k0:] at frame fm and its shape at frame fs."""
     W = np.empty(2 * SW)
     for a in range(SW):
         W[SW + a] = P[k0, MS.C_SIDE + a]
@@ -374,3 +394,20 @@ def collect(S, G, k0):
     keep = np.empty(max(count, 1), np.int64)
     nk = merge(C, count, size, keep)
     return C, keep, nk
+
+
+@njit
+def mesh_signed_distance(P, k0, fm, W, fs):
+    """(d, n, a, b, t): the least signed distance d of the shape (block W[SW:], frame fs) to
+    any triangle of the mesh of rows P[k0:] (frame fm) -- the narrow phase alone, as a
+    collision library answers for a mesh (coal's BVHModel) --, its normal from the triangle to
+    the shape, the surface points and the triangle (every triangle tried: tests, benchmarks)."""
+    r = W[SW + sup.S_RADIUS]
+    best = (math.inf, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), -1)
+    for t in range(int(P[k0, MS.C_COUNT])):
+        ft = triangle_block(P, k0, t, fm, W)
+        a, b, n = manifold.narrow(W, 0, ft, SW, fs)
+        d = v_dot(n, v_sub(b, a)) - r
+        if d < best[0]:
+            best = (d, n, a, v_sub(b, v_scale(r, n)), t)
+    return best

@@ -23,8 +23,10 @@ Parameter row t of the element (triangle t; the law columns of :mod:`.laws` firs
     C_FIRST t,  C_COUNT nf,  C_GRID 1 for a height field (:mod:`.heightfield`) else 0,
     C_HF (nx, ny, x0, y0, dx, dy) of a height field (row 0),
     C_V the vertices (9, mesh frame),  C_NRM the normal,  C_VID vertex ids,  C_NB neighbours,
-    C_NODE nodes 2 t and 2 t + 1 (8 columns each),  C_SIDE the convex shape's core block
-    (:mod:`.support`, row 0).
+    C_NODE nodes 2 t and 2 t + 1 (8 columns each),  C_OWN 1 where t owns its vertex m
+    (columns 0-2: t is the lowest-numbered face of the vertex's fan) or its edge m (columns
+    3-5: t is the lower-numbered of the edge's faces, or its only one),  C_SIDE the convex
+    shape's core block (:mod:`.support`, row 0).
 """
 from __future__ import annotations
 
@@ -42,7 +44,8 @@ C_VID = C_NRM + 3
 C_NB = C_VID + 3
 C_NODE = C_NB + 3
 NODE_WIDTH = 8
-C_SIDE = C_NODE + 2 * NODE_WIDTH
+C_OWN = C_NODE + 2 * NODE_WIDTH
+C_SIDE = C_OWN + 6
 N_COLUMNS = C_SIDE + sup.SIDE_WIDTH
 
 
@@ -157,6 +160,10 @@ def mesh_rows(V, F, nb, nodes=None, grid=None) -> np.ndarray:
     rows[:, C_NRM:C_NRM + 3] = nrm / np.linalg.norm(nrm, axis=1)[:, None]
     rows[:, C_VID:C_VID + 3] = F
     rows[:, C_NB:C_NB + 3] = nb
+    first = np.full(V.shape[0], nf, dtype=np.int64)
+    np.minimum.at(first, F.reshape(-1), np.repeat(np.arange(nf), 3))
+    rows[:, C_OWN:C_OWN + 3] = first[F] == np.arange(nf)[:, None]
+    rows[:, C_OWN + 3:C_OWN + 6] = (nb < 0) | (np.arange(nf)[:, None] < nb)
     if grid is not None:
         rows[:, C_GRID] = 1.0
         rows[0, C_HF:C_HF + 6] = grid
