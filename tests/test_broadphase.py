@@ -92,3 +92,43 @@ def test_hashed_path_with_a_small_table_equals_brute_force(buckets):
     pairs = finder(c, r, 0.02)
     found = {tuple(p) for p in pairs}
     assert len(found) == len(pairs) and found == _exact(c, r, 0.02)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_aabb_pairs_of_mixed_shapes_equal_brute_force(seed):
+    """Sweep and prune over the bounding boxes of random boxes, capsules, cylinders,
+    ellipsoids, hulls and spheres of sizes over two decades (from their support functions):
+    exactly the pairs the all-pairs test and an independent NumPy check return."""
+    from spatialmbd.broadphase import aabb_pairs, aabb_pairs_brute_force
+    from spatialmbd.forces.contact import convex_shapes as CS
+    from spatialmbd.forces.contact import support as sup
+    from spatialmbd.forces.contact.mesh_query import shape_box
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(50, 400))
+    kinds = ["sphere", "capsule", "box", "cylinder", "ellipsoid", "convex"]
+    world = (np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0]))
+    world = tuple(tuple(x) for x in world)
+    lo, hi = np.zeros((n, 3)), np.zeros((n, 3))
+    for k in range(n):
+        kind = kinds[k % len(kinds)]
+        s = 10 ** rng.uniform(-2, 0)
+        if kind == "convex":
+            verts = CS.parse("b", "s", "convex", {"vertices": rng.normal(size=(10, 3)) * s})[3]
+            block = CS.side_block(kind, 0.0, 0.0, np.abs(verts).max(axis=0), verts)
+        else:
+            block = CS.side_block(kind, s, s, np.array([s, 0.7 * s, 0.4 * s]), None)
+        Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        Q *= np.sign(np.linalg.det(Q))
+        f = (tuple(rng.uniform(-3, 3, 3)), tuple(Q[:, 0]), tuple(Q[:, 1]), tuple(Q[:, 2]))
+        l, h = shape_box(block, 0, f, world, block[sup.S_RADIUS])
+        lo[k], hi[k] = l, h
+    margin = float(rng.choice([0.0, 0.05]))
+    pairs = aabb_pairs(lo, hi, margin)
+    out = np.zeros((n * (n - 1) // 2 + 1, 2), np.int64)
+    count = aabb_pairs_brute_force(lo, hi, margin, out)
+    ref = np.all((lo[:, None] <= hi[None] + margin) & (lo[None] <= hi[:, None] + margin), axis=2)
+    i, j = np.nonzero(np.triu(ref, 1))
+    assert {tuple(p) for p in pairs} == {tuple(p) for p in out[:count]} == set(zip(i, j))
+    assert len(pairs) == count > 0
+    with pytest.raises(ModelError, match="hi < lo"):
+        aabb_pairs(hi, lo)

@@ -22,6 +22,13 @@ still contain every touching pair.
 
 Spheres of very different sizes make the cells as large as the largest sphere: the cost grows
 with the number of spheres per cell, not with N^2 unless every sphere shares one cell.
+
+Mixed shapes (boxes, capsules, meshes, ... of any sizes): :func:`aabb_pairs` returns every pair
+whose axis-aligned bounding boxes (lo, hi (N, 3), e.g. from the shapes' support functions,
+:func:`spatialmbd.forces.contact.mesh_query.shape_box`) overlap within a margin, by sweep and
+prune: the boxes sorted by lo_x (O(N log N)), each box tested against the following ones until
+their lo_x passes its hi_x + margin, the y and z intervals deciding. The cost is
+O(N log N + the pairs overlapping in x); :func:`aabb_pairs_brute_force` is its reference.
 """
 from __future__ import annotations
 
@@ -168,6 +175,71 @@ def pairs_brute_force(c, r, margin, out):
                     out[count, 1] = j
                 count += 1
     return count
+
+
+@njit
+def _pairs_sap(lo, hi, margin, out):
+    """Pairs of boxes overlapping within margin into out (k, 2) (i < j); returns their number
+    (may exceed out's rows, as :func:`_pairs_grid`)."""
+    n = lo.shape[0]
+    order = np.argsort(lo[:, 0], kind="mergesort")
+    count = 0
+    for a in range(n):
+        i = order[a]
+        reach = hi[i, 0] + margin
+        for b in range(a + 1, n):
+            j = order[b]
+            if lo[j, 0] > reach:
+                break
+            if lo[j, 1] <= hi[i, 1] + margin and lo[i, 1] <= hi[j, 1] + margin and \
+                    lo[j, 2] <= hi[i, 2] + margin and lo[i, 2] <= hi[j, 2] + margin:
+                if count < out.shape[0]:
+                    out[count, 0], out[count, 1] = min(i, j), max(i, j)
+                count += 1
+    return count
+
+
+@njit
+def aabb_pairs_brute_force(lo, hi, margin, out):
+    """The same pairs as :func:`_pairs_sap` by testing all N (N - 1) / 2 (reference)."""
+    n = lo.shape[0]
+    count = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            ok = True
+            for a in range(3):
+                if lo[j, a] > hi[i, a] + margin or lo[i, a] > hi[j, a] + margin:
+                    ok = False
+            if ok:
+                if count < out.shape[0]:
+                    out[count, 0], out[count, 1] = i, j
+                count += 1
+    return count
+
+
+def aabb_pairs(lo, hi, margin: float = 0.0) -> np.ndarray:
+    """Every pair (i < j) of axis-aligned boxes (lo, hi (N, 3), m) overlapping within
+    ``margin`` (m), as a (k, 2) int array sorted by (i, j), by sweep and prune (module doc)."""
+    lo = np.ascontiguousarray(lo, dtype=float)
+    hi = np.ascontiguousarray(hi, dtype=float)
+    if lo.ndim != 2 or lo.shape[1] != 3 or hi.shape != lo.shape:
+        raise ModelError(f"aabb_pairs: lo and hi must be (N, 3), got shapes {lo.shape} and "
+                         f"{hi.shape}")
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ModelError("aabb_pairs: the boxes' corners must be finite")
+    bad = np.flatnonzero(np.any(hi < lo, axis=1))
+    if bad.size:
+        raise ModelError(f"aabb_pairs: box {bad[0]} has hi < lo ({hi[bad[0]].tolist()} < "
+                         f"{lo[bad[0]].tolist()})")
+    if not (np.isfinite(margin) and margin >= 0):
+        raise ModelError(f"aabb_pairs: margin must be >= 0 (m), got {margin}")
+    out = np.zeros((max(4 * lo.shape[0], 16), 2), np.int64)
+    count = _pairs_sap(lo, hi, float(margin), out)
+    if count > out.shape[0]:
+        out = np.zeros((count, 2), np.int64)
+        count = _pairs_sap(lo, hi, float(margin), out)
+    pairs = out[:count]
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
 class SpherePairs:

@@ -183,36 +183,54 @@ def narrow(P, oi, fi, oj, fj):
 
 
 @njit
-def convex_core_points(P, oi, fi, oj, fj, slot):
-    """(q_i, q_j, n) of manifold slot ``slot`` (module docstring); an open slot has
-    n . (q_j - q_i) = OPEN."""
-    a, b, n = narrow(P, oi, fi, oj, fj)
+def face_manifold(P, oi, fi, oj, fj, n, Y):
+    """The clipped incident points of a face contact of the pair whose narrow phase gave the
+    normal n (i to j), into Y: (count, n_ref, ref_i, r_0, u, w) with n_ref the reference
+    face's outward normal, r_0 a point of it, ref_i whether the face is side i's and (u, w) its
+    in-plane axes; count 0: no face contact (the witness pair stands alone)."""
     R = np.empty((MAX_POINTS, 3))
     X = np.empty((MAX_POINTS, 3))
     ci, nri, ali, ui, wi = _feature(P, oi, fi, n, R, True)
     cj, nrj, alj, uj, wj = _feature(P, oj, fj, v_scale(-1.0, n), X, True)
     ref_i = ci >= 3 and (cj < 3 or ali >= alj)
     if ref_i:
-        nref, u, w, nr = nri, ui, wi, ci
+        nref, nr, u, w = nri, ci, ui, wi
         nx = _feature(P, oj, fj, v_scale(-1.0, n), X, False)[0]
     elif cj >= 3:
         for m in range(cj):
             R[m] = X[m]
-        nref, u, w, nr = nrj, uj, wj, cj
+        nref, nr, u, w = nrj, cj, uj, wj
         nx = _feature(P, oi, fi, n, X, False)[0]
     else:
-        nx = 0
-    if nx < 2:                                      # one point: the witness pair
-        if slot == 0:
-            return a, b, n
-        return a, v_add(a, v_scale(OPEN, n)), n
+        nref, nr, nx, u, w = n, 0, 0, ui, wi
+    r0 = (R[0, 0], R[0, 1], R[0, 2])
+    if nx < 2:
+        return 0, nref, ref_i, r0, u, w
+    return _clip(R, nr, nref, X, nx, Y), nref, ref_i, r0, u, w
+
+
+@njit
+def face_pair(Y, at, nref, ref_i, r0):
+    """(q_i, q_j, n) of clipped point ``at`` of a face manifold (:func:`face_manifold`)."""
+    p = (Y[at, 0], Y[at, 1], Y[at, 2])
+    depth = v_dot(nref, v_sub(r0, p))
+    q = v_add(p, v_scale(depth, nref))
+    if ref_i:
+        return q, p, nref
+    return p, q, v_scale(-1.0, nref)
+
+
+@njit
+def convex_core_points(P, oi, fi, oj, fj, slot):
+    """(q_i, q_j, n) of manifold slot ``slot`` (module docstring); an open slot has
+    n . (q_j - q_i) = OPEN."""
+    a, b, n = narrow(P, oi, fi, oj, fj)
     Y = np.empty((MAX_POINTS, 3))
-    ny = _clip(R, nr, nref, X, nx, Y)
+    ny, nref, ref_i, r0, u, w = face_manifold(P, oi, fi, oj, fj, n, Y)
     if ny == 0:
         if slot == 0:
             return a, b, n
         return a, v_add(a, v_scale(OPEN, n)), n
-    r0 = (R[0, 0], R[0, 1], R[0, 2])
     if ny <= MAX_SLOTS:                             # every point has its slot
         if slot >= ny:
             return a, v_add(a, v_scale(OPEN, n)), n
@@ -232,9 +250,4 @@ def convex_core_points(P, oi, fi, oj, fj, slot):
             if pick[s] == pick[slot]:
                 return a, v_add(a, v_scale(OPEN, n)), n
         at = pick[slot]
-    p = (Y[at, 0], Y[at, 1], Y[at, 2])
-    depth = v_dot(nref, v_sub(r0, p))
-    q = v_add(p, v_scale(depth, nref))
-    if ref_i:
-        return q, p, nref
-    return p, q, v_scale(-1.0, nref)
+    return face_pair(Y, at, nref, ref_i, r0)
