@@ -142,7 +142,7 @@ def test_docs_worked_example_runs():
     with contextlib.redirect_stdout(out):
         exec(compile(code, "docs/integrators.md", "exec"), {})
     lines = out.getvalue().splitlines()
-    assert lines[0].startswith("event [{'t': 0.678") and lines[1] == "True"
+    assert lines[0] == "event 0.678269 touch" and lines[1] == "True"
 
 
 def test_event_states_are_the_located_states():

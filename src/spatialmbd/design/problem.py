@@ -143,8 +143,10 @@ def start_values(job, names, given=None) -> np.ndarray:
                 held = 0.0
             if isinstance(held, list) or isinstance(held, bool) or \
                     not isinstance(held, (int, float)):
+                hint = (f"give one component with an index, e.g. {name}.0"
+                        if isinstance(held, list) else "give a numeric value's path")
                 raise ModelError(f"parameter {name!r}: the model holds {held!r}, not a number "
-                                 "that can be varied; address one component (e.g. .0)")
+                                 f"that can be varied; {hint}")
             if value is None:
                 value = held
         elif value is None:

@@ -75,12 +75,12 @@ def _output_row(t, Y, Yd, Lam, row, y, F, I, W, mp, nb, lam_off, ydot):
 
 def projection_params(meth, tolerance=None) -> np.ndarray:
     """pp of :func:`project_state` for a method: [projects, tolerance, max_iterations,
-    mass metric] (tolerance: the run's, :meth:`.projection.Projection.tolerance_for`; default
+    mass metric] (the compiled drivers are one-step ones; tolerance: the run's, :meth:`.projection.Projection.tolerance_for`; default
     the method's)."""
     tol = getattr(meth, "tolerance", 0.0) if tolerance is None else tolerance
     return np.array([1.0 if meth.projects else 0.0, float(tol),
                      float(getattr(meth, "max_iterations", 0)),
-                     1.0 if getattr(meth, "metric", "mass") == "mass" else 0.0])
+                     1.0 if getattr(meth, "metric", "mass") in ("mass", "auto") else 0.0])
 
 
 @njit

@@ -188,7 +188,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
             floor = 64.0 * np.finfo(float).eps * max(1.0, float(np.abs(
                 y[:n_q].reshape(nb, 7)[:, :3]).max()))
             y = meth.project_y(eom.system, t, y, min(meth.tolerance, max(1e-3 * atol_min,
-                                                                          floor)))
+                                                                          floor)),
+                               multistep=True)
         elif meth.projects and hasattr(meth, "project_y"):
             y = meth.project_y(eom.system, t, y, ptol)
         elif meth.projects:

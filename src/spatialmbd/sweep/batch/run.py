@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -69,8 +70,11 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     atol = 1e-9 if analysis.atol is None else float(analysis.atol)
     max_step = float((analysis.integrator_options or {}).get("max_step") or math.inf)
     step = 1e-3 if analysis.step is None else float(analysis.step)
+    pp = setup.pp.copy()
+    if adaptive and hasattr(setup.method, "tolerance_for"):   # as simulate(): never above atol
+        pp[1] = setup.method.tolerance_for(SimpleNamespace(atol=atol), Y0[:, :7 * nb])
     start = time.perf_counter()
-    _run_members((Y0, Fs, setup.system.I, W, setup.mp, setup.pp, t_out, adaptive,
+    _run_members((Y0, Fs, setup.system.I, W, setup.mp, pp, t_out, adaptive,
                   pair or PAIR_DP5, rtol, atol, max_step, step, max_steps, nb,
                   setup.lam_off, Y, Yd, Lam, status, t_fail, counters), B, threads)
     wall = time.perf_counter() - start
