@@ -8,7 +8,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ...dynamics.fused import OK, STATUS_TEXT
+from ...dynamics.fused import OK, STATUS_TEXT, project_state
+from ...errors import ModelError
 from ...integrators.pairs import PAIR_DP5, pair_by_name
 from .kernels import _run_members, integrate_batch_joint
 from .setup import BatchMember, BatchSetup, _check_analysis
@@ -73,6 +74,12 @@ def _integrate(setup, models, analysis, t_out, Fs, Y0, max_steps, with_outputs=T
     pp = setup.pp.copy()
     if adaptive and hasattr(setup.method, "tolerance_for"):   # as simulate(): never above atol
         pp[1] = setup.method.tolerance_for(SimpleNamespace(atol=atol), Y0[:, :7 * nb])
+    if pp[0] != 0.0:              # as simulate(): the start projected as every accepted step
+        dx = np.zeros(6 * nb)
+        for b in range(B):
+            if not project_state(0.0, Y0[b], Fs[b], setup.system.I, W[b], pp, nb, dx):
+                raise ModelError(f"batch member {b}: the projection of its initial state "
+                                 "failed; use engine='simulate' for its diagnosis")
     start = time.perf_counter()
     _run_members((Y0, Fs, setup.system.I, W, setup.mp, pp, t_out, adaptive,
                   pair or PAIR_DP5, rtol, atol, max_step, step, max_steps, nb,
