@@ -250,7 +250,10 @@ def interrupt_points():
     _Deferred.depth = 1
     try:
         yield
-        interrupt_check()
+        if _Deferred.pending:           # Ctrl-C after the last check: the write is complete
+            _Deferred.pending = False
+            raise KeyboardInterrupt("interrupted after the write completed (the files are "
+                                    "written)")
     finally:
         signal.signal(signal.SIGINT, _Deferred.previous)
         _Deferred.depth = 0
