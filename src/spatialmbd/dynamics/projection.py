@@ -49,9 +49,10 @@ class Projection(Standard):
         self.tolerance = check_positive("projection tolerance", tolerance)
         self.max_iterations = int(check_positive("projection max_iterations", max_iterations))
 
-    def tolerance_for(self, integrator, q) -> float:
+    def tolerance_for(self, integrator, q, fraction: float = 1.0) -> float:
         """The tolerance on max |Phi| of a run with ``integrator``: the method's, but never
-        coarser than the integrator's absolute tolerance (down to a round-off floor of the
+        coarser than ``fraction`` of the integrator's absolute tolerance (a multistep
+        integrator's history asks for 1e-3 of it; down to a round-off floor of the
         positions' size, 64 eps max(1, |r|)). The projection must not leave more error than the
         step control allows: near a singular position a residual eps of Phi hides a position
         error of eps / sigma along the near-dependent direction (sigma the small singular value
@@ -62,7 +63,7 @@ class Projection(Standard):
             return self.tolerance
         q = np.asarray(q, dtype=float).reshape(-1, 7)
         floor = 64.0 * np.finfo(float).eps * max(1.0, float(np.abs(q[:, :3]).max(initial=0.0)))
-        return min(self.tolerance, max(float(np.min(atol)), floor))
+        return min(self.tolerance, max(fraction * float(np.min(atol)), floor))
 
     def mass_metric(self, multistep: bool = False) -> bool:
         """Whether the corrections are in the mass metric (for a multistep integrator's run

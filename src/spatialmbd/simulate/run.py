@@ -177,18 +177,14 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
     # a multistep integrator's history needs a smooth projection (Integrator.multistep):
     # converged to 1e-3 of its atol (down to a round-off floor of the positions' size)
     tight = getattr(integ, "multistep", False) and meth.projects \
-        and hasattr(meth, "project_y")
-    atol_min = float(np.min(getattr(integ, "atol", 1e-9))) if tight else 0.0
+        and hasattr(meth, "project_y") and hasattr(meth, "tolerance_for")
     ptol = meth.tolerance_for(integ, q) if hasattr(meth, "tolerance_for") else None
 
     def project(t, y):
         y = y.copy()
         cs.normalize_y(y, nb)
         if tight:
-            floor = 64.0 * np.finfo(float).eps * max(1.0, float(np.abs(
-                y[:n_q].reshape(nb, 7)[:, :3]).max()))
-            y = meth.project_y(eom.system, t, y, min(meth.tolerance, max(1e-3 * atol_min,
-                                                                          floor)),
+            y = meth.project_y(eom.system, t, y, meth.tolerance_for(integ, y[:n_q], 1e-3),
                                multistep=True)
         elif meth.projects and hasattr(meth, "project_y"):
             y = meth.project_y(eom.system, t, y, ptol)
