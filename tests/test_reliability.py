@@ -412,6 +412,19 @@ def test_wrong_units_warn():
     assert guards.unit_warnings(load_model(PENDULUM)[0]) == []
 
 
+def test_a_body_drawn_by_a_mesh_is_not_judged_by_its_marker_spheres():
+    """An imported robot's foot: a mesh (no volume measured) beside four 5 mm marker spheres.
+    The spheres alone would mean 1e5 kg/m^3; the check must not warn from a part of the body."""
+    data = pendulum_dict()
+    marker = {"type": "sphere", "radius": 0.005, "center": [0.0, 0.0, 0.0]}
+    data["bodies"][0]["shapes"] = [marker]
+    assert any("density" in w for w in guards.unit_warnings(load_model(data)[0]))
+    data["bodies"][0]["shapes"] = [
+        {"type": "mesh", "vertices": [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]],
+         "faces": [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]}, marker]
+    assert guards.unit_warnings(load_model(data)[0]) == []
+
+
 # ============================================================================ results files
 def test_partial_csv_carries_its_status_and_reads_back(tmp_path, pendulum):
     res = simulate(pendulum, 1.0, output_step=0.1, max_steps=5)

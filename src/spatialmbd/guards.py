@@ -194,6 +194,12 @@ def _shape_extent(shape) -> float:
     return 0.0
 
 
+#: the shape types whose volume and extent the unit check measures; a body with any other
+#: shape (a mesh: an imported robot's foot has four marker spheres beside its mesh) is not
+#: judged, since the part measured says nothing of the mass
+_MEASURED = ("box", "cylinder", "sphere")
+
+
 def _shape_volume(shape) -> float:
     kind = shape.get("type")
     if kind == "box":
@@ -234,6 +240,8 @@ def unit_warnings(model) -> list:
     for k, (name, spec) in enumerate(model.builder_state["bodies"].items()):
         if not spec.shapes:
             continue
+        if any(s.get("type") not in _MEASURED for s in spec.shapes):
+            continue        # a mesh or another shape without a volume here: no verdict
         try:
             volume = sum(_shape_volume(s) for s in spec.shapes)
             extent = max(_shape_extent(s) for s in spec.shapes)
