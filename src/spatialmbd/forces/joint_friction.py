@@ -114,39 +114,36 @@ def details(S, G, out):
         out[k, 9], out[k, 10] = eb, pw
 
 
-def _level(spec, key, required):
+def _nonnegative(spec, key, required, missing, got_suffix):
+    """spec.params[key] as a finite float >= 0 (None when absent and not ``required``);
+    ModelError naming the element and the key: ``missing`` says what an absent required value
+    is for, ``got_suffix`` what to give instead of a bad one."""
     value = spec.params.get(key)
     if value is None:
         if required:
-            law = spec.params.get("friction", "coulomb")
-            raise ModelError(f"forces[{spec.name!r}].{key}: the {law} law needs a friction "
-                             "level (N, or N m on an angle or a rotation)")
+            raise ModelError(f"forces[{spec.name!r}].{key}: {missing}")
         return None
     try:
         x = float(value)
     except (TypeError, ValueError):
         x = math.nan
     if not (math.isfinite(x) and x >= 0.0):
-        raise ModelError(f"forces[{spec.name!r}].{key}: must be a finite number >= 0 (N or "
-                         f"N m), got {value!r}")
+        raise ModelError(f"forces[{spec.name!r}].{key}: must be a finite number >= 0"
+                         f"{got_suffix[0]}, got {value!r}{got_suffix[1]}")
     return x
+
+
+def _level(spec, key, required):
+    law = spec.params.get("friction", "coulomb")
+    return _nonnegative(spec, key, required,
+                        f"the {law} law needs a friction level (N, or N m on an angle or a "
+                        "rotation)", (" (N or N m)", ""))
 
 
 def _coefficient(spec, key, required, what="a friction coefficient"):
-    value = spec.params.get(key)
-    if value is None:
-        if required:
-            raise ModelError(f"forces[{spec.name!r}].{key}: the friction proportional to the "
-                             f"joint's reaction needs {what}")
-        return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not (math.isfinite(x) and x >= 0.0):
-        raise ModelError(f"forces[{spec.name!r}].{key}: must be a finite number >= 0, got "
-                         f"{value!r}; give {what} (0 for none)")
-    return x
+    return _nonnegative(spec, key, required,
+                        f"the friction proportional to the joint's reaction needs {what}",
+                        ("", f"; give {what} (0 for none)"))
 
 
 def _reaction_levels(spec, builder, joint, coordinate, law):
