@@ -19,7 +19,10 @@ build pair per parameter anyway): building with only that parameter changed must
 exactly one entry of those arrays, to the parameter's value, leave the model's points as they
 are and give the pack a patched model gives (:func:`direct_entry`, the probe of the batch
 engine's direct path). Every other parameter (a stiffness, a joint point, a velocity in body
-axes) keeps its builds.
+axes) keeps its builds. The decision is taken at the first gradient's values: a rate given in
+body axes is direct when the body's orientation is the identity there, and stays so only while
+no other parameter turns that body (vary its orientation and rate together and the later
+gradients would be off: the tests of the first against a later gradient would show it).
 """
 from __future__ import annotations
 
