@@ -17,18 +17,21 @@ Parameters reach the right-hand side through the packed model floats F (masses, 
 their inverses, weights, joint and force-element geometry, force-law parameters: every value
 :meth:`spatialmbd.sweep.batch.BatchSetup.pack_F` writes) and through the initial state y0
 (initial positions and velocities, corrected as simulate() does). dF/dp and dy0/dp are
-central differences over model builds at x +- delta (2 p builds, exact for the linear
-entries); the backward pass returns ybar0 = d cost / d y0 and Fbar = d cost / d F on the
-floats the parameters move ("active"), and
+central differences at x +- delta (exact for the linear entries): over model builds, or, for
+the parameters that set one entry of the masses, inertias, gravity or initial state, over
+the built model's patched arrays (:mod:`.adjoint_params`, no builds); the backward pass
+returns ybar0 = d cost / d y0 and Fbar = d cost / d F on the floats the parameters move
+("active"), and
 
     d cost / d p = ybar0 . dy0/dp + Fbar . dF/dp.
 
-Cost of one gradient: the 2 p builds (after the first gradient, parameters whose floats and
-initial-state entries are disjoint share a build pair), the forward run (4 evaluations per
-step), the recomputation of the segments between checkpoints (one more forward run) and,
-per RK4 stage, the vector-Jacobian products: by :mod:`.adjoint_vjp` (one solve per cost and
-2 (13 n_colours + n_float_colours) evaluations of local residuals) when its check at the
-start state passes, else 2 (n + n_active) evaluations of the right-hand side (n = 13 nb + 1).
+Cost of one gradient: the builds (the first gradient: 2 p; later ones: 2 per group of the
+parameters that are not direct, those whose floats and initial-state entries are disjoint
+sharing a build pair), the forward run (4 evaluations per step), the recomputation of the
+segments between checkpoints (one more forward run) and, per RK4 stage, the vector-Jacobian
+products: by :mod:`.adjoint_vjp` (one solve per cost and 2 (12 n_colours + n_float_colours)
+evaluations of local residuals) when its check at the start state passes, else
+2 (n + n_active) evaluations of the right-hand side (n = 13 nb + 1).
 """
 from __future__ import annotations
 

@@ -14,11 +14,14 @@ lam -> -lam) turns the product into the derivative of residuals that are *local*
 body b (r_v and qdot) depend on b and the bodies joined to it by a joint or a force element,
 the rows of a constraint on its two bodies. So directions are combined: every body of one
 colour class (bodies at distance >= 3 in that graph: no row depends on two of them) is
-perturbed at once in one of its 13 state components, and the change of the rows each body
-reaches is its own. Likewise the packed model floats: a float of body b moves the rows of b;
-of a joint, the rows of its bodies and constraints; of a force element, the rows of its
-bodies; floats whose rows are disjoint share an evaluation. Per RK4 stage: one evaluation at
-the stage, K solves, 2 (13 n_colours + n_float_colours) evaluations of the residuals (no
+perturbed at once in one of its state components -- 12: with normalised Euler parameters the
+rows read p only through p / |p|, so its 3 tangent directions do --, and the change of the
+rows each body reaches is its own. Likewise the packed model floats: a float of a joint moves
+the rows of its bodies and constraints; of a force element, the rows of its bodies; floats
+whose rows are disjoint share an evaluation. The body floats (mass, J', J'^-1, weight) need
+none: r_v is linear in m, m g and J', its derivative is written out (:func:`_body_floats`).
+Per RK4 stage: one evaluation at
+the stage, K solves, 2 (12 n_colours + n_float_colours) evaluations of the residuals (no
 solve) -- instead of 2 (n + n_active) right-hand sides, n = 13 nb + 1.
 
 The residual derivatives are central differences like those of the dense path; the
