@@ -18,8 +18,9 @@ Gradient of one scalar with respect to 100 parameters (--links 13: a chain of 13
 links with a rotational spring-damper at every hinge, method standard, RK4 0.005 s over
 0.5 s; 8 parameters per link -- mass, three inertias, stiffness, damping, rest angle, initial
 rate -- the first 100 of them; the output final(l12.z), the height of the last link): the
-wall time of the adjoint (its 2 p model builds for dF/dp and dy0/dp, its forward run, its
-backward run) in units of one forward run (build + compiled RK4 run, as the batch engine
+wall time of the adjoint (its model builds for dF/dp and dy0/dp -- none for the masses,
+inertias and initial rates, the direct parameters --, its forward run, its backward run;
+bench/adjoint.py has the same for 10 and 100 parameters) in units of one forward run (build + compiled RK4 run, as the batch engine
 runs a member) and of one simulate() run, against central differences (2 p + 1 members in
 one compiled batch call), with the largest difference between the two gradients. Target of
 issue 32: the adjoint at most 5 forward runs.
@@ -153,7 +154,8 @@ def gradient_benchmark(links, n_params, repeats):
         f"| one simulate() run | {t_sim:.4f} | {t_sim / t_forward:.2f} | 1 |",
         f"| adjoint, first gradient ({2 * x.size} builds for dF/dp, dy0/dp) | "
         f"{t_first:.3f} | {t_first / t_forward:.1f} | {t_first / t_sim:.1f} |",
-        f"| adjoint, later gradients: {2 * len(adj._groups)} builds + forward run | "
+        f"| adjoint, later gradients: {2 * len(adj._groups)} builds, {len(adj._direct)} "
+        f"direct parameters, forward run | "
         f"{t_run:.3f} | {t_run / t_forward:.1f} | {t_run / t_sim:.1f} |",
         f"| adjoint, later gradients: backward run | {t_back:.3f} | "
         f"{t_back / t_forward:.1f} | {t_back / t_sim:.1f} |",

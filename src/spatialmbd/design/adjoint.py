@@ -17,18 +17,21 @@ Parameters reach the right-hand side through the packed model floats F (masses, 
 their inverses, weights, joint and force-element geometry, force-law parameters: every value
 :meth:`spatialmbd.sweep.batch.BatchSetup.pack_F` writes) and through the initial state y0
 (initial positions and velocities, corrected as simulate() does). dF/dp and dy0/dp are
-central differences over model builds at x +- delta (2 p builds, exact for the linear
-entries); the backward pass returns ybar0 = d cost / d y0 and Fbar = d cost / d F on the
-floats the parameters move ("active"), and
+central differences at x +- delta (exact for the linear entries): over model builds, or, for
+the parameters that set one entry of the masses, inertias, gravity or initial state, over
+the built model's patched arrays (:mod:`.adjoint_params`, no builds); the backward pass
+returns ybar0 = d cost / d y0 and Fbar = d cost / d F on the floats the parameters move
+("active"), and
 
     d cost / d p = ybar0 . dy0/dp + Fbar . dF/dp.
 
-Cost of one gradient: the 2 p builds (after the first gradient, parameters whose floats and
-initial-state entries are disjoint share a build pair), the forward run (4 evaluations per
-step), the recomputation of the segments between checkpoints (one more forward run) and,
-per RK4 stage, the vector-Jacobian products: by :mod:`.adjoint_vjp` (one solve per cost and
-2 (13 n_colours + n_float_colours) evaluations of local residuals) when its check at the
-start state passes, else 2 (n + n_active) evaluations of the right-hand side (n = 13 nb + 1).
+Cost of one gradient: the builds (the first gradient: 2 p; later ones: 2 per group of the
+parameters that are not direct, those whose floats and initial-state entries are disjoint
+sharing a build pair), the forward run (4 evaluations per step), the recomputation of the
+segments between checkpoints (one more forward run) and, per RK4 stage, the vector-Jacobian
+products: by :mod:`.adjoint_vjp` (one solve per cost and 2 (12 n_colours + n_float_colours)
+evaluations of local residuals) when its check at the start state passes, else
+2 (n + n_active) evaluations of the right-hand side (n = 13 nb + 1).
 """
 from __future__ import annotations
 
@@ -45,6 +48,7 @@ from ..sweep.outputs import parse_outputs
 from ..sweep.params import points
 from ..sweep.sensitivity import _reduce_derivative, _state_index
 from . import adjoint_kernels as ak
+from . import adjoint_params as ap
 
 __all__ = ["Adjoint", "adjoint_gradients", "output_gradients", "FD_EPS"]
 
@@ -52,7 +56,7 @@ __all__ = ["Adjoint", "adjoint_gradients", "output_gradients", "FD_EPS"]
 FD_EPS = 1e-6
 _E = np.zeros(1, dtype=np.int64)
 #: the structure argument of the dense path (unused there; the compiled signature needs one)
-_EMPTY_S = (_E,) * 12
+_EMPTY_S = (_E,) * 12 + (np.zeros((4, 0), dtype=np.int64),)
 
 
 def _scale(x: float) -> float:
@@ -123,15 +127,17 @@ def structure(setup, active):
     # bodies: distance >= 3 in one class (their neighbourhoods disjoint)
     cls_ptr, cls_body = _greedy([(near[b], set()) for b in range(nb)])
     ji, jj = _packed_ints(system, "bi"), _packed_ints(system, "bj")
-    owners = []
-    for a in np.asarray(active).tolist():
+    owners, body_floats = [], []            # body floats: (j, kind, body, component)
+    for j, a in enumerate(np.asarray(active).tolist()):
         owner = None
         for name, off, shape in setup._slots:
             size = int(np.prod(shape))
             if off <= a < off + size:
-                inst = (a - off) // max(1, size // shape[0])
+                per = max(1, size // shape[0])
+                inst = (a - off) // per
                 if name in _BODY_FLOATS:
                     owner = ({inst}, set())
+                    body_floats.append((j, _BODY_FLOATS.index(name), inst, (a - off) % per))
                 elif name in _JOINT_FLOATS:
                     bodies = {int(b) for b in (ji[inst], jj[inst]) if real(int(b))}
                     owner = (bodies, set().union(*[touch[b] for b in bodies]) if bodies
@@ -142,13 +148,17 @@ def structure(setup, active):
         if owner is None:
             return None
         owners.append(owner)
-    fcl_ptr, fcl_idx = _greedy(owners)
+    analytic = {bf[0] for bf in body_floats}
+    rest = [j for j in range(len(owners)) if j not in analytic]
+    fcl_ptr, fcl_idx = _greedy([owners[j] for j in rest])
+    fcl_idx = np.array([rest[i] for i in fcl_idx], dtype=np.int64)
     nbr = _csr(near)
     crw = _csr(touch)
     fb = _csr([o[0] for o in owners])
     fc = _csr([o[1] for o in owners])
+    bfl = np.array(body_floats, dtype=np.int64).reshape(-1, 4).T.copy()
     return (cls_ptr, cls_body, nbr[0], nbr[1], crw[0], crw[1], fcl_ptr, fcl_idx,
-            fb[0], fb[1], fc[0], fc[1])
+            fb[0], fb[1], fc[0], fc[1], bfl)
 
 
 class Adjoint:
@@ -202,6 +212,7 @@ class Adjoint:
         self.structured = False
         self._groups = None
         self._support = None
+        self._direct = None
 
     # -------------------------------------------------------------------------- forward
     def _build(self, values):
@@ -210,13 +221,14 @@ class Adjoint:
         self.n_builds += 1
         return self.job.build(member)
 
-    def _pack(self, values):
+    def _pack(self, values, with_model=False):
         m, an = self._build(values)
         if self.setup is None:
             self.setup = BatchSetup(m, an.method, an.method_options)
             self.model, self.analysis = m, an
         F = self.setup.pack_F(m)
-        return F, self.setup.initial_state(m, F, an)
+        y0 = self.setup.initial_state(m, F, an)
+        return (F, y0, m, an) if with_model else (F, y0)
 
     def _grid(self):
         an = self.analysis
@@ -257,13 +269,15 @@ class Adjoint:
         :meth:`gradient` afterwards)."""
         x = np.asarray(x, dtype=float)
         values = dict(zip(self.names, map(float, x)))
-        F, y0 = self._pack(values)
+        F, y0, m, an = self._pack(values, with_model=True)
         if self.t_out is None:
             self._grid()
         p = x.size
         dF = np.zeros((F.size, p))
         dy0 = np.zeros((y0.size, p))
-        groups = self._groups if self._groups is not None else [[j] for j in range(p)]
+        first = self._groups is None
+        groups = [[j] for j in range(p)] if first else self._groups
+        probes = {}
         for group in (groups if derivatives else []):
             d = {j: self.relative_delta * _scale(x[j]) for j in group}
             plus, minus = dict(values), dict(values)
@@ -271,7 +285,7 @@ class Adjoint:
                 plus[self.names[j]] += d[j]
                 minus[self.names[j]] -= d[j]
             try:
-                Fa, ya = self._pack(plus)
+                Fa, ya, ma, _ = self._pack(plus, with_model=True)
                 Fb, yb = self._pack(minus)
             except ModelError as exc:
                 if "differs in topology" not in str(exc):
@@ -293,7 +307,16 @@ class Adjoint:
                 else:
                     dF[fs, j] = dFg[fs] / (2 * d[j])
                     dy0[ys, j] = dyg[ys] / (2 * d[j])
-        if derivatives and self._groups is None:
+            if first:
+                probes[group[0]] = (ma, Fa, plus[self.names[group[0]]])
+        if derivatives and not first and self._direct:
+            self._direct_derivatives(x, m, an, F, dF, dy0)
+        if derivatives and first:
+            self._direct = {}
+            for j, (ma, Fa, value) in probes.items():
+                entry = ap.direct_entry(self.setup, m, ma, Fa, value)
+                if entry is not None:
+                    self._direct[j] = entry
             self._group_parameters(dF, dy0)
         if derivatives:
             active = np.flatnonzero(np.any(dF != 0.0, axis=1)).astype(np.int64)
@@ -319,17 +342,36 @@ class Adjoint:
         return self.Y
 
     def _group_parameters(self, dF, dy0):
-        """After the first gradient (one build pair per parameter): parameters whose packed
-        floats and initial-state entries are disjoint share a build pair from now on (a
-        greedy colouring of their supports), so later gradients cost 2 n_groups builds."""
+        """After the first gradient (one build pair per parameter): the direct parameters
+        (:mod:`.adjoint_params`) need no builds from now on; the others whose packed floats
+        and initial-state entries are disjoint share a build pair (a greedy colouring of
+        their supports), so later gradients cost 2 n_groups builds."""
         supports = []
         for j in range(len(self.names)):
             fs = np.flatnonzero(dF[:, j] != 0.0)
             ys = np.flatnonzero(dy0[:, j] != 0.0)
             supports.append((fs, ys))
-        ptr, idx = _greedy([(set(fs.tolist()), set(ys.tolist())) for fs, ys in supports])
+        built = [j for j in range(len(self.names)) if j not in self._direct]
+        ptr, idx = _greedy([(set(supports[j][0].tolist()), set(supports[j][1].tolist()))
+                            for j in built])
         self._support = supports
-        self._groups = [idx[ptr[k]:ptr[k + 1]].tolist() for k in range(ptr.size - 1)]
+        self._groups = [[built[i] for i in idx[ptr[k]:ptr[k + 1]]]
+                        for k in range(ptr.size - 1)]
+
+    def _direct_derivatives(self, x, m, an, F, dF, dy0):
+        """The columns of dF/dp and dy0/dp of the direct parameters, from the model m at x
+        (no builds; :mod:`.adjoint_params`)."""
+        for kinds, fill in ((ap.BODY_ARRAYS, "F"), (("q0", "v0"), "y")):
+            cols = [j for j, (a, _) in self._direct.items() if a in kinds]
+            if not cols:
+                continue
+            entries = [self._direct[j] for j in cols]
+            deltas = [self.relative_delta * _scale(x[j]) for j in cols]
+            if fill == "F":
+                dF[:, cols] = ap.body_columns(self.setup, m, F, entries, x[cols], deltas)
+            else:
+                dy0[:, cols] = ap.state_columns(self.setup, m, an, F, entries, x[cols],
+                                                deltas)
 
     def _choose_path(self, F, y0, dF):
         """The structured vector-Jacobian products (:mod:`.adjoint_vjp`) when the model's

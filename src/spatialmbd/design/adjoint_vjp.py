@@ -14,11 +14,14 @@ lam -> -lam) turns the product into the derivative of residuals that are *local*
 body b (r_v and qdot) depend on b and the bodies joined to it by a joint or a force element,
 the rows of a constraint on its two bodies. So directions are combined: every body of one
 colour class (bodies at distance >= 3 in that graph: no row depends on two of them) is
-perturbed at once in one of its 13 state components, and the change of the rows each body
-reaches is its own. Likewise the packed model floats: a float of body b moves the rows of b;
-of a joint, the rows of its bodies and constraints; of a force element, the rows of its
-bodies; floats whose rows are disjoint share an evaluation. Per RK4 stage: one evaluation at
-the stage, K solves, 2 (13 n_colours + n_float_colours) evaluations of the residuals (no
+perturbed at once in one of its state components -- 12: with normalised Euler parameters the
+rows read p only through p / |p|, so its 3 tangent directions do --, and the change of the
+rows each body reaches is its own. Likewise the packed model floats: a float of a joint moves
+the rows of its bodies and constraints; of a force element, the rows of its bodies; floats
+whose rows are disjoint share an evaluation. The body floats (mass, J', J'^-1, weight) need
+none: r_v is linear in m, m g and J', its derivative is written out (:func:`_body_floats`).
+Per RK4 stage: one evaluation at
+the stage, K solves, 2 (12 n_colours + n_float_colours) evaluations of the residuals (no
 solve) -- instead of 2 (n + n_active) right-hand sides, n = 13 nb + 1.
 
 The residual derivatives are central differences like those of the dense path; the
@@ -76,13 +79,58 @@ def _sums(kq, muv, muc, rv1, rc1, qd1, rv2, rc2, qd2, bsum, csum):
             csum[a, k] = muc[a, k] * (rc1[a] - rc2[a])
 
 
+@njit(inline="always")
+def _index(b, comp, npc, nb):
+    """The state index of component comp of body b: r (3), the npc = 4 Euler parameters
+    (none when npc = 3: the tangent directions are handled apart), v (6)."""
+    if comp < 3 + npc:
+        return 7 * b + comp
+    return 7 * nb + 6 * b + comp - 3 - npc
+
+
+@njit
+def _body_floats(bfl, A, omega, vdot, muv, Fbar):
+    """Fbar += (d r_v / d F)^T mu_v for the body floats, analytically: bfl (4, nf) holds per
+    float its index in ``active``, kind (0 mass, 1 J', 2 J'^-1, 3 weight: the order of
+    ``adjoint._BODY_FLOATS``), body and component. r_v of body b = [weight + (D^T lam)_r -
+    m vdot_r; -w x (A J' A^T w) + (D^T lam)_w - A J' A^T wdot]: d/d weight_c = mu_r,c;
+    d/dm = -mu_r . vdot_r; d/dJ'_cd = a_c e_d - u_c z_d with a = A^T (w x mu_w),
+    e = A^T w, u = A^T mu_w, z = A^T wdot; J'^-1 is read only by the solve, not by the
+    residual (its derivative along dF/dp comes with J''s)."""
+    K = muv.shape[1]
+    for e in range(bfl.shape[1]):
+        j, kind, b, c = bfl[0, e], bfl[1, e], bfl[2, e], bfl[3, e]
+        o = 6 * b
+        for k in range(K):
+            if kind == 0:
+                acc = 0.0
+                for i in range(3):
+                    acc -= muv[o + i, k] * vdot[o + i]
+            elif kind == 3:
+                acc = muv[o + c, k]
+            elif kind == 1:
+                r, s = c // 3, c % 3
+                w0, w1, w2 = omega[b, 0], omega[b, 1], omega[b, 2]
+                m0, m1, m2 = muv[o + 3, k], muv[o + 4, k], muv[o + 5, k]
+                x0, x1, x2 = w1 * m2 - w2 * m1, w2 * m0 - w0 * m2, w0 * m1 - w1 * m0
+                a_r = A[b, 0, r] * x0 + A[b, 1, r] * x1 + A[b, 2, r] * x2
+                e_s = A[b, 0, s] * w0 + A[b, 1, s] * w1 + A[b, 2, s] * w2
+                u_r = A[b, 0, r] * m0 + A[b, 1, r] * m1 + A[b, 2, r] * m2
+                z_s = (A[b, 0, s] * vdot[o + 3] + A[b, 1, s] * vdot[o + 4]
+                       + A[b, 2, s] * vdot[o + 5])
+                acc = a_r * e_s - u_r * z_s
+            else:
+                acc = 0.0
+            Fbar[j, k] += acc
+
+
 @njit
 def vjp_structured(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, eps, S):
     """ybar += f_y(t, Y)^T kbar, Fbar += f_F(t, Y)[:, active]^T kbar (kbar (n, K), its last
     (work) row ignored) through the residuals; S: the colouring (:func:`.adjoint.structure`).
     Returns the status (0 = OK)."""
     (cls_ptr, cls_body, nbr_ptr, nbr_body, crw_ptr, crw_row,
-     fcl_ptr, fcl_idx, fb_ptr, fb_body, fc_ptr, fc_row) = S
+     fcl_ptr, fcl_idx, fb_ptr, fb_body, fc_ptr, fc_row, bfl) = S
     n, K = kbar.shape
     ydot = np.empty(n)
     if rhs_standard(t, Y, ydot, F, I, W, mp) < 0:
@@ -110,6 +158,7 @@ def vjp_structured(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, eps, S):
             muv[i, k] = a6[i]
         for a in range(m):
             muc[a, k] = -lk[a]
+    _body_floats(bfl, bo.A, bo.omega, vdot, muv, Fbar)
     rv1, rv2 = np.empty(6 * nb), np.empty(6 * nb)
     rc1, rc2 = np.empty(m), np.empty(m)
     qd1, qd2 = np.empty(7 * nb), np.empty(7 * nb)
@@ -119,34 +168,65 @@ def vjp_structured(t, Y, kbar, ybar, Fbar, F, I, W, mp, active, eps, S):
     ncls = cls_ptr.size - 1
     step = np.empty(nb)
     Ysave = Y.copy()
+    # with normalised Euler parameters (mp[0] = 1) every residual reads p through p / |p|:
+    # its gradient in p lies in the tangent space, spanned by the rows of E(p^) (orthonormal,
+    # normal to p^), so 3 directions per body do instead of 4
+    npc = 3 if mp[0] != 0.0 else 4
+    Tb = np.zeros((nb, 3, 4))
+    if npc == 3:
+        for b in range(nb):
+            o = 7 * b + 3
+            nrm = np.sqrt(Y[o] ** 2 + Y[o + 1] ** 2 + Y[o + 2] ** 2 + Y[o + 3] ** 2)
+            e0, e1, e2, e3 = Y[o] / nrm, Y[o + 1] / nrm, Y[o + 2] / nrm, Y[o + 3] / nrm
+            Tb[b, 0, 0], Tb[b, 0, 1], Tb[b, 0, 2], Tb[b, 0, 3] = -e1, e0, -e3, e2
+            Tb[b, 1, 0], Tb[b, 1, 1], Tb[b, 1, 2], Tb[b, 1, 3] = -e2, e3, e0, -e1
+            Tb[b, 2, 0], Tb[b, 2, 1], Tb[b, 2, 2], Tb[b, 2, 3] = -e3, -e2, e1, e0
     for cl in range(ncls):                          # the states, one colour class at a time
-        for comp in range(13):
+        for comp in range(9 + npc):
+            tangent = npc == 3 and 3 <= comp < 6
             for e in range(cls_ptr[cl], cls_ptr[cl + 1]):
                 b = cls_body[e]
-                idx = 7 * b + comp if comp < 7 else 7 * nb + 6 * b + comp - 7
-                step[b] = eps * max(1.0, abs(Y[idx]))
-                Y[idx] += step[b]
+                if tangent:
+                    step[b] = eps
+                    for i in range(4):
+                        Y[7 * b + 3 + i] += eps * Tb[b, comp - 3, i]
+                else:
+                    idx = _index(b, comp, npc, nb)
+                    step[b] = eps * max(1.0, abs(Y[idx]))
+                    Y[idx] += step[b]
             _local(t, Y, F, I, W, mp, vdot, lam, rv1, rc1, qd1, tmp6, ydot)
             for e in range(cls_ptr[cl], cls_ptr[cl + 1]):
                 b = cls_body[e]
-                idx = 7 * b + comp if comp < 7 else 7 * nb + 6 * b + comp - 7
-                Y[idx] -= 2.0 * step[b]
+                if tangent:
+                    for i in range(4):
+                        Y[7 * b + 3 + i] = Ysave[7 * b + 3 + i] - eps * Tb[b, comp - 3, i]
+                else:
+                    idx = _index(b, comp, npc, nb)
+                    Y[idx] -= 2.0 * step[b]
             _local(t, Y, F, I, W, mp, vdot, lam, rv2, rc2, qd2, tmp6, ydot)
             for e in range(cls_ptr[cl], cls_ptr[cl + 1]):
                 b = cls_body[e]
-                idx = 7 * b + comp if comp < 7 else 7 * nb + 6 * b + comp - 7
-                Y[idx] = Ysave[idx]
+                if tangent:
+                    for i in range(4):
+                        Y[7 * b + 3 + i] = Ysave[7 * b + 3 + i]
+                else:
+                    idx = _index(b, comp, npc, nb)
+                    Y[idx] = Ysave[idx]
             _sums(kq, muv, muc, rv1, rc1, qd1, rv2, rc2, qd2, bsum, csum)
             for e in range(cls_ptr[cl], cls_ptr[cl + 1]):
                 b = cls_body[e]
-                idx = 7 * b + comp if comp < 7 else 7 * nb + 6 * b + comp - 7
                 for k in range(K):
                     acc = 0.0
                     for u in range(nbr_ptr[b], nbr_ptr[b + 1]):
                         acc += bsum[nbr_body[u], k]
                     for u in range(crw_ptr[b], crw_ptr[b + 1]):
                         acc += csum[crw_row[u], k]
-                    ybar[idx, k] += acc / (2.0 * step[b])
+                    acc /= 2.0 * step[b]
+                    if tangent:
+                        for i in range(4):
+                            ybar[7 * b + 3 + i, k] += acc * Tb[b, comp - 3, i]
+                    else:
+                        ybar[_index(b, comp, npc, nb), k] += acc
     fstep = np.empty(active.size)
     Fsave = np.empty(active.size)
     for j in range(active.size):
