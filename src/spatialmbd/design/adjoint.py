@@ -317,6 +317,7 @@ class Adjoint:
                 entry = ap.direct_entry(self.setup, m, ma, Fa, value)
                 if entry is not None:
                     self._direct[j] = entry
+            self._direct = ap.keep_valid(self._direct, dy0, self.model.nb)
             self._group_parameters(dF, dy0)
         if derivatives:
             active = np.flatnonzero(np.any(dF != 0.0, axis=1)).astype(np.int64)

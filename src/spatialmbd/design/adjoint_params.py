@@ -21,8 +21,8 @@ are and give the pack a patched model gives (:func:`direct_entry`, the probe of 
 engine's direct path). Every other parameter (a stiffness, a joint point, a velocity in body
 axes) keeps its builds. The decision is taken at the first gradient's values: a rate given in
 body axes is direct when the body's orientation is the identity there, and stays so only while
-no other parameter turns that body (vary its orientation and rate together and the later
-gradients would be off: the tests of the first against a later gradient would show it).
+no other parameter turns that body: an initial-velocity entry stays direct only when no
+parameter has a derivative of the initial orientations (:func:`keep_valid`).
 """
 from __future__ import annotations
 
@@ -64,6 +64,20 @@ def direct_entry(setup, model0, model_p, F_p, value):
     if not np.array_equal(F_p, setup.pack_F(_patched(model0, a, i, value))):
         return None
     return a, i
+
+
+def keep_valid(direct: dict, dy0: np.ndarray, nb: int) -> dict:
+    """The direct parameters {j: (array, index)} whose decision holds at every later value:
+    an initial-velocity entry found direct (it may be a rate in body axes, direct only while
+    its body's orientation stays as it was) stays direct only when no parameter turns a body --
+    none has a derivative of the initial orientations (dy0, from the first gradient's builds:
+    Euler parameters, columns 3-6 of each body's 7 leading entries); otherwise it keeps its
+    builds."""
+    orientation = np.zeros(dy0.shape[0], dtype=bool)
+    orientation[:7 * nb] = (np.arange(7 * nb) % 7) >= 3
+    if not np.any(dy0[orientation] != 0.0):
+        return direct
+    return {j: e for j, e in direct.items() if e[0] != "v0"}
 
 
 def body_columns(setup, model, F, entries, values, deltas):
