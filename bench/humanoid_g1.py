@@ -2,7 +2,7 @@
 """A 29-joint humanoid with joint limits, rotor inertia, joint friction and position servos:
 spatialmbd against MuJoCo, in one run, at equal accuracy.
 
-    OPENBLAS_NUM_THREADS=1 python bench/humanoid.py --xml PATH/TO/g1_29dof.xml
+    OPENBLAS_NUM_THREADS=1 python bench/humanoid_g1.py --xml PATH/TO/g1_29dof.xml
 
 The model is Unitree's G1 (29 hinge joints; the file ``unitree_robots/g1/g1_29dof.xml`` of the
 public repository ``unitreerobotics/unitree_mujoco``, with its meshes folder next to it). The
@@ -186,7 +186,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--xml", required=True, type=Path,
                     help="g1_29dof.xml of unitreerobotics/unitree_mujoco (meshes next to it)")
-    ap.add_argument("-o", default=str(Path(__file__).parent / "results" / "humanoid.md"))
+    ap.add_argument("-o", default=str(Path(__file__).parent / "results" / "humanoid_g1.md"))
     args = ap.parse_args(argv)
     if not args.xml.is_file():
         print(f"humanoid bench: no file {args.xml}: give --xml the path of g1_29dof.xml",
@@ -200,7 +200,7 @@ def main(argv=None):
         cross_table = cross_check(xml, names)
     cross = float(np.linalg.norm(our_ref - mj_ref, axis=1).max())
     lines = ["# A 29-joint humanoid (Unitree G1) with limits, armature, friction and servos",
-             "", f"Measured {time.strftime('%Y-%m-%d')} by `bench/humanoid.py` (see its "
+             "", f"Measured {time.strftime('%Y-%m-%d')} by `bench/humanoid_g1.py` (see its "
              "docstring for the model and the measures). 1 s simulated, fixed base, servo step "
              "to 0.3 rad on all 29 joints. Load average at the end: "
              + ", ".join(f"{x:.1f}" for x in os.getloadavg()) + " (2 cores).", "",
