@@ -106,6 +106,10 @@ def test_rotors_on_a_tendon_spring_oscillate_at_the_closed_form_frequency(method
     for m, (c, inertia) in enumerate(zip(coefs, inertias)):
         expected = c / inertia / s * L0 * (1 - np.cos(w * t))
         assert np.abs(q[:, m] - expected).max() < 1e-8
+    from spatialmbd.outputs import force_outputs
+    out = force_outputs(res, "t")                # L, L', actuator force, tendon force
+    assert np.abs(out["length"] - L0 * (1 - np.cos(w * t))).max() < 1e-8
+    assert np.abs(out["force"] + k * (out["length"] - L0)).max() < 1e-10
     energy = res.energy()                       # the spring's energy closes the balance
     assert energy["elastic"].max() > 0.1
     assert np.abs(energy["error"]).max() < 1e-8
