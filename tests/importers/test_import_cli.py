@@ -42,7 +42,7 @@ ARM = """<mujoco model="arm"><compiler angle="radian" meshdir="."/>
         <geom class="visual" type="mesh" mesh="tetra" rgba="0 0 1 1"/>
         <geom class="collision" type="box" pos="0.1 0 0" size="0.1 0.02 0.02"/>
       </body></body></worldbody>
-  <tendon><fixed name="tl"><joint joint="elbow" coef="1"/></fixed></tendon>
+  <tendon><fixed name="tl" frictionloss="0.3"><joint joint="elbow" coef="1"/></fixed></tendon>
   <actuator><motor name="m1" tendon="tl"/>
     <general name="m2" joint="elbow" dyntype="filter" dynprm="0.1"/></actuator></mujoco>"""
 
@@ -60,13 +60,13 @@ def test_import_succeeds_by_default_with_a_short_summary(arm, tmp_path, capsys):
     out = tmp_path / "arm.yaml"
     assert main(["import", str(arm), "-o", str(out)]) == 0
     err = capsys.readouterr().err
-    summary = ("left out of arm.xml: 2 actuators, 1 tendon, 1 joint limit, 2 colliding geoms")
+    summary = ("left out of arm.xml: 1 actuator, 1 tendon, 1 joint limit, 2 colliding geoms")
     assert summary in err, err
-    assert len(err.splitlines()) == 1 and "'m1'" not in err        # counts, not names
+    assert len(err.splitlines()) == 1 and "'m2'" not in err        # counts, not names
     assert main(["import", str(arm), "-o", str(out), "--verbose"]) == 0
     err = capsys.readouterr().err
-    for line in ("actuator 'm1'", "actuator 'm2'",
-                 "joint limit 'shoulder' (range -7 .. 7 rad is a turn or more", "tendon 'tl'"):
+    for line in ("actuator 'm2'", "tendon 'tl' (its frictionloss)",
+                 "joint limit 'shoulder' (range -7 .. 7 rad is a turn or more"):
         assert line in err, (line, err)
     assert main(["import", str(arm), "-o", str(out), "--lenient", "-q"]) == 0  # accepted
     assert capsys.readouterr().err == ""
@@ -76,7 +76,7 @@ def test_strict_refuses_with_exit_status_2(arm, tmp_path, capsys):
     out = tmp_path / "arm.yaml"
     assert main(["import", str(arm), "--strict", "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "actuator 'm1'" in err and "tendon 'tl'" in err
+    assert "actuator 'm2'" in err and "tendon 'tl'" in err
     assert "Traceback" not in err and not out.exists()
     with pytest.raises(ModelError, match="tendon 'tl'"):
         read_mjcf(arm, strict=True)
@@ -115,14 +115,14 @@ def test_strict_refuses_the_approximations_the_default_lists_them(tmp_path, caps
 
 
 def test_left_out_is_structured(arm):
-    with pytest.warns(UserWarning, match="left out: 2 actuators"):
+    with pytest.warns(UserWarning, match="left out: 1 actuator, 1 tendon"):
         imported = read_mjcf(arm)
     kinds = [x.kind for x in imported.left_out]
-    assert kinds.count("actuator") == 2 and kinds.count("joint limit") == 1
+    assert kinds.count("actuator") == 1 and kinds.count("joint limit") == 1
     limit = next(x for x in imported.left_out if x.element == "shoulder" and
                  x.kind == "joint limit")
     assert limit.detail.startswith("range -7 .. 7 rad") and not limit.unsupported
-    assert imported.summary.startswith("2 actuators, 1 tendon, 1 joint limit")
+    assert imported.summary.startswith("1 actuator, 1 tendon, 1 joint limit")
     # what maps is imported: the elbow's limit, the shoulder's friction loss and armature
     forces = imported.builder.forces
     assert forces["elbow_limit"].type == "joint_limit"
@@ -211,7 +211,7 @@ def test_run_info_plot_animate_accept_mjcf(arm, tmp_path, capsys):
     assert main(["run", str(arm), "--t-end", "0.05", "-q", "-o", str(csv)]) == 0
     assert csv.stat().st_size > 0
     assert main(["run", str(arm), "--strict", "--t-end", "0.05", "-o", str(csv)]) == 2
-    assert "actuator 'm1'" in capsys.readouterr().err
+    assert "actuator 'm2'" in capsys.readouterr().err
     assert main(["info", str(arm), "--verbose"]) == 0
     captured = capsys.readouterr()
     assert "upper" in captured.out and "joint limit 'shoulder'" in captured.err

@@ -777,3 +777,45 @@ def test_browser_follows_a_travelling_mechanism(browser, pendulum_page, tmp_path
     assert browser.errors(session) == []
     session = _load(browser, pendulum_page, "#t=0")
     assert browser.evaluate(session, "spatialmbdViewer.isFollowing()") is False
+
+
+# ----------------------------------------------------------------------------------------------
+# the camera frames the moving bodies
+# ----------------------------------------------------------------------------------------------
+def _with_far_dummy(scene, distance=40.0):
+    """The scene with a static dummy body parked ``distance`` m away along x (a MuJoCo
+    model's mocap or a helper frame) and a static base next to the pivot."""
+    scene["bodies"] = scene["bodies"] + [
+        {"name": "dummy", "r": [distance, 0, 0], "p": [1, 0, 0, 0],
+         "shapes": [{"type": "box", "size": [0.2, 0.2, 0.2]}]},
+        {"name": "base", "r": np.tile([0.0, 0.0, 0.3], (len(scene["t"]), 1)),
+         "p": np.tile([1.0, 0, 0, 0], (len(scene["t"]), 1)),
+         "shapes": [{"type": "box", "size": [0.4, 0.4, 0.1]}]}]
+    return scene
+
+
+def test_bodies_that_move_are_marked_for_the_camera():
+    data = _embedded_scene(animation_html(_with_far_dummy(double_pendulum_scene())))
+    assert [b["moving"] for b in data["bodies"]] == [True, True, False, False]
+    still = {"t": [0.0, 1.0], "bodies": [{"r": np.tile([1.0, 2, 3], (2, 1)) + [[0, 0, 0],
+                                                                             [0, 0, 1e-9]],
+                                         "p": np.tile([1.0, 0, 0, 0], (2, 1))}]}
+    assert _embedded_scene(animation_html(still))["bodies"][0]["moving"] is False
+
+
+@pytest.mark.browser
+def test_browser_camera_frames_the_moving_bodies_not_a_far_dummy(browser, tmp_path):
+    """A double pendulum (2 m across) with a static dummy body 40 m away and a static base
+    beside its pivot: the camera looks at the pendulum's box (with the base, which is near),
+    not the dummy (whose box would put the target about 20 m along x)."""
+    scene = _with_far_dummy(double_pendulum_scene())
+    page = write_animation_html(tmp_path / "dummy.html", scene)
+    session = _load(browser, page, "#t=0")
+    assert browser.evaluate(session, "spatialmbdViewer.isFollowing()") is False
+    target = np.array(browser.evaluate(session, "spatialmbdViewer.cameraTarget()"))
+    # the centre of the box of the links' trajectories (with their shapes), the base and the
+    # origin: within the pendulum's reach of the pivot
+    links = np.concatenate([b["r"] for b in scene["bodies"][:2]])
+    centre = 0.5 * (links.min(axis=0) + links.max(axis=0))
+    assert np.abs(target - centre).max() < 0.35, (target, centre)
+    assert browser.errors(session) == []

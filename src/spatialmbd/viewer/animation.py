@@ -41,6 +41,10 @@ shapes       in body axes: ``{"type": "box", "size": [lx, ly, lz], "center": [x,
 ``ground``   optional list of shapes fixed in global axes.
 ``gravity``  optional [gx, gy, gz]; the initial camera uses up = -gravity (default up = +z).
 
+The camera frames the box of the moving bodies' trajectories with their shapes, grown by the
+static bodies, ground shapes and origin within three times its size (a dummy body parked far
+away is not framed); with no static body, or none moving, the whole scene.
+
 The page exposes ``window.spatialmbdViewer`` (``setTime(t)``, ``getTime()``, ``nFrames``,
 ``ready``, ``play()``, ``pause()``, ``isPlaying()``, ``fit()``, ``setFollow(on)``,
 ``isFollowing()``, ``cameraTarget()``) and honours a URL hash ``#t=1.25`` (show that time,
@@ -289,6 +293,15 @@ def _points(items: Any, n_frames: int) -> list:
     return out
 
 
+def _moves(r: np.ndarray, p: np.ndarray) -> bool:
+    """Whether a body's trajectory (frames, 3) and (frames, 4) changes beyond float32 round-off
+    of the embedded data (what the viewer shows)."""
+    if len(r) < 2:
+        return False
+    size = 1.0 + float(np.abs(r).max())
+    return bool(np.ptp(r, axis=0).max() > 1e-6 * size or np.ptp(p, axis=0).max() > 1e-6)
+
+
 def _prepare_scene(scene: dict, title: str) -> dict:
     """Validate the scene and convert it to the compact JSON-ready form read by viewer.js."""
     if not isinstance(scene, dict):
@@ -319,7 +332,9 @@ def _prepare_scene(scene: dict, title: str) -> dict:
              # (n_samples, 7): r then p per frame, float32 (viewing precision, ~1e-7 relative)
              "q": _float32_base64(np.concatenate([r, p], axis=1), what),
              "shapes": _shapes(body.get("shapes"),
-                               f"{what}['shapes'] (body {body.get('name', i)!r})")}
+                               f"{what}['shapes'] (body {body.get('name', i)!r})"),
+             # the camera frames the bodies that move (a dummy body far away is left out)
+             "moving": _moves(r, p)}
         out["bodies"].append(b)
 
     for j, joint in enumerate(scene.get("joints") or []):

@@ -259,7 +259,8 @@
       .filter(function (m) { return m !== null; });
     var rp = typeof b.q === 'string' ? splitQ(decodeFloat32(b.q)) : { r: b.r, p: b.p };
     return { name: b.name || ('body' + i), color: parseColor(b.color), r: rp.r, p: rp.p,
-             nSamples: Math.min(rp.r.length / 3, rp.p.length / 4), meshes: meshes };
+             nSamples: Math.min(rp.r.length / 3, rp.p.length / 4), meshes: meshes,
+             moving: b.moving !== false };
   });
   var groundMeshes = (raw.ground || []).map(function (s) { return buildMesh(s, '#9aa3ad'); })
     .filter(function (m) { return m !== null; });
@@ -323,6 +324,16 @@
       if (v[i] > bbMax[i]) { bbMax[i] = v[i]; }
     }
   }
+  // what the camera frames: the box of the moving bodies' trajectories (with their shapes),
+  // grown by the static bodies and ground shapes near it; a dummy body far away is left out
+  var moving = bodies.filter(function (b) { return b.moving; });
+  var mvMin = [Infinity, Infinity, Infinity], mvMax = [-Infinity, -Infinity, -Infinity];
+  function growMoving(v) {
+    for (var i = 0; i < 3; i++) {
+      if (v[i] < mvMin[i]) { mvMin[i] = v[i]; }
+      if (v[i] > mvMax[i]) { mvMax[i] = v[i]; }
+    }
+  }
   (function computeBounds() {
     var stride = Math.max(1, Math.floor(nF / 300));
     var ks = [];
@@ -337,8 +348,13 @@
       var poses = bodies.map(function (b) {
         var ps = bodyPose(b, { k: k, a: 0 });
         own(ps.pos);
+        if (b.moving) { growMoving(ps.pos); }
         b.meshes.forEach(function (m) {
-          m.verts.forEach(function (v) { own(add(ps.pos, matVec(ps.A, v))); });
+          m.verts.forEach(function (v) {
+            var w = add(ps.pos, matVec(ps.A, v));
+            own(w);
+            if (b.moving) { growMoving(w); }
+          });
         });
         return ps;
       });
@@ -346,6 +362,19 @@
       if (bodies.length) { frameRadius = Math.max(frameRadius, 0.5 * norm(sub(hi, lo))); }
     });
     groundMeshes.forEach(function (m) { m.verts.forEach(grow); });
+    if (!moving.length || moving.length === bodies.length) { return; }
+    var c = scale(add(mvMin, mvMax), 0.5), reach = 3 * Math.max(norm(sub(mvMax, mvMin)), 1e-6);
+    var near = function (v) { if (norm(sub(v, c)) <= reach) { growMoving(v); } };
+    near([0, 0, 0]);
+    bodies.forEach(function (b) {
+      if (b.moving) { return; }
+      var ps = bodyPose(b, { k: 0, a: 0 });
+      near(ps.pos);
+      b.meshes.forEach(function (m) {
+        m.verts.forEach(function (v) { near(add(ps.pos, matVec(ps.A, v))); });
+      });
+    });
+    groundMeshes.forEach(function (m) { m.verts.forEach(near); });
   })();
   // world size used for the triad and the grid; the triad (with its letters) is then framed too
   var refSize = Math.max(0.5 * norm(sub(bbMax, bbMin)), 1e-6);
@@ -353,6 +382,11 @@
   grow([1.15 * axLen, 1.15 * axLen, 1.15 * axLen]);
   var bbCenter = scale(add(bbMin, bbMax), 0.5);
   var sceneRadius = Math.max(0.5 * norm(sub(bbMax, bbMin)), 1e-6);
+  if (!moving.length || moving.length === bodies.length) {   // frame the whole scene
+    mvMin = bbMin.slice(); mvMax = bbMax.slice();
+  }
+  var mvCenter = scale(add(mvMin, mvMax), 0.5);
+  var mvRadius = Math.max(0.5 * norm(sub(mvMax, mvMin)), 1e-6);
   // follow: the camera moves with the bodies (their mean position), for a mechanism that
   // travels several times its own size (a vehicle); on by default then
   var follow = frameRadius > 0 && sceneRadius > 4 * frameRadius;
@@ -500,9 +534,11 @@
   /* Frame the bounding box of the whole motion for the current viewing direction: the
    * smallest distance at which all 8 corners project inside the view (with a margin). */
   function bodiesCentre(poses) {
-    var c = [0, 0, 0];
-    poses.forEach(function (ps) { c = add(c, ps.pos); });
-    return poses.length ? scale(c, 1 / poses.length) : bbCenter.slice();
+    var c = [0, 0, 0], n = 0;
+    poses.forEach(function (ps, i) {
+      if (bodies[i].moving || !moving.length) { c = add(c, ps.pos); n += 1; }
+    });
+    return n ? scale(c, 1 / n) : bbCenter.slice();
   }
   function followedTarget() {
     var frm = frameAt(curTime);
@@ -518,17 +554,17 @@
       requestRender();
       return;
     }
-    cam.target = bbCenter.slice();
+    cam.target = mvCenter.slice();
     cam.dist = 1;
     var fr = cameraFrame();
     var tanY = Math.tan(FOVY / 2), tanX = tanY * viewW / Math.max(viewH, 1);
     var dist = 0;
     for (var i = 0; i < 8; i++) {
-      var c = [(i & 1) ? bbMax[0] : bbMin[0], (i & 2) ? bbMax[1] : bbMin[1],
-               (i & 4) ? bbMax[2] : bbMin[2]];
-      var d = sub(c, bbCenter);
+      var c = [(i & 1) ? mvMax[0] : mvMin[0], (i & 2) ? mvMax[1] : mvMin[1],
+               (i & 4) ? mvMax[2] : mvMin[2]];
+      var d = sub(c, mvCenter);
       var x = dot(d, fr.r), y = dot(d, fr.u), z = dot(d, fr.f);
-      dist = Math.max(dist, Math.abs(x) / tanX - z, Math.abs(y) / tanY - z, sceneRadius * 0.2);
+      dist = Math.max(dist, Math.abs(x) / tanX - z, Math.abs(y) / tanY - z, mvRadius * 0.2);
     }
     cam.dist = 1.15 * dist;
     requestRender();

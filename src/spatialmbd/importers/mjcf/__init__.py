@@ -20,7 +20,8 @@ model and builds the equivalent :class:`~spatialmbd.model.builder.ModelBuilder` 
   (exact), limits -> joint_limit and friction loss -> joint_friction (MuJoCo's soft constraints
   mapped through solref/solimp), hinge and slide armature -> armature (exact),
   motor/position/velocity/general actuators (exact, command 0), fixed two-joint tendons held
-  by a tendon equality -> couplers.
+  by a tendon equality -> couplers, fixed tendons' springs and dampers and the actuators
+  pulling fixed tendons -> fixed_tendon (exact).
 * equality constraints: connect -> spherical, weld -> fixed (both exact: MuJoCo's soft loop
   closure becomes a rigid one); joint equalities a0 + a1 x -> couplers.
 * gravity: ``opt.gravity`` (zero when gravity is disabled).

@@ -22,6 +22,7 @@ import numpy as np
 
 from ...errors import ModelError
 from ...forces.actuators.mujoco import actuator_spec_from_mujoco
+from ...forces.fixed_tendon import MAX_JOINTS
 from .report import LeftOut
 
 #: the slide spring's points: P_i this far behind the anchor along the axis (m), so that
@@ -328,6 +329,11 @@ class JointElements:
                 self.leave("actuator", name, "actuation is disabled in the file")
                 continue
             j = int(m.actuator_trnid[u, 0])
+            if int(m.actuator_trntype[u]) == int(self.mujoco.mjtTrn.mjTRN_TENDON):
+                reason = self._tendon_actuator(u, name, j)
+                if reason:
+                    self.leave("actuator", name, reason)
+                continue
             joint = self.single.get(j) if int(m.actuator_trntype[u]) == int(
                 self.mujoco.mjtTrn.mjTRN_JOINT) else None
             if joint is None and int(m.actuator_trntype[u]) == int(
@@ -354,10 +360,86 @@ class JointElements:
                            "its actuators is not clamped)")
 
     # ------------------------------------------------------------------------- tendons
+    def fixed_tendon(self, t):
+        """([our joint names], [coefficients], shift) of fixed tendon t -- its length from
+        the assembly is L_mujoco - shift -- or a string saying why it is not one we take."""
+        m = self.m
+        adr, num = int(m.tendon_adr[t]), int(m.tendon_num[t])
+        if any(int(m.wrap_type[w]) != int(self.mujoco.mjtWrap.mjWRAP_JOINT)
+               for w in range(adr, adr + num)):
+            return "a spatial tendon (only fixed tendons import)"
+        if num > MAX_JOINTS:
+            return f"a fixed tendon of {num} joints (at most {MAX_JOINTS} import)"
+        joints = [int(m.wrap_objid[w]) for w in range(adr, adr + num)]
+        if any(j not in self.single for j in joints):
+            return "its joints must each be a single hinge or slide"
+        coefs = [float(m.wrap_prm[w]) for w in range(adr, adr + num)]
+        shift = sum(c * self._offset(j) for c, j in zip(coefs, joints))
+        return [self.single[j] for j in joints], coefs, shift
+
+    def _tendon_actuator(self, u, name, t):
+        """Add actuator u on fixed tendon t as a ``fixed_tendon`` force with the actuator's
+        gain, affine bias, ranges and command (gear folded into the coefficients: L = gear
+        L_tendon, each joint's effort gear c_m f), or return why not."""
+        m, mj = self.m, self.mujoco
+        tendon = self.fixed_tendon(t)
+        if isinstance(tendon, str):
+            return f"pulls tendon {self.mujoco.mj_id2name(m, mj.mjtObj.mjOBJ_TENDON, t)!r}: " \
+                   + tendon
+        if int(m.actuator_dyntype[u]) != int(mj.mjtDyn.mjDYN_NONE) \
+                or int(m.actuator_gaintype[u]) != int(mj.mjtGain.mjGAIN_FIXED) \
+                or int(m.actuator_biastype[u]) not in (int(mj.mjtBias.mjBIAS_NONE),
+                                                       int(mj.mjtBias.mjBIAS_AFFINE)):
+            return "activation dynamics, a non-fixed gain or a non-affine bias"
+        joints, coefs, shift = tendon
+        gear = float(m.actuator_gear[u, 0])
+        bias = [float(x) for x in m.actuator_biasprm[u, :3]] if int(
+            m.actuator_biastype[u]) == int(mj.mjtBias.mjBIAS_AFFINE) else [0.0, 0.0, 0.0]
+        bias[0] += bias[1] * gear * shift            # L_mujoco = gear (L + shift)
+        spec = dict(joints=joints, coefficients=[gear * c for c in coefs],
+                    gain=float(m.actuator_gainprm[u, 0]), bias=bias)
+        if bool(m.actuator_ctrllimited[u]):
+            spec["ctrlrange"] = [float(x) for x in m.actuator_ctrlrange[u]]
+        if bool(m.actuator_forcelimited[u]):
+            spec["forcerange"] = [float(x) for x in m.actuator_forcerange[u]]
+        if self.ctrl[u] != 0:
+            spec["command"] = float(self.ctrl[u])
+        try:
+            self.builder.add_force("fixed_tendon", self.fresh(re_name(name)), **spec)
+        except ModelError as exc:
+            return str(exc)
+        return None
+
+    def _tendon_spring(self, t, tname):
+        """Add the stiffness and damping of fixed tendon t as a ``fixed_tendon`` force; return
+        what of the tendon is left out (its limit, friction loss, armature, a dead band)."""
+        m = self.m
+        rest = [float(x) for x in m.tendon_lengthspring[t]]
+        k = 0.0 if _disabled(self.mujoco, m, "mjDSBL_SPRING") else float(m.tendon_stiffness[t])
+        c = 0.0 if _disabled(self.mujoco, m, "mjDSBL_DAMPER") else float(m.tendon_damping[t])
+        left = [what for what, on in (
+            ("limit", bool(m.tendon_limited[t])),
+            ("frictionloss", m.tendon_frictionloss[t] != 0),
+            ("armature", float(getattr(m, "tendon_armature", np.zeros(m.ntendon))[t]) != 0),
+            ("spring dead band", k != 0 and rest[0] != rest[1])) if on]
+        if k == 0 and c == 0 or "spring dead band" in left:
+            return left
+        tendon = self.fixed_tendon(t)
+        if isinstance(tendon, str):
+            return ["stiffness/damping (" + tendon + ")"] + left
+        joints, coefs, shift = tendon
+        self.builder.add_force("fixed_tendon", self.fresh(re_name(tname) + "_spring"),
+                               joints=joints, coefficients=coefs, stiffness=k, damping=c,
+                               rest_length=rest[0] - shift)
+        return left
+
     def add_tendons(self) -> None:
         """A fixed tendon over two single hinges/slides held by a tendon equality with one
         tendon, c_a q_a + c_b q_b - L0 = a0, is the exact coupler c_a x_a + c_b x_b = a0 (x
-        from the assembly). Every other tendon and tendon equality is left out."""
+        from the assembly). A fixed tendon's stiffness and damping (over 1 to 4 single hinges
+        or slides) become a ``fixed_tendon`` force, as do the actuators pulling it
+        (:meth:`_tendon_actuator`). Its limit and friction loss, spatial tendons and other
+        tendon equalities are left out."""
         m, OBJ, EQ = self.m, self.mujoco.mjtObj, self.mujoco.mjtEq
         coupled = set()
         for e in range(m.neq):
@@ -371,15 +453,9 @@ class JointElements:
                 coupled.add(int(m.eq_obj1id[e]))
         for t in range(m.ntendon):
             tname = self.mujoco.mj_id2name(m, OBJ.mjOBJ_TENDON, t) or f"tendon{t}"
-            own = [what for what, on in (
-                ("stiffness", m.tendon_stiffness[t] != 0), ("damping", m.tendon_damping[t] != 0),
-                ("limit", bool(m.tendon_limited[t])),
-                ("frictionloss", m.tendon_frictionloss[t] != 0)) if on]
-            if t not in coupled:
-                self.leave("tendon", tname, "only fixed tendons of two joints held by a tendon "
-                           "equality import (as couplers)")
-            elif own:
-                self.leave("tendon", tname, f"its {', '.join(own)} (the coupling is imported)")
+            own = self._tendon_spring(t, tname)
+            if own:
+                self.leave("tendon", tname, f"its {', '.join(own)}")
 
     def _tendon_equality(self, e, ename):
         """Add the coupler of tendon equality e, or return why not."""

@@ -1,0 +1,277 @@
+"""Fixed tendon: a spring, damper and actuator on a linear combination of joint coordinates
+(MJCF ``<tendon><fixed>`` with its stiffness, damping and the actuators that pull it).
+
+The tendon's length is a linear combination of the coordinates q_m of one to four joints,
+
+    L = sum_m c_m q_m,        L' = sum_m c_m q_m',
+
+each q_m the angle (revolute, cylindrical, screw) or the translation (translational,
+cylindrical, screw) of its joint, zero as assembled, measured exactly as the couplers measure it
+(:func:`spatialmbd.constraints.couplers.joint_coordinate`: the angle atan2(b_i . a_j, a_i . a_j),
+the translation u_i . d). The joints may sit anywhere: on the ground, on a moving carrier, on
+other joints' bodies. The tendon's force is
+
+    F = -k (L - L0) - c L' + f,   f = clamp(gain u + b0 + b1 L + b2 L', forcerange),
+    u = clamp(command, ctrlrange),
+
+(k ``stiffness``, c ``damping``, L0 ``rest_length``; the actuator part as MuJoCo's affine
+actuators: ``gain``, ``bias = [b0, b1, b2]``) and each joint m receives the effort c_m F as the
+generalized force c_m F D_qm^T, D_qm the exact Jacobian row of q_m over its two bodies (the
+gradient of L: the potential k (L - L0)^2 / 2 is exact in every state). Power of the
+non-conservative parts: (f - c L') L'. An angle is read within half a turn of its assembled
+value (atan2), enough for tendons that do not wind.
+
+MuJoCo's tendon length is measured from qpos = 0; ours from the assembly: the import shifts
+``rest_length`` and the bias b0 by sum_m c_m qpos0_m (docs/import.md).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..constraints.couplers import JOINT_BLOCK, KIND_TRANSLATION, joint_coordinate
+from ..errors import ModelError
+from ..jit import njit
+from ..motion import MotionLawSet, make_law
+from .base import ForceType, check_unknown, register
+from .kernel_tools import add_wrench
+
+#: the most joints one tendon combines
+MAX_JOINTS = 4
+#: parameter columns: the tendon's numbers, then one coupler joint block per joint
+STIFF, DAMP, REST, GAIN, B0, B1, B2, CTRL_LO, CTRL_HI, FORCE_LO, FORCE_HI, N_JOINTS = range(12)
+COEF = 12                                 # c_1 .. c_4
+BLOCKS = COEF + MAX_JOINTS
+N_PARAM = BLOCKS + MAX_JOINTS * JOINT_BLOCK
+
+
+@njit
+def length(S, P, D):
+    """(L, L') of the tendon with parameter row P; D a (1, 12) scratch row."""
+    L, Ld = 0.0, 0.0
+    for m in range(int(P[N_JOINTS])):
+        q, qd, _ = joint_coordinate(S, P, BLOCKS + m * JOINT_BLOCK, 1.0, 0.0, D, 0)
+        L += P[COEF + m] * q
+        Ld += P[COEF + m] * qd
+    return L, Ld
+
+
+@njit
+def tendon_force(P, L, Ld, u):
+    """(actuator force f, total tendon force F) at length L, rate L', command u."""
+    u = min(max(u, P[CTRL_LO]), P[CTRL_HI])
+    f = P[GAIN] * u + P[B0] + P[B1] * L + P[B2] * Ld
+    f = min(max(f, P[FORCE_LO]), P[FORCE_HI])
+    return f, f - P[STIFF] * (L - P[REST]) - P[DAMP] * Ld
+
+
+@njit
+def kernel(S, G, k, g, energy, power, D):
+    """param: the columns above; law[k, 0] = command u. g += c_m F D_qm^T for every joint m."""
+    P = G.param[k]
+    L, Ld = length(S, P, D)
+    f, F = tendon_force(P, L, Ld, G.law[k, 0])
+    for m in range(int(P[N_JOINTS])):
+        off = BLOCKS + m * JOINT_BLOCK
+        for c in range(12):
+            D[0, c] = 0.0
+        joint_coordinate(S, P, off, 1.0, 0.0, D, 0)
+        tau = P[COEF + m] * F
+        bi, bj = int(P[off + 26]), int(P[off + 27])
+        add_wrench(g, bi, tau * D[0, 0], tau * D[0, 1], tau * D[0, 2], tau * D[0, 3],
+                   tau * D[0, 4], tau * D[0, 5])
+        add_wrench(g, bj, tau * D[0, 6], tau * D[0, 7], tau * D[0, 8], tau * D[0, 9],
+                   tau * D[0, 10], tau * D[0, 11])
+    dL = L - P[REST]
+    energy[k] = 0.5 * P[STIFF] * dL * dL
+    power[k] = (f - P[DAMP] * Ld) * Ld
+
+
+@njit
+def details(S, G, out):
+    """out[k] = (L, L', actuator force f, tendon force F) of every instance."""
+    D = np.zeros((1, 12))
+    for k in range(out.shape[0]):
+        P = G.param[k]
+        L, Ld = length(S, P, D)
+        f, F = tendon_force(P, L, Ld, G.law[k, 0])
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = L, Ld, f, F
+
+
+def _number(spec, key, default, nonnegative=False):
+    value = spec.params.get(key, default)
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"forces[{spec.name!r}].{key}: expected a number, got "
+                         f"{value!r}") from None
+    if not math.isfinite(x) or (nonnegative and x < 0):
+        raise ModelError(f"forces[{spec.name!r}].{key}: must be "
+                         f"{'>= 0' if nonnegative else 'finite'}, got {value!r}")
+    return x
+
+
+def _pair(spec, key, unit):
+    value = spec.params.get(key)
+    if value is None:
+        return -math.inf, math.inf
+    try:
+        lo, hi = (float(x) for x in value)
+    except (TypeError, ValueError):
+        raise ModelError(f"forces[{spec.name!r}].{key}: give [lower, upper] ({unit}), got "
+                         f"{value!r}") from None
+    if math.isnan(lo) or math.isnan(hi) or lo > hi:
+        raise ModelError(f"forces[{spec.name!r}].{key}: lower {lo} > upper {hi}; give "
+                         f"[lower, upper] with lower <= upper ({unit})")
+    return lo, hi
+
+
+def _joints(spec, builder):
+    """[(joint spec, coefficient, coordinate kind)] of the tendon, checked."""
+    from ..constraints.couplers import COORDINATE_OF
+    joints, coefs = spec.params.get("joints"), spec.params.get("coefficients")
+    if isinstance(joints, str) or not isinstance(joints, (list, tuple)) \
+            or not 1 <= len(joints) <= MAX_JOINTS:
+        raise ModelError(f"forces[{spec.name!r}].joints: give a list of 1 to {MAX_JOINTS} "
+                         f"joint names, got {joints!r}")
+    try:
+        coefs = [float(c) for c in coefs]
+    except (TypeError, ValueError):
+        coefs = None
+    if coefs is None or len(coefs) != len(joints) or not all(map(math.isfinite, coefs)):
+        raise ModelError(f"forces[{spec.name!r}].coefficients: give one finite number per "
+                         f"joint ({len(joints)}), got {spec.params.get('coefficients')!r}")
+    out = []
+    for name, c in zip(joints, coefs):
+        if name not in builder.joints:
+            raise ModelError(f"forces[{spec.name!r}].joints: unknown joint {name!r} (joints: "
+                             f"{', '.join(builder.joints) or 'none'})")
+        jtype = builder.joints[name].type
+        kind = COORDINATE_OF.get(jtype)
+        coordinate = spec.params.get("coordinates", {}).get(name) \
+            if isinstance(spec.params.get("coordinates"), dict) else None
+        if jtype in ("cylindrical", "screw") and coordinate == "translation":
+            kind = KIND_TRANSLATION
+        if kind is None:
+            raise ModelError(f"forces[{spec.name!r}].joints: joint {name!r} is a {jtype} "
+                             "joint; a tendon combines the coordinates of revolute, "
+                             "translational, cylindrical and screw joints")
+        out.append((builder.joints[name], c, kind))
+    if len({j.name for j, _, _ in out}) != len(out):
+        raise ModelError(f"forces[{spec.name!r}].joints: a joint appears twice in {joints!r}; "
+                         "add its coefficients")
+    return out
+
+
+@register
+class FixedTendon(ForceType):
+    """Fixed tendon: spring, damper and affine actuator on L = sum c_m q_m of 1 to 4 joint
+    coordinates (MJCF fixed tendons)."""
+
+    name = "fixed_tendon"
+    kernel = staticmethod(kernel)
+    n_param = N_PARAM
+    required = ("joints", "coefficients")
+    parameters = {"joints": "any", "coefficients": "any", "coordinates": "any",
+                  "stiffness": "number", "damping": "number", "rest_length": "number",
+                  "command": "law", "gain": "number", "bias": "any", "ctrlrange": "any",
+                  "forcerange": "any"}
+
+    def __init__(self, names, param, laws):
+        super().__init__(names)
+        self.param = np.asarray(param, dtype=float).reshape(-1, N_PARAM)
+        self.laws = MotionLawSet(laws)
+
+    @classmethod
+    def _bias(cls, spec):
+        value = spec.params.get("bias", (0.0, 0.0, 0.0))
+        try:
+            bias = [float(x) for x in value]
+        except (TypeError, ValueError):
+            bias = []
+        if len(bias) != 3 or not all(map(math.isfinite, bias)):
+            raise ModelError(f"forces[{spec.name!r}].bias: give [b0, b1, b2] (N, N/m, N s/m "
+                             f"in tendon units), got {value!r}")
+        return bias
+
+    @classmethod
+    def validate(cls, spec, builder):
+        check_unknown(spec, cls.allowed)
+        _joints(spec, builder)
+        for key in ("stiffness", "damping"):
+            _number(spec, key, 0.0, nonnegative=True)
+        _number(spec, "rest_length", 0.0)
+        _number(spec, "gain", 1.0)
+        cls._bias(spec)
+        _pair(spec, "ctrlrange", "command units")
+        _pair(spec, "forcerange", "tendon force units")
+        try:
+            make_law(spec.params.get("command", 0.0))
+        except ModelError as exc:
+            raise ModelError(f"forces[{spec.name!r}].command: {exc}") from None
+
+    @classmethod
+    def build(cls, specs, ctx):
+        rows, laws = [], []
+        for spec in specs:
+            row = np.zeros(N_PARAM)
+            row[STIFF] = _number(spec, "stiffness", 0.0, nonnegative=True)
+            row[DAMP] = _number(spec, "damping", 0.0, nonnegative=True)
+            row[REST] = _number(spec, "rest_length", 0.0)
+            row[GAIN] = _number(spec, "gain", 1.0)
+            row[B0:B2 + 1] = cls._bias(spec)
+            row[CTRL_LO:CTRL_HI + 1] = _pair(spec, "ctrlrange", "")
+            row[FORCE_LO:FORCE_HI + 1] = _pair(spec, "forcerange", "")
+            joints = _joints(spec, ctx.builder)
+            row[N_JOINTS] = len(joints)
+            for m, (joint, c, kind) in enumerate(joints):
+                row[COEF + m] = c
+                row[BLOCKS + m * JOINT_BLOCK:BLOCKS + (m + 1) * JOINT_BLOCK] = _block(
+                    joint, kind, ctx)
+            rows.append(row)
+            laws.append(make_law(spec.params.get("command", 0.0)))
+        return cls([s.name for s in specs], rows, laws)
+
+    def columns(self):
+        return dict(bi=np.zeros(self.n, np.intp), param=self.param)
+
+    def details(self, state, t) -> np.ndarray:
+        """(n, 4): L, L', actuator force f, tendon force F of every instance at (state, t)."""
+        from .kernels import ForceTable
+        table = ForceTable([self], only_compiled=False)
+        table.set_time(t)
+        out = np.empty((self.n, 4))
+        details(state.arrays(), table.G, out)
+        return out
+
+    def output_units(self, i) -> dict:
+        return {"length": "tendon", "length_rate": "tendon/s", "actuator_force": "-",
+                "force": "-"}
+
+    def output_columns(self, results, i, states) -> dict:
+        cols = np.array([self.details(s, float(t))[i] for s, t in zip(states, results.t)])
+        cols = cols.reshape(-1, 4)
+        return dict(length=cols[:, 0], length_rate=cols[:, 1], actuator_force=cols[:, 2],
+                    force=cols[:, 3])
+
+
+def _block(joint, kind, ctx) -> np.ndarray:
+    """The coupler joint block (couplers.JOINT_BLOCK) of one tendon joint: its geometry, the
+    sides 0 (body i) and 1 (body j) of the scratch row (-1 for the ground), its bodies, the
+    coordinate kind and the assembled translation."""
+    geom = ctx.joint_geometry(joint.name)
+    bi, bj = ctx.index[joint.body_i], ctx.index[joint.body_j]
+    out = np.zeros(JOINT_BLOCK)
+    out[0:3], out[3:6] = geom.s_i[0], geom.s_j[0]
+    out[6:15], out[15:24] = geom.R_i[0].ravel(), geom.R_j[0].ravel()
+    out[24] = 0 if bi < ctx.nb else -1
+    out[25] = 1 if bj < ctx.nb else -1
+    out[26:28] = bi, bj
+    out[28] = kind
+    if kind == KIND_TRANSLATION:
+        r_i, A_i = ctx.pose(joint.body_i)
+        r_j, A_j = ctx.pose(joint.body_j)
+        d = r_j + A_j @ geom.s_j[0] - r_i - A_i @ geom.s_i[0]
+        out[29] = float((A_i @ geom.R_i[0][:, 0]) @ d)
+    return out
