@@ -277,14 +277,21 @@ def _pairing(name, a, b):
                      f"two of {', '.join(CS.CONVEX_KINDS)}")
 
 
+#: other names of the normal laws: the Carvalho-Martins law of this package is the one of
+#: exact restitution (its chi inverts the produced restitution), which is also its name
+LAW_ALIASES = {"exact_restitution": "carvalho_martins"}
+
+
 def law_params(spec, radii, kinds, shapes=None):
     """(law id, K, n, c, vmin) and the friction columns (:func:`friction_params`) of a spec
     (checked): the columns C_LAW .. C_RELAX of the contact table. shapes: the two parsed
     shapes (kind, radius, half_length, half, vertices) for the stiffness from materials."""
     name, p = spec.name, spec.params
     law = p.get("law", "hunt_crossley")
+    law = LAW_ALIASES.get(law, law)
     if law not in L.NORMAL_LAWS:
-        raise _err(name, "law", f"unknown normal law {law!r}; valid: {', '.join(L.NORMAL_LAWS)}")
+        raise _err(name, "law", f"unknown normal law {law!r}; valid: "
+                                f"{', '.join(L.NORMAL_LAWS + tuple(LAW_ALIASES))}")
     n = _number(name, "exponent", p.get("exponent", 1.0 if law == "linear" else 1.5), 0.0, True)
     if "stiffness" in p:
         K = _number(name, "stiffness", p["stiffness"], 0.0, True)
