@@ -407,7 +407,8 @@ def test_lugre_block_on_incline_sticks_without_creep():
     half = res.t >= 0.5
     assert np.abs(res.v[half, 0, :3]).max() < 1e-9                   # at rest, no creep
     assert np.ptp(res.q[half, 0, 0]) < 1e-10
-    z = res.force_states[-1].reshape(-1, 3)                          # one per box vertex
+    from spatialmbd.forces.kernels import STATE_WIDTH               # z, then 2 energies
+    z = res.force_states[-1].reshape(-1, STATE_WIDTH)[:, :3]          # one per box vertex
     assert sigma0 * z[:, 0].sum() == pytest.approx(m * G * math.sin(th), rel=1e-6)
     c = res.contacts()
     fN = {k: v["normal_force"][-1] for k, v in c.items() if k != "n_active"}

@@ -71,7 +71,8 @@ def import_options(args, path) -> dict:
     return dict(strict=bool(getattr(args, "strict", False)),
                 verbose=bool(getattr(args, "verbose", False)),
                 quiet=bool(getattr(args, "quiet", False)),
-                keyframe=getattr(args, "keyframe", None))
+                keyframe=getattr(args, "keyframe", None),
+                contacts=bool(getattr(args, "contacts", False)))
 
 
 def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True) -> None:
@@ -88,6 +89,10 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
     g.add_argument("--keyframe", metavar="NAME",
                    help="start from the file's keyframe NAME (its qpos, qvel and ctrl) "
                         "instead of qpos0 at rest")
+    g.add_argument("--contacts", action="store_true",
+                   help="make the colliding geom pairs contact elements (MuJoCo's filtering, "
+                        "friction and margin; its soft contact as a linear law, "
+                        "docs/import.md) instead of leaving them out")
     g.add_argument("--lenient", action="store_true", help=argparse.SUPPRESS)   # the default
     if model_files:
         parser.add_argument("--no-external-files", action="store_true",
@@ -97,7 +102,7 @@ def add_import_options(parser: argparse.ArgumentParser, model_files: bool = True
 
 
 def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool = False,
-                keyframe=None):
+                keyframe=None, contacts: bool = False):
     """ModelBuilder of an MJCF/URDF file (from its keyframe ``keyframe`` if given). What is
     left out is summarised on stderr in one line (counts per kind; every feature with
     ``verbose``); ``strict``: refused instead."""
@@ -105,7 +110,7 @@ def import_file(path, strict: bool = False, verbose: bool = False, quiet: bool =
     from ..importers.mjcf.report import details
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        imported = read_mjcf(path, strict=strict, keyframe=keyframe)
+        imported = read_mjcf(path, strict=strict, keyframe=keyframe, contacts=contacts)
     approximated = getattr(imported, "approximated", [])
     if (imported.left_out or approximated) and not (quiet and not verbose):
         name = pathlib.Path(path).name

@@ -20,7 +20,8 @@ def cmd_import(args) -> int:
     from ..atomic import check_writable
     check_writable(out)
     builder = common.import_file(src, strict=args.strict, verbose=args.verbose,
-                                 quiet=args.quiet, keyframe=args.keyframe)
+                                 quiet=args.quiet, keyframe=args.keyframe,
+                                 contacts=args.contacts)
     from ..io.modelfile import save_model
     from ..io.sidecar import sidecar_path
     sidecar = sidecar_path(out)

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..constraints.kernels import JointRows, evaluate_instances
 from ..forces.armature import armature_rows
-from ..forces.kernels import evaluate_forces
+from ..forces.kernels import STATE_WIDTH, evaluate_forces
 from ..jit import array_view, njit
 from ..state import qdot_into, state_into
 from . import sparse as spc
@@ -130,8 +130,8 @@ def _force_states_in(y, nb, fo):
     base = 13 * nb
     for k in range(fo.fcoord.size):
         o = fo.fcoord[k]
-        if o >= 0 and base + o + 3 < y.size:
-            for c in range(3):
+        if o >= 0 and base + o + STATE_WIDTH < y.size:
+            for c in range(STATE_WIDTH):
                 fo.flaw[k, 3 + c] = y[base + o + c]
 
 
@@ -141,8 +141,8 @@ def _force_states_out(nb, fo, ydot):
     base = 13 * nb
     for k in range(fo.fcoord.size):
         o = fo.fcoord[k]
-        if o >= 0 and base + o + 3 < ydot.size:
-            for c in range(3):
+        if o >= 0 and base + o + STATE_WIDTH < ydot.size:
+            for c in range(STATE_WIDTH):
                 ydot[base + o + c] = fo.flaw[k, 3 + c]
 
 

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..constraints.kernels import JointTable
 from ..forces.armature import Armature
-from ..forces.kernels import ForceTable
+from ..forces.kernels import STATE_WIDTH, ForceTable
 from ..jit import njit
 from ..state import BodyState
 from . import sparse as spc
@@ -308,7 +308,7 @@ class System:
         flaw = self.fields(self.W if W is None else W, "flaw")
         coord = self.force_table.G.coord
         for k in np.flatnonzero(coord >= 0):
-            flaw[k, 3:6] = z[coord[k]:coord[k] + 3]
+            flaw[k, 3:3 + STATE_WIDTH] = z[coord[k]:coord[k] + STATE_WIDTH]
 
     def state_of(self, W) -> BodyState:
         f = lambda name: self.fields(W, name)  # noqa: E731

@@ -286,7 +286,8 @@ class JointFriction(JointCoordinateForce):
         from .kernels import ForceTable
         table = ForceTable([self], only_compiled=False)
         if states is not None:
-            table.law[:, 3:6] = states
+            states = np.asarray(states, dtype=float)
+            table.law[:, 3:3 + states.shape[1]] = states
         if loads is not None:
             table.law[:, 0] = loads
         out = np.zeros((self.n, len(DETAIL_COLUMNS)))

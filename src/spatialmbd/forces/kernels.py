@@ -9,8 +9,10 @@ last), ``G`` the force table (:class:`~spatialmbd.constraints.kernels.JointRows`
 points, triads, the type's parameters and its law values f, f', f'' at the current time) and
 ``D`` a (1, 12) scratch row.
 
-Internal states (a LuGre bristle deflection): an instance whose group marks it in
-``state_rows()`` owns STATE_WIDTH entries of the integrated state y = [q, v, z, work];
+Internal states (a LuGre bristle deflection, a contact's dissipated work): an instance whose
+group marks it in ``state_rows()`` owns STATE_WIDTH entries of the integrated state
+y = [q, v, z, work] (entries 0-2 a vector such as the bristle deflection, 3-4 two
+accumulated works such as a contact's normal-damping and friction work, J);
 ``G.coord[k]`` is its offset among the z (-1 without). Before the kernels run, the
 stage copies the instance's state into ``G.law[k, 3:]``; the kernel reads it there and writes
 its rate in its place, which goes into ydot (:func:`spatialmbd.dynamics.system.stage_state`,
@@ -35,8 +37,9 @@ from . import base
 from .base import FORCE_TYPES
 
 
-#: internal states per stateful force instance (a vector in global axes; see ForceTable)
-STATE_WIDTH = 3
+#: internal states per stateful force instance (a vector in global axes and two accumulated
+#: works; see ForceTable)
+STATE_WIDTH = 5
 
 #: the compiled force kinds (types of the package with a kernel), by name
 KINDS = tuple(sorted(n for n, c in FORCE_TYPES.items() if getattr(c, "kernel", None) is not None))

@@ -125,6 +125,7 @@ class Model:
         for g in self.force_groups:
             lines.append(f"  force {g.name:14s} x{g.n:<5d}: " + ", ".join(g.names[:6])
                          + (" ..." if g.n > 6 else ""))
+            lines.extend(getattr(g, "summary_lines", list)())
         return "\n".join(lines)
 
     def to_builder(self) -> Any:

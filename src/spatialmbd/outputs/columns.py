@@ -278,7 +278,9 @@ def _contact(results, name: str) -> dict:
             pass
     c = cache[1][name]
     cols = {key: c[key] for key in ("gap", "penetration", "gap_rate", "impact_velocity",
-                                    "normal_force", "slip_speed")}
+                                    "normal_force", "slip_speed", "power_normal",
+                                    "power_friction", "dissipated_normal",
+                                    "dissipated_friction", "damping")}
     for key, vec in (("friction", c["friction"]), ("slip", c["slip"]), ("point", c["point"])):
         for a, axis in enumerate("xyz"):
             cols[f"{key}_{axis}"] = vec[:, a]

@@ -36,7 +36,9 @@ QUANTITIES = {
     "contact": {"gap": "m", "penetration": "m", "gap_rate": "m/s", "impact_velocity": "m/s",
                 "normal_force": "N", "friction_x": "N", "friction_y": "N", "friction_z": "N",
                 "slip_x": "m/s", "slip_y": "m/s", "slip_z": "m/s", "slip_speed": "m/s",
-                "point_x": "m", "point_y": "m", "point_z": "m", "active": "-"},
+                "point_x": "m", "point_y": "m", "point_z": "m", "active": "-",
+                "power_normal": "W", "power_friction": "W", "dissipated_normal": "J",
+                "dissipated_friction": "J", "damping": "N s/m"},
     #: any other force type (one element of its type in the model): power and energy
     "*": {"power": "W", "energy": "J"},
     "driver": {"coordinate": "m | rad", "coordinate_rate": "m/s | rad/s",

@@ -30,6 +30,9 @@ is rigid): Hertz for curved shapes, the flat punch for flat faces (:mod:`.stiffn
 ``exponent`` n (default 1.5, 1 for linear and for a flat punch from materials); ``damping`` c (N
 s/m, linear law); ``restitution`` e in (0, 1] (hysteresis laws);
 ``min_impact_velocity`` (m/s, default 1e-3: the floor of v0 in the hysteresis term);
+``margin`` (m, default 0: the shapes touch when their distance falls below it, MuJoCo's geom
+margin); ``track_dissipation`` (default false: integrate each instance's dissipated energies,
+normal damping and friction, with the run: ``res.contacts()``);
 ``friction`` (none, coulomb, stribeck, viscous), ``mu`` (or ``mu_static``, ``mu_dynamic``),
 ``stribeck_velocity`` (m/s), ``creep_velocity`` v_eps (m/s, default 1e-4), ``viscous`` c_v
 (N s/m).
@@ -56,7 +59,8 @@ SHAPES = ("sphere", "plane", "box", "capsule", "socket", "bearing", "journal", "
 #: details columns (:func:`details`)
 DETAIL_COLUMNS = ("gap", "gap_rate", "impact_velocity", "normal_force", "friction_x",
                   "friction_y", "friction_z", "slip_x", "slip_y", "slip_z", "point_x",
-                  "point_y", "point_z", "normal_x", "normal_y", "normal_z", "active")
+                  "point_y", "point_z", "normal_x", "normal_y", "normal_z", "active",
+                  "power_normal", "power_friction", "damping")
 
 
 @njit(inline="always")
@@ -94,14 +98,29 @@ def evaluate_pair(S, G, k):
     return gap, gd, v0, fN, ft, vt, P, n, el, energy, 0.0
 
 
+@njit(inline="always")
+def dissipation(G, k, gap, gd, fN, el, ft, vt, pb):
+    """(normal-damping power (f_N - K delta^n) g', friction power f_t . v_t + sigma_0 z . z')
+    of instance k (W, <= 0 for a dissipative law; 0, pb while open)."""
+    if gap >= 0.0:
+        return 0.0, pb
+    return (fN - el) * gd, v_dot(ft, vt) + pb
+
+
 @njit
 def kernel(S, G, k, g, energy, power, D):
     """Normal and friction force of contact k on both bodies at the contact point, its elastic
     energy and the power of its dissipative parts (f_N - K delta^n) g' + f_t . v_t <= 0 (with
-    LuGre bristles: + sigma_0 z . z', their energy counted as elastic)."""
+    LuGre bristles: + sigma_0 z . z', their energy counted as elastic). The rates of the
+    instance's accumulated dissipated energies (normal damping, friction; J) go to
+    G.law[k, 6], G.law[k, 7] (its internal states 3 and 4 when it is stateful)."""
     gap, gd, v0, fN, ft, vt, P, n, el, e, pb = evaluate_pair(S, G, k)
     energy[k] = e
-    power[k] = pb
+    pn, pf = dissipation(G, k, gap, gd, fN, el, ft, vt, pb)
+    if G.param[k, L.C_FRICTION] != L.LUGRE:
+        G.law[k, 3], G.law[k, 4], G.law[k, 5] = 0.0, 0.0, 0.0
+    G.law[k, 6], G.law[k, 7] = -pn, -pf
+    power[k] = pn + pf
     if gap >= 0.0:
         return
     F = (fN * n[0] + ft[0], fN * n[1] + ft[1], fN * n[2] + ft[2])      # on body j
@@ -112,7 +131,6 @@ def kernel(S, G, k, g, energy, power, D):
     tj, ti = v_cross(aj, F), v_cross(ai, F)
     add_wrench(g, j, F[0], F[1], F[2], tj[0], tj[1], tj[2])
     add_wrench(g, i, -F[0], -F[1], -F[2], -ti[0], -ti[1], -ti[2])
-    power[k] = (fN - el) * gd + v_dot(ft, vt) + pb
 
 
 @njit
@@ -127,6 +145,21 @@ def details(S, G, out):
             out[k, 10 + c] = P[c]
             out[k, 13 + c] = n[c]
         out[k, 16] = 1.0 if gap < 0.0 else 0.0
+        out[k, 17], out[k, 18] = dissipation(G, k, gap, gd, fN, el, ft, vt, pb)
+        out[k, 19] = damping_in_use(G.param, k, gap, el, v0)
+
+
+@njit(inline="always")
+def damping_in_use(param, k, gap, el, v0):
+    """d f_N / d delta' (N s/m): c of the linear law; K delta^n chi / v0 of a hysteresis law
+    while closed (0 open, 0 for hertz)."""
+    law = int(param[k, L.C_LAW])
+    if law == L.LINEAR:
+        return param[k, L.C_C]
+    if law == L.HERTZ or gap >= 0.0:
+        return 0.0
+    vi = v0 if v0 > param[k, L.C_VMIN] else param[k, L.C_VMIN]
+    return el * param[k, L.C_C] / vi
 
 
 @njit
@@ -244,14 +277,21 @@ def _pairing(name, a, b):
                      f"two of {', '.join(CS.CONVEX_KINDS)}")
 
 
+#: other names of the normal laws: the Carvalho-Martins law of this package is the one of
+#: exact restitution (its chi inverts the produced restitution), which is also its name
+LAW_ALIASES = {"exact_restitution": "carvalho_martins"}
+
+
 def law_params(spec, radii, kinds, shapes=None):
     """(law id, K, n, c, vmin) and the friction columns (:func:`friction_params`) of a spec
     (checked): the columns C_LAW .. C_RELAX of the contact table. shapes: the two parsed
     shapes (kind, radius, half_length, half, vertices) for the stiffness from materials."""
     name, p = spec.name, spec.params
     law = p.get("law", "hunt_crossley")
+    law = LAW_ALIASES.get(law, law)
     if law not in L.NORMAL_LAWS:
-        raise _err(name, "law", f"unknown normal law {law!r}; valid: {', '.join(L.NORMAL_LAWS)}")
+        raise _err(name, "law", f"unknown normal law {law!r}; valid: "
+                                f"{', '.join(L.NORMAL_LAWS + tuple(LAW_ALIASES))}")
     n = _number(name, "exponent", p.get("exponent", 1.0 if law == "linear" else 1.5), 0.0, True)
     if "stiffness" in p:
         K = _number(name, "stiffness", p["stiffness"], 0.0, True)
@@ -327,6 +367,15 @@ def friction_params(name, p, default="none"):
     return (mud, mus, vs, veps, cv, float(fr == "lugre"), sigma0, sigma1, relax)
 
 
+def track_dissipation(spec) -> bool:
+    """The ``track_dissipation`` key (default false): integrate the instance's dissipated
+    energies (normal damping, friction) with the run, as two internal states."""
+    value = spec.params.get("track_dissipation", False)
+    if not isinstance(value, (bool, np.bool_)):
+        raise _err(spec.name, "track_dissipation", f"expected true or false, got {value!r}")
+    return bool(value)
+
+
 @register
 class Contact(ForceType):
     """Contact between two shapes on two bodies: a normal-force law and friction."""
@@ -347,10 +396,13 @@ class Contact(ForceType):
                   "mu_static": "number", "mu_dynamic": "number",
                   "stribeck_velocity": "number", "creep_velocity": "number",
                   "viscous": "number", "bristle_stiffness": "number",
-                  "bristle_damping": "number", "bristle_relaxation": "number"}
+                  "bristle_damping": "number", "bristle_relaxation": "number",
+                  "track_dissipation": "any", "margin": "number"}
 
-    def __init__(self, names, element, bi, bj, s_i, s_j, R_i, R_j, param, size):
+    def __init__(self, names, element, bi, bj, s_i, s_j, R_i, R_j, param, size, track=None):
         super().__init__(names)
+        #: the instances that integrate their dissipated energies (``track_dissipation``)
+        self.track = np.zeros(len(names), bool) if track is None else np.asarray(track, bool)
         self.element = list(element)          # the element name of each instance
         self.bi = np.asarray(bi, dtype=np.intp)
         self.bj = np.asarray(bj, dtype=np.intp)
@@ -362,6 +414,7 @@ class Contact(ForceType):
     @classmethod
     def validate(cls, spec, builder):
         cls._instances(spec, builder)
+        track_dissipation(spec)
 
     @classmethod
     def _instances(cls, spec, builder):
@@ -390,6 +443,7 @@ class Contact(ForceType):
         row[geo.C_LI], row[geo.C_LJ] = li, lj
         row[geo.C_HX:geo.C_HZ + 1] = hi
         row[L.C_LAW:L.N_COLUMNS] = law
+        row[sup.C_MARGIN] = _number(spec.name, "margin", p.get("margin", 0.0), 0.0)
         if pair == geo.SOCKET_BALL and not rad_j < rad_i:
             raise _err(spec.name, "shape_j.radius", f"the ball (radius {rad_j:g} m) must be "
                                                     f"smaller than the socket ({rad_i:g} m)")
@@ -414,7 +468,8 @@ class Contact(ForceType):
         elif pair in (geo.CONVEX, geo.PLANE_CONVEX):
             if ki != "plane":
                 row[sup.C_SIDE_I:sup.C_SIDE_J] = CS.side_block(*sh[0][:1], *sh[0][3:])
-            row[sup.C_SIDE_J:sup.N_COLUMNS] = CS.side_block(*sh[1][:1], *sh[1][3:])
+            row[sup.C_SIDE_J:sup.C_SIDE_J + sup.SIDE_WIDTH] = CS.side_block(*sh[1][:1],
+                                                                          *sh[1][3:])
             sz = CS.size(*sh[1][:1], *sh[1][3:])
             if pair == geo.CONVEX:
                 sz = min(sz, CS.size(*sh[0][:1], *sh[0][3:]))
@@ -433,9 +488,11 @@ class Contact(ForceType):
 
     @classmethod
     def build(cls, specs, ctx):
-        names, element, bi, bj, s_i, s_j, R_i, R_j, param, size = ([] for _ in range(10))
+        names, element, bi, bj, s_i, s_j, R_i, R_j, param, size, track = \
+            ([] for _ in range(11))
         for spec in specs:
             inst = cls._instances(spec, ctx.builder)
+            track += [track_dissipation(spec)] * len(inst)
             for m, (b1, b2, c1, c2, A1, A2, row, sz) in enumerate(inst):
                 names.append(spec.name if len(inst) == 1 else f"{spec.name}[{m}]")
                 element.append(spec.name)
@@ -447,7 +504,7 @@ class Contact(ForceType):
                 R_j.append(A2)
                 param.append(row)
                 size.append(sz)
-        group = cls(names, element, bi, bj, s_i, s_j, R_i, R_j, param, size)
+        group = cls(names, element, bi, bj, s_i, s_j, R_i, R_j, param, size, track)
         group._check_initial(ctx)
         return group
 
@@ -469,12 +526,43 @@ class Contact(ForceType):
                              f"{self.names[k]!r}; more than half the shape size "
                              f"{self.size[k]:.4g} m); move the bodies apart")
 
+    def summary_lines(self) -> list:
+        """One line per element: the normal law, the stiffness and the damping in use, and the
+        friction (:meth:`spatialmbd.model.Model.summary`)."""
+        lines = []
+        for name in dict.fromkeys(self.element):
+            ks = [k for k, e in enumerate(self.element) if e == name]
+            p = self.param[ks[0]]
+            law = L.NORMAL_LAWS[int(p[L.C_LAW])]
+            K, n, c = p[L.C_K], p[L.C_N], p[L.C_C]
+            unit = "N/m" if n == 1.0 else f"N/m^{n:g}"
+            text = f"    {name}: {len(ks)} point(s), {law}, K = {K:.4g} {unit} per point"
+            if law == "linear":
+                text += f", damping c = {c:.4g} N s/m"
+            elif law in L.HYSTERESIS:
+                text += (f", hysteresis damping K delta^n chi / v0 with chi = {c:.4g} (e_p = "
+                         f"{L.produced_restitution(c):.4g})")
+            fr = "lugre" if p[L.C_FRICTION] == L.LUGRE else (
+                "none" if p[L.C_MUD] == 0 and p[L.C_MUS] == 0 and p[L.C_CV] == 0 else None)
+            if fr is None:
+                text += (f"; friction mu {p[L.C_MUD]:g}" + (f"/{p[L.C_MUS]:g}" if p[L.C_MUS]
+                                                            != p[L.C_MUD] else "")
+                         + f", creep velocity {p[L.C_VEPS]:g} m/s")
+                if p[L.C_CV]:
+                    text += f", viscous {p[L.C_CV]:g} N s/m"
+            elif fr == "lugre":
+                text += (f"; LuGre friction mu {p[L.C_MUD]:g}/{p[L.C_MUS]:g}, sigma_0 = "
+                         f"{p[L.C_SIGMA0]:.4g} N/m, sigma_1 = {p[L.C_SIGMA1]:.4g} N s/m")
+            lines.append(text)
+        return lines
+
     def needs_memory(self) -> np.ndarray:
         return np.ones(self.n, dtype=bool)
 
     def state_rows(self) -> np.ndarray:
-        """The LuGre contacts carry their bristle deflection z as an internal state."""
-        return self.param[:, L.C_FRICTION] == L.LUGRE
+        """The LuGre contacts carry their bristle deflection z as an internal state, and with
+        it (as do the contacts with ``track_dissipation``) their dissipated energies."""
+        return (self.param[:, L.C_FRICTION] == L.LUGRE) | self.track
 
     def columns(self):
         return dict(bi=self.bi, bj=self.bj, s_i=self.s_i, s_j=self.s_j, R_i=self.R_i,
@@ -486,7 +574,8 @@ class Contact(ForceType):
         if memory is not None:
             t.law[:, 0] = memory
         if states is not None:
-            t.law[:, 3:6] = states
+            states = np.asarray(states, dtype=float)
+            t.law[:, 3:3 + states.shape[1]] = states
         return t
 
     def gaps(self, state) -> np.ndarray:

@@ -167,9 +167,10 @@ def point_velocity(S, b, P):
 
 @njit
 def pair_geometry(S, G, k):
-    """(gap g (m), normal n, contact point P, relative velocity v_j(P) - v_i(P)) of pair k."""
+    """(gap g (m), normal n, contact point P, relative velocity v_j(P) - v_i(P)) of pair k
+    (the gap less the contact's margin, param C_MARGIN)."""
     qi, qj, n, ri, rj = core_points(S, G, k)
-    gap = v_dot(n, v_sub(qj, qi)) - ri - rj
+    gap = v_dot(n, v_sub(qj, qi)) - ri - rj - G.param[k, sup.C_MARGIN]
     P = v_scale(0.5, v_add(v_add(qi, v_scale(ri, n)), v_sub(qj, v_scale(rj, n))))
     vrel = v_sub(point_velocity(S, G.bj[k], P), point_velocity(S, G.bi[k], P))
     return gap, n, P, vrel

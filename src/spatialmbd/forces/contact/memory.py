@@ -113,12 +113,18 @@ class ContactMemory:
 def contact_table(results) -> dict:
     """Per contact instance, at every output time of ``results``: the
     :data:`.element.DETAIL_COLUMNS` (gap m, gap rate m/s, impact velocity m/s, normal force N,
-    friction force N (3), slip velocity m/s (3), contact point m (3), normal (3), active 0/1),
-    as a dict name -> dict column -> (nt,) or (nt, 3) array; plus "n_active" (nt,).
+    friction force N (3), slip velocity m/s (3), contact point m (3), normal (3), active 0/1,
+    the powers of the normal damping and of the friction W (<= 0), the damping in use N s/m),
+    the dissipated energies J accumulated since the start (normal damping, friction; NaN for
+    an instance without ``track_dissipation`` or LuGre friction, whose works are not
+    integrated), and the law's stiffness K (N/m^n) and exponent n, as a dict name -> dict
+    column -> (nt,) or (nt, 3) array (K and n: floats); plus "n_active" (nt,).
     Results without ``contact_log`` (not from :func:`~spatialmbd.simulate.simulate`) give NaN
     impact velocities and forces for the hysteresis laws (they depend on the records)."""
     from ...state import BodyState
+    from ..kernels import STATE_WIDTH
     from .element import DETAIL_COLUMNS
+    from .laws import C_K, C_N
     model = results.model
     groups = contact_groups(model)
     log = getattr(results, "contact_log", None)
@@ -133,9 +139,10 @@ def contact_table(results) -> dict:
             rows[id(g)] = start
         start += g.n
     nt = len(results.t)
-    z = getattr(results, "force_states", None)        # LuGre bristle deflections
+    z = getattr(results, "force_states", None)        # LuGre bristles, dissipated energies
     coord = table.G.coord
     data = {id(g): np.zeros((nt, g.n, len(DETAIL_COLUMNS))) for g in groups}
+    works = {id(g): np.full((nt, g.n, 2), np.nan) for g in groups}
     memory = np.zeros(start)
     li = 0
     for it in range(nt):
@@ -148,10 +155,11 @@ def contact_table(results) -> dict:
             s = rows[id(g)]
             states = None
             if z is not None:
-                states = np.zeros((g.n, 3))
+                states = np.zeros((g.n, STATE_WIDTH))
                 for k in np.flatnonzero(coord[s:s + g.n] >= 0):
                     o = coord[s + k]
-                    states[k] = z[it, o:o + 3]
+                    states[k] = z[it, o:o + STATE_WIDTH]
+                    works[id(g)][it, k] = states[k, 3:5]
             data[id(g)][it] = g.details(state, memory[s:s + g.n], states)
     out = {}
     n_active = np.zeros(nt, dtype=int)
@@ -164,7 +172,11 @@ def contact_table(results) -> dict:
                              normal_force=col[:, 3], friction=col[:, 4:7], slip=col[:, 7:10],
                              slip_speed=np.linalg.norm(col[:, 7:10], axis=1),
                              point=col[:, 10:13], normal=col[:, 13:16],
-                             active=col[:, 16] > 0.5)
+                             active=col[:, 16] > 0.5, power_normal=col[:, 17],
+                             power_friction=col[:, 18], damping=col[:, 19],
+                             dissipated_normal=works[id(g)][:, k, 0],
+                             dissipated_friction=works[id(g)][:, k, 1],
+                             stiffness=float(g.param[k, C_K]), exponent=float(g.param[k, C_N]))
             n_active += col[:, 16] > 0.5
     out["n_active"] = n_active
     if not known:       # the hysteresis laws' forces depend on impact velocities not recorded
@@ -172,6 +184,7 @@ def contact_table(results) -> dict:
         for g in groups:
             for k, name in enumerate(g.names):
                 if g.param[k, C_LAW] > HERTZ:
-                    for key in ("impact_velocity", "normal_force", "friction"):
+                    for key in ("impact_velocity", "normal_force", "friction", "power_normal",
+                                "power_friction", "damping"):
                         out[name][key] = np.full_like(out[name][key], np.nan)
     return out

@@ -18,7 +18,7 @@ direction d is s(d) = argmax_{x in core} d . x; the gap machinery needs nothing 
 Storage: a contact instance's parameter row holds, after the laws' columns (.laws), the slot of
 the instance in the pair's contact manifold (C_SLOT), then one block per side (C_SIDE_I,
 C_SIDE_J) of SIDE_WIDTH columns: kind, d0, d1, d2, radius, nv, and up to MAX_HULL_VERTICES
-vertices (x, y, z in the shape frame).
+vertices (x, y, z in the shape frame); last the contact's margin (C_MARGIN, m).
 """
 from __future__ import annotations
 
@@ -38,7 +38,9 @@ SIDE_WIDTH = S_VERTS + 3 * MAX_HULL_VERTICES
 C_SLOT = L.N_COLUMNS
 C_SIDE_I = C_SLOT + 1
 C_SIDE_J = C_SIDE_I + SIDE_WIDTH
-N_COLUMNS = C_SIDE_J + SIDE_WIDTH
+#: the contact's margin (m): the gap is the distance of the surfaces minus it
+C_MARGIN = C_SIDE_J + SIDE_WIDTH
+N_COLUMNS = C_MARGIN + 1
 
 
 @njit(inline="always")

@@ -129,7 +129,8 @@ def _check_ranges(builder) -> None:
 
 
 def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
-              name: Optional[str] = None, keyframe: Optional[str] = None) -> MJCFImport:
+              name: Optional[str] = None, keyframe: Optional[str] = None,
+              contacts: bool = False) -> MJCFImport:
     """Compile an MJCF or URDF file (or XML text) with MuJoCo and build the spatialmbd model.
 
     source: path of a .xml (MJCF) or .urdf file, or the XML text. strict: raise a ModelError
@@ -137,13 +138,16 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
     ``left_out`` and counted in one MJCFImportWarning (False, the default). name: the model name
     (default: the file name). keyframe: the name of a keyframe to start from (its qpos is the
     assembled configuration, its qvel the initial velocities, its ctrl the actuators'
-    commands); default: qpos0 at rest, commands 0. Every failure (of the file, of MuJoCo's
+    commands); default: qpos0 at rest, commands 0. contacts: the colliding geom pairs become
+    ``contact`` elements (MuJoCo's filtering, friction, margin; solref/solimp mapped to a
+    linear law: :mod:`.contacts`), listed as approximated; default: left out. Every failure (of the file, of MuJoCo's
     compiler, of the reader's checks on the result) is a ModelError.
     """
     mujoco = mujoco_module()
     m, stem, text = compile_model(source)
     d = run_forward(mujoco, m, keyframe)     # qpos0, or the keyframe's qpos, qvel and ctrl
-    builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name, keyframe)
+    builder, groups, left_out, notes = build(mujoco, m, d, stem, text, name, keyframe,
+                                             contacts)
     approximated = [item for item in left_out if item.approximation]
     left_out = [item for item in left_out if not item.approximation]
     unsupported = [item for item in left_out if item.unsupported] + approximated
@@ -165,6 +169,7 @@ def read_mjcf(source: Union[str, pathlib.Path], *, strict: bool = False,
 
 
 def import_mjcf(source, *, strict: bool = False, name: Optional[str] = None,
-                keyframe: Optional[str] = None) -> ModelBuilder:
+                keyframe: Optional[str] = None, contacts: bool = False) -> ModelBuilder:
     """The ModelBuilder of an MJCF/URDF file (see :func:`read_mjcf`)."""
-    return read_mjcf(source, strict=strict, name=name, keyframe=keyframe).builder
+    return read_mjcf(source, strict=strict, name=name, keyframe=keyframe,
+                     contacts=contacts).builder

@@ -8,6 +8,7 @@ import numpy as np
 
 from ...errors import ModelError
 from ...model.builder import ModelBuilder
+from .contacts import add_contacts
 from .geoms import GeomShapes, clean, role
 from .joint_elements import JointElements
 from .report import LeftOut
@@ -30,12 +31,13 @@ def urdf_links_without_inertial(text) -> set:
     return {link.get("name") for link in root.iter("link") if link.find("inertial") is None}
 
 
-def left_out_features(mujoco, m, body_name, jname, keyframe=None) -> list:
+def left_out_features(mujoco, m, body_name, jname, keyframe=None, contacts=False) -> list:
     """The features of the compiled model that the import leaves out (LeftOut items) besides
-    those of :mod:`.joint_elements` (limits, friction loss, springs, actuators, tendons)."""
+    those of :mod:`.joint_elements` (limits, friction loss, springs, actuators, tendons) and,
+    with ``contacts``, of :mod:`.contacts`."""
     OBJ, J = mujoco.mjtObj, mujoco.mjtJoint
     out = []
-    for p in range(m.npair):
+    for p in range(0 if contacts else m.npair):
         out.append(LeftOut("contact pair", _name(mujoco, m, OBJ.mjOBJ_PAIR, p, f"pair{p}"),
                            "no contact here yet"))
     for f in range(m.nflex):
@@ -53,20 +55,21 @@ def left_out_features(mujoco, m, body_name, jname, keyframe=None) -> list:
                            f"the model starts from {keyframe!r}" if keyframe is not None else
                            "the model starts from qpos0 (MuJoCo's reference configuration), "
                            "at rest (CLI: --keyframe NAME)"))
-    if not m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
+    if not contacts and not m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT):
         for g in range(m.ngeom):
             if role(m, g) == "collision" and m.body_weldid[m.geom_bodyid[g]] != 0:
                 owner = body_name.get(int(m.body_weldid[m.geom_bodyid[g]]), "world")
                 name = _name(mujoco, m, OBJ.mjOBJ_GEOM, g, f"geom{g} of {owner}")
                 out.append(LeftOut("colliding geom", name, f"of body {owner!r}: no contact "
-                                   "elements are added (docs/contact.md)"))
+                                   "elements are added (import with contacts=True, CLI "
+                                   "--contacts: docs/import.md)"))
     return out
 
 
-def build(mujoco, m, d, stem, text, name=None, keyframe=None) -> tuple:
+def build(mujoco, m, d, stem, text, name=None, keyframe=None, contacts=False) -> tuple:
     """(builder, groups, left_out (LeftOut list), notes (strings)) of the compiled model in
     the configuration and with the velocities and commands of ``d`` (qpos0 at rest, or a
-    keyframe's)."""
+    keyframe's); contacts: the colliding geom pairs as contact elements (:mod:`.contacts`)."""
     OBJ, J, EQ = mujoco.mjtObj, mujoco.mjtJoint, mujoco.mjtEq
     body_name = {}
     used = {"ground", "world"}
@@ -87,7 +90,7 @@ def build(mujoco, m, d, stem, text, name=None, keyframe=None) -> tuple:
         used.add(name)
         return name
 
-    left_out = left_out_features(mujoco, m, body_name, jname, keyframe)
+    left_out = left_out_features(mujoco, m, body_name, jname, keyframe, contacts)
     notes = []
     # URDF links without <inertial>: MuJoCo fills their mass from the geoms at its default
     # density (1000 kg/m^3), an assumption the file does not make -- say so
@@ -282,6 +285,10 @@ def build(mujoco, m, d, stem, text, name=None, keyframe=None) -> tuple:
             geometry = {"point": np.asarray(x1, dtype=float).tolist()}
         builder.add_joint(kind, fresh(ename), bi, bj, **geometry)
     elements.add_tendons()              # fixed tendons held by tendon equalities
+    if contacts:
+        add_contacts(mujoco, m, d, builder, ours=ours, frames=frames, fresh=fresh,
+                     geom_name=lambda g: _name(mujoco, m, OBJ.mjOBJ_GEOM, g, f"geom{g}"),
+                     left_out=left_out)
     # loop closures must hold at qpos0, or they would be assembled differently
     _check_equalities_hold(mujoco, m, d, left_out)
     return builder, groups, left_out, notes

@@ -26,10 +26,12 @@ KINDS = {
     "keyframe": ("keyframe", "keyframes"),
     "limit approximation": ("joint limit", "joint limits"),
     "frictionloss approximation": ("friction loss", "friction losses"),
+    "contact approximation": ("contact", "contacts"),
 }
 #: kinds of what is imported, but approximately (MuJoCo's soft constraints as force laws):
 #: listed in the summary as approximated, refused with strict=True
-APPROXIMATION_KINDS = ("limit approximation", "frictionloss approximation")
+APPROXIMATION_KINDS = ("limit approximation", "frictionloss approximation",
+                       "contact approximation")
 #: kinds with no exact counterpart (an error with strict=True); the others (limits,
 #: collisions, keyframes) act only when reached, touching or chosen, and are never an error
 UNSUPPORTED_KINDS = ("actuator", "actuator force range", "tendon", "contact pair", "flex",
