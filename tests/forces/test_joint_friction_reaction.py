@@ -211,12 +211,13 @@ def test_methods_without_multipliers_are_refused(method, options, words):
 
 
 def test_cosimulation_closes_the_loop_as_simulate_does():
-    """FMI co-simulation steps the same right-hand side: the block stops at the same place."""
+    """FMI co-simulation steps the same right-hand side: the block stops at the same place
+    (at 0.510 s; six steps of 0.1 s end in the stiff sticking after it, as the block test)."""
     from spatialmbd.fmi.cosim import CoSimulation
     mu, v0 = 0.3, 1.5
     sim = CoSimulation(block(mu, v0, creep_velocity=1e-6), outputs=["block.x"],
                        method="standard", rtol=1e-10, atol=1e-12)
-    for k in range(8):
+    for k in range(6):
         sim.do_step(0.1 * k, 0.1)
     assert sim.output("block.x") == pytest.approx(v0 ** 2 / (2 * mu * G), abs=1e-9)
 
