@@ -37,9 +37,13 @@ ENABLED = _numba is not None and not getattr(getattr(_numba, "config", None),
 _OPTIONS = dict(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 
 _PKG = os.path.dirname(os.path.abspath(__file__))
-#: the sources of compiled code (and of everything it calls), relative to the package
-HOT_PATH = ("jit.py", "rotations", "state.py", "broadphase.py", "constraints", "forces",
-            "dynamics", "integrators", "sweep/batch/kernels.py")
+#: the sources of compiled code (and of everything it calls), relative to the package: every
+#: module that compiles a function (tests/dynamics/test_layout.py checks that none is missing,
+#: since the cache locator keys every function of the package by this list's hash only)
+HOT_PATH = ("jit.py", "rotations", "state.py", "broadphase.py", "rank.py", "results.py",
+            "constraints", "forces", "dynamics", "integrators", "sweep/batch/kernels.py",
+            "sweep/outputs.py", "design/adjoint_kernels.py", "design/adjoint_vjp.py",
+            "fmi/joint_kernel.py")
 
 
 def hot_path_files() -> list:

@@ -44,6 +44,28 @@ def test_the_compile_cache_key_covers_subpackages():
                     assert os.path.relpath(os.path.join(root, f), pkg) in files
 
 
+def test_the_compile_cache_key_covers_every_compiled_module():
+    """The cache locator stamps every compiled function of the package with the hash of the
+    hot-path sources only: a module that compiles a function (``njit``) but is not listed
+    would load stale machine code after an edit (design/adjoint_kernels.py, rank.py, ... were
+    missing)."""
+    import os
+    import re
+    from spatialmbd import jit
+    files = set(jit.hot_path_files())
+    pkg = os.path.dirname(jit.__file__)
+    compiled = set()
+    for root, dirs, names in os.walk(pkg):
+        dirs[:] = [d for d in dirs if d != "__pycache__"]     # the generated dispatches
+        for f in names:
+            if f.endswith(".py"):
+                with open(os.path.join(root, f), encoding="utf-8") as fh:
+                    if re.search(r"\bnjit\b", fh.read()):
+                        compiled.add(os.path.relpath(os.path.join(root, f), pkg))
+    assert os.path.join("design", "adjoint_kernels.py") in compiled   # the scan finds them
+    assert compiled - files == set()
+
+
 def test_cache_is_warm_looks_where_the_cache_will_be(tmp_path, monkeypatch):
     """With NUMBA_CACHE_DIR set, the compiled code goes there: an empty one is a cold cache
     (the first run says it is compiling) even when the package's own cache is warm."""
