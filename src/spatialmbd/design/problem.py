@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError
+from ..outputs.vocabulary import BODY_POSITION, BODY_VELOCITY
 from ..sweep.core import SUCCESS, _make_job, run_chunk
 from ..sweep.outputs import parse_outputs
 from ..sweep.params import _ZERO_VECTORS, apply, get_path, points
@@ -161,8 +162,7 @@ def start_values(job, names, given=None) -> np.ndarray:
 
 def _body_state_column(column) -> bool:
     parts = column.split(".")
-    return len(parts) == 2 and parts[1] in ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy",
-                                            "vz", "wx", "wy", "wz")
+    return len(parts) == 2 and parts[1] in BODY_POSITION + BODY_VELOCITY
 
 
 class Problem:
