@@ -257,7 +257,8 @@ class Problem:
         params = dict(zip(self.names, map(float, x)))
         self.n_runs += 1 + 2 * len(self.names)
         try:
-            fw = forward_sensitivities(data, params, [f"final({c})" for c in e.columns])
+            fw = forward_sensitivities(data, params, [f"final({c})" for c in e.columns],
+                                       scheme="rk4")
             model, _ = load_model(apply(data, {n: v for n, v in params.items()
                                                if not n.startswith("analysis.")}))
         except Exception as exc:                        # a trial value the model refuses
