@@ -566,3 +566,29 @@ def test_screw_joint_coordinates_follow_the_thread():
     np.testing.assert_allclose(out["thread.angle"], 2 * np.pi * 0.5 * a * res.t**2 / h,
                                atol=1e-7)                         # several turns: unwrapped
     assert out["thread.angle"].min() < -4 * np.pi
+
+
+def test_every_column_is_in_the_one_vocabulary(over_the_top):
+    """Results.to_dataframe, the results file's table, the sweep's columns and the plots'
+    panels use the names and units of one vocabulary (spatialmbd.outputs.vocabulary)."""
+    from spatialmbd.io.results_io import to_dataframe
+    from spatialmbd.outputs.vocabulary import describe_column
+    from spatialmbd.plotting import _kind, _pretty
+    from spatialmbd.sweep.outputs import Columns
+    res = simulate(pendulum(omega0=2.0, spring=dict(stiffness=3.0, damping=0.2)), 0.2,
+                   output_step=0.05, outputs=["joints", "forces", "momentum", "bodies",
+                                              {"type": "imu", "of": "link.tip"}])
+    for result in (over_the_top, res):
+        df = result.to_dataframe()
+        units = df.attrs["units"]
+        assert any(c.startswith("spiral.") for c in df.columns) or result is over_the_top
+        for where, table in (("Results.to_dataframe", df), ("results file", to_dataframe(result))):
+            unknown = [c for c in table.columns if describe_column(c, units) is None]
+            assert not unknown, (where, unknown)
+        columns = Columns(result)                     # a sweep reads each by its name
+        for c in df.columns:
+            np.testing.assert_array_equal(columns.get(c), df[c].to_numpy())
+        for c in df.columns:                          # a plot labels each with its unit
+            what, unit = describe_column(c, units)
+            if c != "t" and unit != "1":
+                assert _pretty(unit) in _kind(c, units)[1], (c, unit, _kind(c, units))

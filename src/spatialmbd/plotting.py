@@ -22,29 +22,25 @@ from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
+from .outputs.vocabulary import NAMED, STANDARD, column_units
+
 __all__ = ["plot_results", "plot_violation", "select_columns", "save_figure", "FORMATS"]
 
 FORMATS = (".png", ".svg", ".pdf")
 
-#: (kind key, axis label) by the last part of a column name
-_SUFFIX_KIND = {
-    **{c: ("position", "position [m]") for c in ("x", "y", "z")},
-    **{c: ("euler", "Euler parameters [-]") for c in ("e0", "e1", "e2", "e3")},
-    **{c: ("velocity", "velocity [m/s]") for c in ("vx", "vy", "vz")},
-    **{c: ("omega", "angular velocity [rad/s]") for c in ("wx", "wy", "wz")},
-    **{c: ("acceleration", "acceleration [m/s²]") for c in ("ax", "ay", "az")},
-    **{c: ("alpha", "angular acceleration [rad/s²]") for c in ("alphax", "alphay", "alphaz")},
-    **{c: ("force", "force [N]") for c in ("fx", "fy", "fz")},
-    **{c: ("moment", "moment [N m]") for c in ("mx", "my", "mz")},
-}
-_EXACT_KIND = {
-    "energy.error": ("energy_error", "energy balance error [J]"),
-    "violation.position": ("violation_position", "|Φ| (position violation)"),
-    "violation.velocity": ("violation_velocity", "|D v − ν| (velocity violation)"),
-    "violation.phi_squared": ("violation_sq", "ΦᵀΦ"),
-    "newton.iterations": ("newton", "Newton iterations"),
-}
-_LOG_KINDS = {"violation_position", "violation_velocity", "violation_sq"}
+
+def _pretty(unit: str) -> str:
+    """A unit as an axis label shows it: m/s², - for a number."""
+    return "-" if unit == "1" else unit.replace("^2", "²")
+
+
+#: (kind key, axis label) by the last part of a column name, and of the columns named in full:
+#: the output vocabulary's (:mod:`.outputs.vocabulary`)
+_SUFFIX_KIND = {c: (what, f"{what} [{_pretty(unit)}]") for c, (what, unit) in STANDARD.items()}
+_EXACT_KIND = {c: (c.replace(".", "_"), what if unit == "1" else f"{what} [{_pretty(unit)}]")
+               for c, (what, unit) in NAMED.items() if c != "t" and not c.startswith("energy.")}
+_EXACT_KIND["energy.error"] = ("energy_error", "energy balance error [J]")
+_LOG_KINDS = {"violation_position", "violation_velocity", "violation_phi_squared"}
 
 
 def _kind(column: str, units: Optional[dict] = None) -> tuple:
@@ -57,12 +53,11 @@ def _kind(column: str, units: Optional[dict] = None) -> tuple:
     last = column.rsplit(".", 1)[-1]
     if column in (units or {}) and not (last in _SUFFIX_KIND and ".imu." not in column):
         unit = units[column]
-        return ("unit:" + unit, f"[{unit}]")
+        return ("unit:" + unit, f"[{_pretty(unit)}]")
     return _SUFFIX_KIND.get(last, ("other:" + column, column))
 
 
 def _units(table) -> dict:
-    from .outputs import column_units
     return column_units(table.columns, getattr(table, "attrs", {}).get("units"))
 
 

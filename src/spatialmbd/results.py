@@ -370,29 +370,20 @@ class Results:
     def to_dataframe(self):
         """A pandas DataFrame with one row per output time and self-explaining columns."""
         import pandas as pd
-        cols = {"t": self.t}
-        for k, name in enumerate(self.model.body_names):
-            for j, c in enumerate(("x", "y", "z", "e0", "e1", "e2", "e3")):
-                cols[f"{name}.{c}"] = self.q[:, k, j]
-            for j, c in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
-                cols[f"{name}.{c}"] = self.v[:, k, j]
-            for j, c in enumerate(("ax", "ay", "az", "alphax", "alphay", "alphaz")):
-                cols[f"{name}.{c}"] = self.vdot[:, k, j]
+        from .outputs import compute_outputs, output_units
+        from .outputs.vocabulary import ENERGY, REACTION, VIOLATION, body_columns
+        cols = {"t": self.t, **body_columns(self.model.body_names, self.q, self.v, self.vdot)}
         reactions, viol = self._reactions_and_violation()
         for name, r in reactions.items():
             for body, f, mom in ((r.body_i, r.force_i, r.moment_i),
                                  (r.body_j, r.force_j, r.moment_j)):
-                for j, c in enumerate("xyz"):
-                    cols[f"{name}.{body}.f{c}"] = f[:, j]
-                for j, c in enumerate("xyz"):
-                    cols[f"{name}.{body}.m{c}"] = mom[:, j]
-        cols["violation.position"] = viol["position"]
-        cols["violation.velocity"] = viol["velocity"]
+                for j, c in enumerate(REACTION):
+                    cols[f"{name}.{body}.{c}"] = (f if j < 3 else mom)[:, j % 3]
+        for key in VIOLATION:
+            cols[f"violation.{key}"] = viol[key]
         en = self.energy()
-        for key in ("kinetic", "gravitational", "elastic", "work_nonconservative", "total",
-                    "error"):
+        for key in ENERGY:
             cols[f"energy.{key}"] = en[key]
-        from .outputs import compute_outputs, output_units
         cols.update(compute_outputs(self))
         df = pd.DataFrame(cols)
         df.attrs["units"] = output_units(self)

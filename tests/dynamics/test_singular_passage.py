@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 from spatialmbd import models
 from spatialmbd.dynamics import EquationsOfMotion
 from spatialmbd.dynamics.projection import Projection
-from spatialmbd.integrators.runge_kutta_adaptive import DormandPrince45 as RK45
+from spatialmbd.integrators.dormand_prince import DormandPrince45 as RK45
 from spatialmbd.kinematics import mobility
 from spatialmbd.rotations import A_from_p
 from spatialmbd.simulate import simulate

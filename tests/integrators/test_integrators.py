@@ -183,14 +183,29 @@ def test_rk45_per_component_atol_and_max_step():
 # --------------------------------------------------------------------------- dop853
 def _one_dop853_step(h):
     """(y_new, dense output at the step's middle) of one DOP853 step of h from the exact state
-    at t = 0.3 of the limit cycle."""
-    from spatialmbd.integrators.dop853 import Dop853Stepper
+    at t = 0.3 of the limit cycle (the compiled driver's step and dense output)."""
+    from spatialmbd.integrators.adaptive_driver import kept_dense, rk_step
+    from spatialmbd.integrators.adaptive_run import CallbackProblem, _Run, _RUNS
+    from spatialmbd.integrators.pairs import PAIR_DP8, pair_interpolate
     t0 = 0.3
     y0 = limit_cycle_exact(t0)
-    st = Dop853Stepper(1e-6, 1e-6, None, math.inf)
-    st.start(ODEProblem(limit_cycle), t0, y0, t0 + 1.0, Counters())
-    step = st.step(t0, y0, t0 + h)
-    return step.y_new, step.dense(t0 + 0.5 * h)
+    _RUNS[-1] = _Run(ODEProblem(limit_cycle))
+    try:
+        p, cnt = CallbackProblem(-1), np.zeros(3, dtype=np.int64)
+        R = PAIR_DP8[1].shape[0]
+        keep = np.zeros((R + 5, 2))
+        keep[0] = limit_cycle(t0, y0)
+        y_new = np.empty(2)
+        assert rk_step(p, PAIR_DP8, t0, y0, keep, t0 + h, y_new, cnt) == 13
+        keep[R], keep[R + 1], keep[R + 3, 0] = y0, y_new, h
+        coef = np.empty((7, 2))
+        assert kept_dense(p, PAIR_DP8, t0, keep, coef, cnt)
+        assert cnt[0] == 12 + 3                       # the step's stages, the dense output's
+        mid = np.empty(2)
+        pair_interpolate(PAIR_DP8[0], y0, h, coef, 0.5, keep[R + 2], mid)
+    finally:
+        del _RUNS[-1]
+    return y_new, mid
 
 
 def test_dop853_step_and_dense_output_orders():

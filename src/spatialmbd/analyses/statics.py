@@ -34,6 +34,8 @@ import numpy as np
 
 from ..errors import ConvergenceError, SimulationError, SingularMatrixError
 from ..kinematics import solve_positions
+from ..outputs.vocabulary import (BODY_ACCELERATION, BODY_POSITION, BODY_VELOCITY,
+                                 body_columns)
 from ..state import BodyState
 from .common import (central_jacobian, conservative_forces_only, default_step, dense,
                      describe_direction, driver_rows, driver_units, null_space, perturb,
@@ -279,15 +281,14 @@ class StaticResults:
         for k, name in enumerate(self.model.body_names):
             rows[name] = self.q[k]
         return pd.DataFrame.from_dict(rows, orient="index",
-                                      columns=["x", "y", "z", "e0", "e1", "e2", "e3"])
+                                      columns=list(BODY_POSITION))
 
     def to_dataframe(self):
         """One row: positions, driver efforts and reactions."""
         import pandas as pd
         df = self.results.to_dataframe()
-        keep = [c for c in df.columns if not c.endswith(("vx", "vy", "vz", "wx", "wy", "wz",
-                                                          "ax", "ay", "az", "alphax", "alphay",
-                                                          "alphaz"))
+        rates = BODY_VELOCITY + BODY_ACCELERATION
+        keep = [c for c in df.columns if c.rsplit(".", 1)[-1] not in rates
                 and not c.startswith(("violation.velocity", "energy.kinetic"))]
         df = df[keep]
         for name, value in self.efforts.items():
@@ -476,10 +477,7 @@ class QuasiStaticResults:
 
     def to_dataframe(self):
         import pandas as pd
-        pos = {"t": self.t}
-        for k, name in enumerate(self.model.body_names):
-            for j, c in enumerate(("x", "y", "z", "e0", "e1", "e2", "e3")):
-                pos[f"{name}.{c}"] = self.results.q[:, k, j]
+        pos = {"t": self.t, **body_columns(self.model.body_names, self.results.q, None, None)}
         eff = self.efforts.drop(columns="t").add_suffix(".effort")
         return pd.concat([pd.DataFrame(pos), eff, self.reactions_table().drop(columns="t"),
                           pd.DataFrame({"stable": self.stable})], axis=1)

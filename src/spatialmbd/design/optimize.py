@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import ModelError
 from ..sweep.core import SUCCESS, _make_job, run_chunk
 from ..sweep.outputs import parse_outputs
-from .problem import start_values
+from .problem import _body_state_column, start_values
 
 __all__ = ["optimize", "Optimization"]
 
@@ -172,8 +172,7 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
         if isinstance(job.analysis.get("method"), dict) else job.analysis.get("method")
     forward_ok = (job.data is not None and method_name in ("standard", "baumgarte") and
                   all(o.function is None and o.reduction is not None and
-                      o.column.split(".")[-1] in ("x", "y", "z", "e0", "e1", "e2", "e3", "vx",
-                                                  "vy", "vz", "wx", "wy", "wz") for o in outs))
+                      _body_state_column(o.column) for o in outs))
     if jacobian == "forward" and not forward_ok:
         raise ModelError("forward sensitivities need the 'standard' or 'baumgarte' method and "
                          "reductions of body state columns; use jacobian='fd'")
@@ -214,7 +213,7 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
             try:
                 fw = forward_sensitivities(data, dict(zip(names, map(float, x))),
                                            {k: f"{o.reduction}({o.column})" for k, o in
-                                            zip(specs, outs)})
+                                            zip(specs, outs)}, scheme="rk4")
             except Exception as exc:
                 failures.append(dict(parameters=dict(zip(names, map(float, x))),
                                      message=f"{type(exc).__name__}: {exc}"))

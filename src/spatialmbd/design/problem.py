@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError
+from ..outputs.vocabulary import BODY_POSITION, BODY_VELOCITY
 from ..sweep.core import SUCCESS, _make_job, run_chunk
 from ..sweep.outputs import parse_outputs
 from ..sweep.params import _ZERO_VECTORS, apply, get_path, points
@@ -161,8 +162,7 @@ def start_values(job, names, given=None) -> np.ndarray:
 
 def _body_state_column(column) -> bool:
     parts = column.split(".")
-    return len(parts) == 2 and parts[1] in ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy",
-                                            "vz", "wx", "wy", "wz")
+    return len(parts) == 2 and parts[1] in BODY_POSITION + BODY_VELOCITY
 
 
 class Problem:
@@ -257,7 +257,8 @@ class Problem:
         params = dict(zip(self.names, map(float, x)))
         self.n_runs += 1 + 2 * len(self.names)
         try:
-            fw = forward_sensitivities(data, params, [f"final({c})" for c in e.columns])
+            fw = forward_sensitivities(data, params, [f"final({c})" for c in e.columns],
+                                       scheme="rk4")
             model, _ = load_model(apply(data, {n: v for n, v in params.items()
                                                if not n.startswith("analysis.")}))
         except Exception as exc:                        # a trial value the model refuses

@@ -8,7 +8,7 @@ the same arithmetic:
 
 * :func:`dopri_steps`: the body coordinates as a problem (:class:`BodyProblem`) of
   :func:`..integrators.adaptive_driver.rk_steps` -- Dormand-Prince 5(4) or DOP853
-  (:mod:`..integrators.pairs`) with the integrator's default controller, as
+  (:mod:`..integrators.pairs`) with the integrator's controller, as
   :class:`..integrators.runge_kutta_adaptive.DormandPrince45` and
   :class:`..integrators.dop853.DormandPrince853` --, the state projected after every
   accepted step and at every output as simulate() does (Euler parameters renormalised; with the
@@ -146,7 +146,8 @@ def dopri_steps(t, y, K0, h, err_prev, F, I, W, mp, pp, pair, t0, t_out, k_out, 
     problem = BodyProblem(F, I, W, mp, pp, nb, Y, Yd, Lam, lam_off, np.empty(y.size),
                           np.zeros(6 * nb))
     return rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base,
-                    Y.shape[0], rtol, atol, max_step, max_steps, counters)
+                    Y.shape[0], rtol, atol, max_step, max_steps, counters,
+                    np.zeros((0, 1)))
 
 
 @njit

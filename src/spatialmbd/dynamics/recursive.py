@@ -37,7 +37,7 @@ Per right-hand side (compiled, no Python per body):
 
 The state is x = [z (nj), zdot (nj), W] (W: the work of the non-conservative forces, as in
 :mod:`..simulate`). The compiled driver :func:`dopri_joint` integrates it by Dormand-Prince
-5(4) or 8(5,3) with the default controller of the integrator
+5(4) or 8(5,3) with the controller of the integrator
 (:mod:`..integrators.pairs`).
 """
 from __future__ import annotations
@@ -112,7 +112,7 @@ register_problem(JointProblem, _joint_rhs, _joint_stages, _joint_project, _joint
 def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, pair, t0, t_out, k_out, rtol, atol,
                 max_step, max_steps, X, counters):
     """Up to ``max_steps`` accepted steps of the Dormand-Prince pair ``pair`` (rk45 or
-    dop853 with its default controller) of the joint state x from t (FSAL derivative K0,
+    dop853 with its controller) of the joint state x from t (FSAL derivative K0,
     proposed step h; h = 0 starts the run: output at t, K0 and Hairer's starting step), every
     output time t_out[k_out:] reached written into X[k] (dense output):
     :func:`..integrators.adaptive_driver.rk_steps` of a :class:`JointProblem`. Returns
@@ -121,7 +121,8 @@ def dopri_joint(t, x, K0, h, err_prev, T, F, I, W, pair, t0, t_out, k_out, rtol,
     nb = body_views(F, I, W).mass.size
     problem = JointProblem(T, F, I, W, np.zeros(13 * nb + 1), X, tree_views(T).quats)
     return rk_steps(problem, t, x, K0, h, err_prev, pair, t0, t_out, k_out, 0, X.shape[0],
-                    rtol, atol, max_step, max_steps, counters)
+                    rtol, atol, max_step, max_steps, counters,
+                    np.zeros((0, 1)))
 
 
 # ----------------------------------------------------------------------------- the method

@@ -30,12 +30,13 @@ import time
 import numpy as np
 
 from ..errors import ModelError, SimulationError
+from ..outputs.vocabulary import BODY_ACCELERATION, BODY_POSITION, BODY_VELOCITY, REACTION
 from .joint_kernel import axis_joint_coordinates
 
-BODY_COLUMNS = ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy", "vz", "wx", "wy", "wz")
+BODY_COLUMNS = BODY_POSITION + BODY_VELOCITY
 #: accelerations and reactions need the method's solve at the communication point (slower)
-ACCELERATION_COLUMNS = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
-REACTION_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
+ACCELERATION_COLUMNS = BODY_ACCELERATION
+REACTION_COLUMNS = REACTION
 #: force-element types whose law column 0 an input may hold (besides every actuator type)
 INPUT_TYPES = ("point_force", "torque")
 

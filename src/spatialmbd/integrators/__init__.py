@@ -9,8 +9,10 @@ and the SciPy methods ``scipy-rk45``,
 Structure: every integrator is a stepper (its stepping formula, :class:`.driver.Stepper`) and an
 injected step-size controller (:mod:`.controllers`) run by the one loop :func:`.driver.run`,
 which owns output sampling, projection, counters, progress, events and partial results.
-Runs that need none of the Python loop's extras go through the one compiled adaptive driver
-:func:`.adaptive_driver.rk_steps` (the same pairs and step-size rules, compiled).
+except ``rk45`` and ``dop853``: every run of theirs goes through the one compiled adaptive
+driver :func:`.adaptive_driver.rk_steps` (whole runs from compiled code, :mod:`..dynamics.fused`
+and :mod:`..dynamics.recursive`; any other problem, events and breakpoints from Python,
+:mod:`.adaptive_run`).
 """
 from .base import (INTEGRATORS, Counters, IntegrationResult, Integrator, ODEProblem,
                    check_finite, get_integrator, register)
@@ -19,8 +21,7 @@ from .driver import Event, EventRecord, Step, Stepper
 from .fixed_step import FixedStepIntegrator, ForwardEuler, Heun, RungeKutta4
 from .adams import AdamsBashforthMoulton4
 from .gear import GearBDF4
-from .runge_kutta_adaptive import DormandPrince45
-from .dop853 import DormandPrince853
+from .dormand_prince import DormandPrince45, DormandPrince853
 from .scipy_ivp import (ScipyBDF, ScipyDOP853, ScipyIntegrator, ScipyLSODA, ScipyRadau,
                         ScipyRK45)
 

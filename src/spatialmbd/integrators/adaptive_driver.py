@@ -50,8 +50,8 @@ from .pairs import DP8, pair_dense, pair_error, pair_interpolate, pair_stages
 __all__ = ["OK", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
            "NOT_PROJECTED", "NEED_ROOM", "STATUS_TEXT", "CORRECTS_DENSE", "NEW_DERIVATIVE",
            "register_problem", "problem_rhs", "problem_stages", "problem_project",
-           "problem_output", "rk_start",
-           "rk_steps", "finite"]
+           "problem_output", "rk_start", "rk_steps", "rk_step", "kept_dense", "NO_KEEP",
+           "atol_array", "finite"]
 
 #: status codes (OK, or why a run stopped)
 OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 1, 2, 3, 4, 5
@@ -176,16 +176,89 @@ def rk_start(problem, t, y, K0, k_inv, rtol, atol, max_step, span, counters):
     return OK, start_step(h0, d1, _rms(y1, scale) / h0, k_inv, max_step, span)
 
 
+#: rk_steps' ``keep`` from Python when the caller needs no step's dense output (compiled
+#: callers pass ``np.zeros((0, 1))``: a global array is read-only there)
+NO_KEEP = np.zeros((0, 1))
+
+
+def atol_array(atol, n):
+    """atol as an (n,) array: a number repeated, or the per-component array itself."""
+    return np.full(n, float(atol)) if np.ndim(atol) == 0 else np.asarray(atol, dtype=float)
+
+
+if ENABLED:
+    from numba.core import types as _types
+    from numba.extending import overload as _overload
+
+    @_overload(atol_array, inline="always")
+    def _atol_array(atol, n):
+        if isinstance(atol, _types.Number):
+            return lambda atol, n: np.full(n, float(atol))
+        return lambda atol, n: atol
+
+
+@njit(inline="always")
+def rk_attempt(problem, kind, tableau, nodes, t, y, K, hs, t_new, y_new):
+    """The stages 1 .. S-1 of a step of hs from (t, y) with K[0] = f(t, y): y_new = the
+    step's end, K[S-1] = f(t_new, y_new). The first stage not completed (S: all were; < 0: the
+    problem asks the driver to stop)."""
+    return problem_stages(problem, t, y, hs, tableau, nodes, K, 1, pair_stages(kind), y_new,
+                          t_new)
+
+
+@njit(inline="always")
+def rk_dense(problem, kind, tableau, nodes, t, y, y_raw, K, hs, coef, counters):
+    """coef: the dense output of the step from (t, y) to the unprojected y_raw (DP8: its three
+    extra stages first, counted in counters[0]); False when the right-hand side failed."""
+    if kind == DP8:
+        S = pair_stages(kind)
+        yo = np.empty(y.size)
+        if problem_stages(problem, t, y, hs, tableau, nodes, K, S, S + 3, yo,
+                          t + nodes[S + 2] * hs) < S + 3:
+            return False
+        counters[0] += 3
+    pair_dense(kind, y, y_raw, K, hs, coef)
+    return True
+
+
+@njit
+def rk_step(problem, pair, t, y, K, t_new, y_new, counters):
+    """One step from (t, y) to t_new without error control (K (R, n), K[0] = f(t, y) on
+    entry): y_new and K[1 .. S-1]; the first stage not completed (S: all were; < 0: the
+    problem asks to stop). counters[0] counts f."""
+    kind, tableau, nodes, _ = pair
+    done = rk_attempt(problem, kind, tableau, nodes, t, y, K, t_new - t, t_new, y_new)
+    counters[0] += max(done, 1) - 1
+    return done
+
+
+@njit
+def kept_dense(problem, pair, t, keep, coef, counters):
+    """The dense output's coefficients coef (7, n) of the step that rk_steps wrote into
+    ``keep`` from t (DP8: its extra stages unless already evaluated); False if f failed."""
+    kind, tableau, nodes, _ = pair
+    R = tableau.shape[0]
+    if kind == DP8 and keep[R + 4, 0] != 0.0:
+        pair_dense(kind, keep[R], keep[R + 1], keep, keep[R + 3, 0], coef)
+        return True
+    return rk_dense(problem, kind, tableau, nodes, t, keep[R], keep[R + 1], keep,
+                    keep[R + 3, 0], coef, counters)
+
+
 @njit
 def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, rows, rtol, atol,
-             max_step, max_steps, counters):
+             max_step, max_steps, counters, keep):
     """Up to ``max_steps`` accepted steps of the embedded pair ``pair`` (:mod:`.pairs`) of
     ``problem`` from (t, y) with FSAL derivative K0 and proposed step h (in place on y and
     K0); every output time t_out[k_out:] reached is handed to the problem's output hook as row
     k - k_base (at most ``rows`` rows). The first call passes h = 0: the output at t (if
     t_out[k_out] == t), K0 = f(t, y) and the starting step come first. Returns (status, t, h,
     err_prev, k_out): call again with them to continue (t == t_out[-1]: done). counters:
-    (nfev, steps, rejected), accumulated; a step retaken after NEED_ROOM is counted once."""
+    (nfev, steps, rejected), accumulated; a step retaken after NEED_ROOM is counted once.
+    atol: a number or (n,) per component; ``pair``'s control row holds the controller's
+    factors and the minimum step (:mod:`.pairs`). keep: :data:`NO_KEEP`, or a (R + 5, n)
+    array (R = the tableau's rows) into which every accepted step writes what its dense
+    output needs (:func:`kept_step`): the caller's events are located on it."""
     kind, tableau, nodes, ctrl = pair
     k_inv, beta, safety, min_factor, max_factor = ctrl[0], ctrl[1], ctrl[2], ctrl[3], ctrl[4]
     S = pair_stages(kind)
@@ -193,7 +266,7 @@ def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, row
     t_end = t_out[-1]
     span = t_end - t0
     nt = t_out.size
-    atol_v = np.full(n, atol)
+    atol_v = atol_array(atol, n)
     if h <= 0.0:                                     # the first call of a run
         if k_out < nt and t_out[k_out] == t:
             if k_out - k_base >= rows:
@@ -218,14 +291,16 @@ def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, row
     after_reject = False
     steps = 0
     while t < t_end and steps < max_steps:
-        h_min = min_step_size(t, span, 0.0)
+        h_min = min_step_size(t, span, ctrl[6])
         h_start, c0, c2 = h, counters[0], counters[2]
         while True:                                  # attempts until one passes the test
             hs = end_step(t, h, t_end)
             if hs < h_min:
                 return UNDERFLOW, t, h, err_prev, k_out
             t_new = t_end if hs == t_end - t else t + hs
-            done = problem_stages(problem, t, y, hs, tableau, nodes, K, 1, S, y_new, t_new)
+            done = rk_attempt(problem, kind, tableau, nodes, t, y, K, hs, t_new, y_new)
+            if done < 0:                             # the problem asks to stop (an exception)
+                return RHS_FAILED, t, h, err_prev, k_out
             counters[0] += S - 1
             err = pair_error(kind, y, y_new, K, hs, atol_v, rtol) if done == S else math.inf
             if err <= 1.0:
@@ -255,13 +330,20 @@ def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, row
             for i in range(n):
                 delta[i] = y_new[i] - y_raw[i]
                 changed = changed or delta[i] != 0.0
-        if k_out < nt and t_out[k_out] < t_new:      # an output inside: the dense output
-            if kind == DP8:                          # its extra stages
-                if problem_stages(problem, t, y, hs, tableau, nodes, K, S, S + 3, yo,
-                                  t + nodes[S + 2] * hs) < S + 3:
-                    return RHS_FAILED, t, h, err_prev, k_out
-                counters[0] += 3
-            pair_dense(kind, y, y_raw, K, hs, coef)
+        dense = k_out < nt and t_out[k_out] < t_new  # an output inside: the dense output
+        if dense:
+            if not rk_dense(problem, kind, tableau, nodes, t, y, y_raw, K, hs, coef, counters):
+                return RHS_FAILED, t, h, err_prev, k_out
+        if keep.shape[0]:                            # the step, for the caller's dense output
+            R = tableau.shape[0]
+            for i in range(n):
+                for j in range(R):
+                    keep[j, i] = K[j, i]
+                keep[R, i] = y[i]
+                keep[R + 1, i] = y_raw[i]
+                keep[R + 2, i] = delta[i] if flags & CORRECTS_DENSE else 0.0
+            keep[R + 3, 0] = hs
+            keep[R + 4, 0] = 1.0 if dense else 0.0   # DP8: the extra stages are in K
         if flags & NEW_DERIVATIVE and changed:       # FSAL derivative at the projected state
             if not problem_rhs(problem, t_new, y_new, K[S - 1]):
                 return RHS_FAILED, t_new, h, err_prev, k_out

@@ -11,7 +11,9 @@ Adding an integrator (after scipy.integrate._ivp and diffrax's solver / controll
 1. write a :class:`.driver.Stepper` (``start``, ``step(t, y, t_new) -> Step`` with the new
    state, its error norm and a dense interpolant, ``accept`` when it carries state);
 2. subclass :class:`Integrator`, set ``name``, ``order`` and ``adaptive`` and implement
-   ``make_stepper()`` and ``make_controller()`` (a controller of :mod:`.controllers`);
+   ``make_stepper()`` and ``make_controller()`` (a controller of :mod:`.controllers`) -- or,
+   for an embedded Runge-Kutta pair, add its tableau to :mod:`.pairs` and subclass
+   :class:`.dormand_prince.DormandPrince45` (the compiled driver runs it);
 3. register the class with :func:`register`.
 
 The loop itself (output sampling, projection, counters, progress, events, partial results) is
@@ -212,13 +214,14 @@ class Integrator(abc.ABC):
             progress=progress, events=events, event_tol=event_tol, max_step=self.max_step,
             min_step=self.min_step)
 
-    @abc.abstractmethod
     def make_stepper(self):
-        """A fresh :class:`.driver.Stepper` for one run."""
+        """A fresh :class:`.driver.Stepper` for one run (an integrator that overrides
+        ``_integrate`` needs none)."""
+        raise NotImplementedError(f"{type(self).__name__} has no stepper for driver.run")
 
-    @abc.abstractmethod
     def make_controller(self):
         """A fresh step-size controller (:mod:`.controllers`) for one run."""
+        raise NotImplementedError(f"{type(self).__name__} has no controller for driver.run")
 
 
 INTEGRATORS: dict[str, type[Integrator]] = {}

@@ -22,21 +22,18 @@ published by Dormand and Prince and Hairer; they are read from SciPy's ``DOP853`
 carries them, instead of being retyped here.
 
 The arithmetic is compiled (:func:`dop853_error`, :func:`dop853_dense`,
-:func:`dop853_interpolate`) and shared by the Python stepper below and the compiled drivers
-(:mod:`.pairs`).
+:func:`dop853_interpolate`) and run by the one compiled adaptive driver (:mod:`.pairs`,
+:mod:`.adaptive_driver`) for the integrator ``dop853``
+(:class:`.dormand_prince.DormandPrince853`).
 """
 from __future__ import annotations
 
 import math
-from typing import Optional
 
 import numpy as np
 from scipy.integrate import DOP853 as _COEFFICIENTS
 
 from ..jit import njit
-from .base import register
-from .explicit import rk_stages
-from .runge_kutta_adaptive import DormandPrince45, DormandPrinceStepper
 
 #: stages of a step including the FSAL derivative at its end (k_1 .. k_13)
 STAGES = 13
@@ -105,89 +102,3 @@ def dop853_interpolate(y, coef, theta, delta, out):
     if delta.size:
         for i in range(y.size):
             out[i] += theta * delta[i]
-
-
-_NO_DELTA = np.zeros(0)
-
-
-class Dop853Stepper(DormandPrinceStepper):
-    """The DOP853 stepping formula (FSAL, 12 evaluations per step); see the module docstring."""
-
-    name = "dop853"
-    slope_rows, fsal_row, start_order = 16, STAGES - 1, 7
-    tableau, nodes, k = DOP853_TABLEAU, DOP853_NODES, 8
-
-    def error(self, y, y_new, slopes, hs):
-        return dop853_error(y, y_new, slopes, hs, self.atol, self.rtol)
-
-    def dense_output(self, y, y_new, hs, t, slopes):
-        return _Dop853Dense(self, y, y_new, hs, t, slopes)
-
-
-class _Dop853Dense:
-    """DOP853's dense output of one step, as a callable of the time (s); the three extra stages
-    are evaluated at the first call (counted in nfev)."""
-
-    __slots__ = ("stepper", "y", "y_new", "hs", "t", "slopes", "owned", "coef")
-
-    def __init__(self, stepper, y, y_new, hs, t, slopes):
-        self.stepper, self.y, self.y_new, self.hs, self.t = stepper, y, y_new, hs, t
-        self.slopes, self.owned, self.coef = slopes, False, None
-
-    def own_slopes(self):
-        if not self.owned:
-            self.slopes = self.slopes.copy()
-            self.owned = True
-
-    def _coefficients(self):
-        st, slopes, hs = self.stepper, self.slopes, self.hs
-        out = np.empty(self.y.size)
-        t_last = self.t + DOP853_NODES[15] * hs
-        done = STAGES if st.stages is None else st.stages(
-            self.t, self.y, hs, DOP853_TABLEAU, DOP853_NODES, slopes, STAGES, 16, out, t_last)
-        if done < 16:
-            rk_stages(st.f, self.t, self.y, hs, DOP853_TABLEAU, DOP853_NODES, slopes, done, 16,
-                      out, t_last)
-        st.counters.nfev += 3
-        coef = np.empty((7, self.y.size))
-        dop853_dense(self.y, self.y_new, slopes, hs, coef)
-        return coef
-
-    def __call__(self, s):
-        if self.coef is None:
-            self.coef = self._coefficients()
-        out = np.empty(self.y.size)
-        dop853_interpolate(self.y, self.coef, (s - self.t) / self.hs, _NO_DELTA, out)
-        return out
-
-
-@register
-class DormandPrince853(DormandPrince45):
-    """Adaptive Dormand-Prince 8(5,3) (Hairer's DOP853) with FSAL and dense output of order 7:
-    the integrator for tight tolerances (rtol <= 1e-7) on non-stiff problems.
-
-    Options as rk45's (rtol, atol, max_step, min_step, first_step, controller, safety,
-    min_factor, max_factor, beta), with DOP853's defaults: safety 0.9, min_factor 1/3,
-    max_factor 6, beta 0 (the elementary controller with exponent 1/8).
-
-    Raises SimulationError (with ``.t``) when the step size underflows.
-    """
-
-    name = "dop853"
-    order = 8
-
-    def __init__(self, rtol: float = 1e-6, atol=1e-9, max_step: Optional[float] = None,
-                 min_step: float = 0.0, first_step: Optional[float] = None,
-                 safety: float = 0.9, min_factor: float = 0.333, max_factor: float = 6.0,
-                 controller: str = "pi", beta: float = 0.0):
-        super().__init__(rtol, atol, max_step, min_step, first_step, safety, min_factor,
-                         max_factor, controller, beta)
-
-    def __repr__(self) -> str:
-        return f"DormandPrince853(rtol={self.rtol!r}, atol={self.atol!r})"
-
-    def make_stepper(self):
-        return Dop853Stepper(self.rtol, self.atol, self.first_step, self.max_step)
-
-    #: the controller of the compiled drivers (:mod:`.pairs`)
-    DEFAULT_CONTROLLER = ("pi", dict(safety=0.9, min_factor=0.333, max_factor=6.0, beta=0.0))

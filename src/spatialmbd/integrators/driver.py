@@ -220,6 +220,41 @@ class RunState:
         return self.drained + len(self.outputs)
 
 
+def step_events(evs, g_old, t, t_new, y_new, dense, event_tol, project, project_steps,
+                state, name):
+    """The events of an accepted step from t to t_new (y_new: its projected end state; dense:
+    its dense output, a callable of the time; g_old: each event function at t): every
+    crossing located by Brent's method on the dense output, recorded in ``state.events`` in
+    time order up to the first terminal or restart event, which sets ``state.terminated`` or
+    is returned. Returns (t_stop, restart record or None, the event functions at t_new)."""
+    g_new = [float(e.function(t_new, y_new)) for e in evs]
+    found = []
+    for i, e in enumerate(evs):
+        if _crossed(g_old[i], g_new[i], e.direction):
+            if dense is None:
+                raise SimulationError(f"{name} has no dense output to locate event {e.name!r}")
+            fun = e.function
+            te = _brent(lambda s, fun=fun: fun(s, dense(s)), t, t_new, g_old[i], g_new[i],
+                        event_tol)
+            found.append((te, i))
+    found.sort()
+    for te, i in found:
+        if evs[i].restart is not None:
+            te = _far_side(evs[i], dense, te, t_new, g_old[i], event_tol)
+        ye = y_new if te == t_new else dense(te)
+        if project is not None and (te != t_new or not project_steps):
+            ye = project(te, ye)
+        rec = EventRecord(te, ye, i, evs[i].name, evs[i].terminal)
+        if evs[i].record:
+            state.events.append(rec)
+        if rec.terminal:
+            state.terminated = rec
+            return te, None, g_new
+        if evs[i].restart is not None:
+            return te, rec, g_new
+    return t_new, None, g_new
+
+
 def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval: np.ndarray,
         counters, state: RunState, progress=None, events=None, event_tol: float = 1e-12,
         max_step: float = math.inf, min_step: float = 0.0, t_end: Optional[float] = None) -> None:
@@ -235,11 +270,7 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
     n_out = len(touts)
     t_end = touts[-1] if t_end is None else float(t_end)
     span = t_end - t0
-    k_out = 0
-    while k_out < n_out and touts[k_out] == t0:
-        state.emit(t0, y0)
-        k_out += 1
-    evs = [Event.coerce(e, i) for i, e in enumerate(events or ())]
+    k_out, evs = begin(state, touts, t0, y0, events)
     if k_out == n_out and not evs:
         return
     selfc = stepper.self_controlled or controller is None
@@ -310,39 +341,12 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
             state.last = (t_new, y_new)
             dense = _corrected_dense(st.dense, t, t_new, y_raw, y_new)
             # ---------------------------------------------------------- events
-            t_stop = t_new
-            restart = None
+            t_stop, restart = t_new, None
             if evs:
-                g_new = [float(e.function(t_new, y_new)) for e in evs]
-                found = []
-                for i, e in enumerate(evs):
-                    if _crossed(g_old[i], g_new[i], e.direction):
-                        if dense is None:
-                            raise SimulationError(f"{stepper.name} has no dense output to "
-                                                  f"locate event {e.name!r}")
-                        fun = e.function
-                        te = _brent(lambda s, fun=fun: fun(s, dense(s)), t, t_new, g_old[i],
-                                    g_new[i], event_tol)
-                        found.append((te, i))
-                found.sort()
-                for te, i in found:
-                    if evs[i].restart is not None:
-                        te = _far_side(evs[i], dense, te, t_new, g_old[i], event_tol)
-                    ye = y_new if te == t_new else dense(te)
-                    if project is not None and (te != t_new or not project_steps):
-                        ye = project(te, ye)
-                    rec = EventRecord(te, ye, i, evs[i].name, evs[i].terminal)
-                    if evs[i].record:
-                        state.events.append(rec)
-                    if rec.terminal:
-                        state.terminated = rec
-                        t_stop = te
-                        break
-                    if evs[i].restart is not None:
-                        restart = rec
-                        t_stop = te
-                        break
-                g_at_t, g_old = g_old, g_new
+                g_at_t = g_old
+                t_stop, restart, g_old = step_events(evs, g_old, t, t_new, y_new, dense,
+                                                     event_tol, project, project_steps, state,
+                                                     stepper.name)
             # ---------------------------------------------------------- outputs in (t, t_stop]
             while k_out < n_out and touts[k_out] <= t_stop:
                 to = touts[k_out]
@@ -356,11 +360,7 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                         yo = project(to, yo)
                 state.emit(to, yo)
                 k_out += 1
-            if state.terminated is not None:
-                if state.t_last_out != t_stop:
-                    state.emit(t_stop, state.terminated.y)
-                if progress is not None:
-                    progress(t_stop)
+            if terminated(state, t_stop, progress):
                 return
             if restart is not None:
                 if not selfc and t < restart.t < t_new:
@@ -397,39 +397,82 @@ def run(stepper: Stepper, controller, problem, t0: float, y0: np.ndarray, t_eval
                     h = min(hs, max_step)
                 after_reject = False
     except Exception as exc:
-        if getattr(exc, "t", None) is None:
-            try:
-                exc.t = t
-            except AttributeError:
-                pass
+        tag_time(exc, t)
         raise
 
 
+def terminated(state, t_stop, progress) -> bool:
+    """Whether a terminal event stopped the run (at t_stop): then its state is the last
+    output and the progress is told."""
+    if state.terminated is None:
+        return False
+    if state.t_last_out != t_stop:
+        state.emit(t_stop, state.terminated.y)
+    if progress is not None:
+        progress(t_stop)
+    return True
+
+
+def begin(state, touts, t0, y0, events):
+    """The start of a run: the outputs at t0 emitted; (their number, the events as
+    :class:`Event`)."""
+    k = 0
+    while k < len(touts) and touts[k] == t0:
+        state.emit(t0, y0)
+        k += 1
+    return k, [Event.coerce(e, i) for i, e in enumerate(events or ())]
+
+
+def tag_time(exc, t):
+    """Give an exception without a time the time t where the run stopped (``exc.t``)."""
+    if getattr(exc, "t", None) is None:
+        try:
+            exc.t = t
+        except AttributeError:
+            pass
+
+
 def _restep(stepper, problem, t, y, rec, t_end, counters, project, event, g_old, t_new, xtol):
-    """The state at a restart event by a step of the stepper from (t, y) to the event time
-    (shorter than the accepted step, so at least as accurate): the dense output can be an
-    order less accurate than the step, and the run continues from this state. The time moves
-    on by xtol, 2 xtol, ... until the stepped state has crossed (so the event does not fire
-    again from there). rec itself (the dense output's state) if that fails."""
-    te, step = rec.t, max(xtol, 4.0 * EPS * abs(rec.t))
-    for _ in range(60):
+    """:func:`restep` by a step of the stepper (accepted when it succeeds); rec itself (the
+    dense output's state) if that fails."""
+    last = []
+
+    def step_to(te):
         stepper.start(problem, t, y, t_end, counters)
         st = stepper.step(t, y, te)
         if st.failed is not None or st.y_new is None or st.t_new != te:
-            break
-        y_new = project(te, st.y_new) if project is not None else st.y_new
-        if not np.all(np.isfinite(y_new)):
+            return None
+        last[:] = [st]
+        return project(te, st.y_new) if project is not None else st.y_new
+
+    found = restep(step_to, rec, event, g_old, t_new, xtol)
+    if found is None:
+        stepper.start(problem, rec.t, rec.y, t_end, counters)
+        return rec
+    stepper.accept(last[0], found.y)
+    counters.steps += last[0].n_steps
+    return found
+
+
+def restep(step_to, rec, event, g_old, t_new, xtol):
+    """The state at a restart event by one step from the accepted step's start to the event
+    time (``step_to(te)``: the projected state there, or None when the step failed), shorter
+    than the accepted step, so at least as accurate: the dense output can be an order less
+    accurate than the step, and the run continues from this state. The time moves on by xtol,
+    2 xtol, ... until the stepped state has crossed (so the event does not fire again from
+    there). The new record, or None if that fails."""
+    te, step = rec.t, max(xtol, 4.0 * EPS * abs(rec.t))
+    for _ in range(60):
+        y_new = step_to(te)
+        if y_new is None or not np.all(np.isfinite(y_new)):
             break
         if _crossed(g_old, float(event.function(te, y_new)), event.direction):
-            stepper.accept(st, y_new)
-            counters.steps += st.n_steps
             return EventRecord(te, y_new, rec.index, rec.name, rec.terminal)
         te = min(te + step, t_new)
         step *= 2.0
         if te >= t_new:
             break
-    stepper.start(problem, rec.t, rec.y, t_end, counters)
-    return rec
+    return None
 
 
 def _far_side(event, dense, te, t_new, g_old, xtol):

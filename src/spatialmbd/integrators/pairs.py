@@ -10,46 +10,53 @@ A pair is the tuple (kind, tableau, nodes, control):
 * tableau (R, R) and nodes (R,): the stages 1 .. S-1 (row S-1 the weights b, so that stage
   S-1 is y_(n+1) and slope S-1 the FSAL derivative), then for DP8 the dense output's three
   extra stages (R = S + 3); S = :func:`pair_stages`;
-* control: [1/k, beta, safety, min_factor, max_factor, 1/k of the starting step] of the
-  integrator's default controller (:class:`.controllers.PIController`).
+* control: [1/k, beta, safety, min_factor, max_factor, 1/k of the starting step, min_step]:
+  the step-size controller's exponents and factors (:mod:`.controller`) and the minimum step
+  (s; 0: only the round-off floor).
 
-The same arithmetic as the Python steppers (:class:`.runge_kutta_adaptive.DormandPrinceStepper`,
-:class:`.dop853.Dop853Stepper`) with their default controllers, which the tests compare.
+:func:`make_pair` builds a pair from an integrator's options (:mod:`.dormand_prince`).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..jit import njit
-from .dop853 import (DOP853_NODES, DOP853_TABLEAU, STAGES as DP8_STAGES, DormandPrince853,
-                     dop853_dense, dop853_error, dop853_interpolate)
-from .runge_kutta_adaptive import (DOPRI_NODES, DOPRI_TABLEAU, DormandPrince45, dopri_error,
-                                   dopri_interpolate)
+from .dop853 import (DOP853_NODES, DOP853_TABLEAU, STAGES as DP8_STAGES, dop853_dense,
+                     dop853_error, dop853_interpolate)
+from .runge_kutta_adaptive import DOPRI_NODES, DOPRI_TABLEAU, dopri_error, dopri_interpolate
 
 DP5, DP8 = 0, 1
+#: the order k of each kind's error estimate (the error behaves like h^k) and of its starting
+#: step's estimate
+_ORDERS = {DP5: (5, 5), DP8: (8, 8)}
 
-#: Dormand-Prince 5(4) with DormandPrince45's defaults (PI, beta 0.04, factors 0.2 .. 10)
-PAIR_DP5 = (DP5, DOPRI_TABLEAU, DOPRI_NODES, np.array([1 / 5, 0.04, 0.9, 0.2, 10.0, 1 / 5]))
-#: DOP853 with DormandPrince853's defaults (beta 0, factors 0.333 .. 6)
-PAIR_DP8 = (DP8, DOP853_TABLEAU, DOP853_NODES, np.array([1 / 8, 0.0, 0.9, 0.333, 6.0, 1 / 8]))
 
-_DEFAULT_CONTROL = {DormandPrince45: ("pi", dict(safety=0.9, min_factor=0.2, max_factor=10.0,
-                                                 beta=0.04)),
-                    DormandPrince853: DormandPrince853.DEFAULT_CONTROLLER}
-_PAIRS = {DormandPrince45: PAIR_DP5, DormandPrince853: PAIR_DP8}
+def make_pair(kind: int, safety: float, min_factor: float, max_factor: float, beta: float,
+              min_step: float = 0.0):
+    """The pair ``kind`` (:data:`DP5` or :data:`DP8`) with a PI controller of these factors
+    (beta = 0: the elementary controller) and minimum step."""
+    k, k_start = _ORDERS[kind]
+    tableau, nodes = (DOPRI_TABLEAU, DOPRI_NODES) if kind == DP5 else (DOP853_TABLEAU,
+                                                                       DOP853_NODES)
+    return (kind, tableau, nodes, np.array([1 / k, float(beta), float(safety),
+                                            float(min_factor), float(max_factor), 1 / k_start,
+                                            float(min_step)]))
+
+
+#: Dormand-Prince 5(4) with rk45's defaults (PI, beta 0.04, factors 0.2 .. 10)
+PAIR_DP5 = make_pair(DP5, 0.9, 0.2, 10.0, 0.04)
+#: DOP853 with dop853's defaults (beta 0, factors 0.333 .. 6)
+PAIR_DP8 = make_pair(DP8, 0.9, 0.333, 6.0, 0.0)
 
 
 def pair_of(integ):
-    """The pair of an rk45 / dop853 integrator that the compiled drivers can run (scalar atol,
-    no min_step or first_step, its default controller), else None."""
-    cls = type(integ)
-    if cls not in _PAIRS:
+    """The pair of an rk45 / dop853 integrator (any controller options) when the compiled
+    whole-run drivers (:mod:`..dynamics.fused`, :mod:`..dynamics.recursive`) can run it:
+    scalar atol and no first_step; else None."""
+    pair = getattr(integ, "pair", None)
+    if pair is None or np.ndim(integ.atol) != 0 or integ.first_step is not None:
         return None
-    if np.ndim(integ.atol) != 0 or integ.min_step != 0.0 or integ.first_step is not None:
-        return None
-    if integ._ctrl != _DEFAULT_CONTROL[cls]:
-        return None
-    return _PAIRS[cls]
+    return pair()
 
 
 def pair_by_name(name: str):

@@ -10,6 +10,64 @@ import numpy as np
 from ..errors import ModelError
 
 
+# ============================================================================ standard columns
+#: the columns of every body in a result table (global axes, SI): position and Euler
+#: parameters (q), velocity and angular velocity (v), acceleration and angular acceleration
+#: (vdot), in the order of their arrays' last axis
+BODY_POSITION = ("x", "y", "z", "e0", "e1", "e2", "e3")
+BODY_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
+BODY_ACCELERATION = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
+#: of every named point "body.point": position, velocity, acceleration (global axes)
+POINT = ("x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az")
+#: of the reaction of a joint on each of its bodies, "<joint>.<body>.<fx..mz>" (global axes)
+REACTION = ("fx", "fy", "fz", "mx", "my", "mz")
+#: "energy.<...>" and "violation.<...>" of a dynamic result
+ENERGY = ("kinetic", "gravitational", "elastic", "work_nonconservative", "total", "error")
+VIOLATION = ("position", "velocity")
+#: (what, unit) of the standard columns by their last part
+STANDARD = {**{c: ("position", "m") for c in ("x", "y", "z")},
+            **{c: ("Euler parameters", "1") for c in ("e0", "e1", "e2", "e3")},
+            **{c: ("velocity", "m/s") for c in ("vx", "vy", "vz")},
+            **{c: ("angular velocity", "rad/s") for c in ("wx", "wy", "wz")},
+            **{c: ("acceleration", "m/s^2") for c in ("ax", "ay", "az")},
+            **{c: ("angular acceleration", "rad/s^2") for c in ("alphax", "alphay", "alphaz")},
+            **{c: ("force", "N") for c in ("fx", "fy", "fz")},
+            **{c: ("moment", "N m") for c in ("mx", "my", "mz")}}
+#: (what, unit) of the columns of a result table named in full
+NAMED = {"t": ("time", "s"),
+         **{f"energy.{c}": ("energy", "J") for c in ENERGY},
+         "violation.position": ("|Φ| (position violation)", "1"),
+         "violation.velocity": ("|D v − ν| (velocity violation)", "1"),
+         "violation.phi_squared": ("ΦᵀΦ", "1"),
+         "newton.iterations": ("Newton iterations", "1")}
+
+
+def body_columns(body_names, q, v, vdot) -> dict:
+    """{"<body>.<column>": (nt,) array} of the standard body columns; q (nt, nb, 7), v and
+    vdot (nt, nb, 6) (vdot None: no acceleration columns)."""
+    cols = {}
+    for k, name in enumerate(body_names):
+        for arr, names in ((q, BODY_POSITION), (v, BODY_VELOCITY), (vdot, BODY_ACCELERATION)):
+            if arr is not None:
+                for j, c in enumerate(names):
+                    cols[f"{name}.{c}"] = arr[:, k, j]
+    return cols
+
+
+def describe_column(column: str, units: Optional[dict] = None):
+    """(what, unit) of a column of a result table (``units``: the table's units of its
+    requested outputs, ``attrs["units"]``), or None when the vocabulary does not know it."""
+    if column in NAMED:
+        return NAMED[column]
+    last = column.rsplit(".", 1)[-1]
+    if units and column in units and not (last in STANDARD and ".imu." not in column):
+        return ("output", units[column])
+    if "." in column and last in STANDARD and ".imu." not in column:
+        return STANDARD[last]
+    unit = column_units([column], units).get(column)
+    return None if unit is None else ("output", unit)
+
+
 KINDS = ("joint", "force", "driver", "momentum", "energy", "imu")
 SHORTHANDS = {"joints": "joint", "forces": "force", "drivers": "driver"}
 
@@ -270,13 +328,7 @@ def column_units(columns: Iterable[str], units: Optional[dict] = None) -> dict:
     """Unit of every column name that has a known one: from ``units`` (e.g. a table's
     ``attrs["units"]``), else from the standard columns' suffixes."""
     units = dict(units or {})
-    std = {**{c: "m" for c in ("x", "y", "z")}, **{c: "1" for c in ("e0", "e1", "e2", "e3")},
-           **{c: "m/s" for c in ("vx", "vy", "vz")},
-           **{c: "rad/s" for c in ("wx", "wy", "wz")},
-           **{c: "m/s^2" for c in ("ax", "ay", "az")},
-           **{c: "rad/s^2" for c in ("alphax", "alphay", "alphaz")},
-           **{c: "N" for c in ("fx", "fy", "fz")}, **{c: "N m" for c in ("mx", "my", "mz")},
-           "t": "s"}
+    std = {c: u for c, (_, u) in STANDARD.items()}
     # the output quantities whose unit does not depend on the element type
     by_quantity: dict = {}
     for table in QUANTITIES.values():

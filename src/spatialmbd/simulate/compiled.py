@@ -30,8 +30,8 @@ def _joint_run(model, meth, integ, tree, t0, t_out, callback, chunk_results, str
     pair = pair_of(integ)
     if pair is None:
         raise ModelError(f"method 'recursive' integrates with rk45 or dop853 (its compiled "
-                         f"driver: scalar atol, the default controller, no min_step or "
-                         f"first_step); got integrator {integ.name!r} with those options")
+                         f"driver: scalar atol, no first_step); got integrator "
+                         f"{integ.name!r} with those options")
     T = tree.arrays()
     system = eom.system
     nb = model.nb
@@ -109,7 +109,7 @@ def _fused_eligible(eom, meth, integ, compiled, couplers, events, limits, callba
                     n_z) -> bool:
     """Whether this run can go through :mod:`.dynamics.fused` with the arithmetic of the Python
     driver: a fully compiled right-hand side of the standard / Baumgarte / projection method,
-    rk45 or dop853 with its default controller (scalar atol; :func:`.integrators.pairs.pair_of`)
+    rk45 or dop853 (scalar atol, no first_step; :func:`.integrators.pairs.pair_of`)
     or rk4, and none of what the Python driver does between steps (events and contact memory,
     drivers' and force laws' times, couplers, budgets, force-element states)."""
     from ..integrators.fixed_step import RungeKutta4

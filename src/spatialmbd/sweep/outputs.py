@@ -32,12 +32,11 @@ import numpy as np
 
 from ..errors import ModelError
 from ..jit import njit
+from ..outputs.vocabulary import (BODY_ACCELERATION, BODY_POSITION, BODY_VELOCITY, ENERGY,
+                                 REACTION, VIOLATION)
 
 __all__ = ["Output", "parse_outputs", "REDUCTIONS", "period", "peak", "trough", "Columns"]
 
-_BODY_Q = ("x", "y", "z", "e0", "e1", "e2", "e3")
-_BODY_V = ("vx", "vy", "vz", "wx", "wy", "wz")
-_BODY_A = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
 _POINT = {"x": ("r", 0), "y": ("r", 1), "z": ("r", 2), "vx": ("rdot", 0), "vy": ("rdot", 1),
           "vz": ("rdot", 2)}
 _SPEC = re.compile(r"^\s*([A-Za-z_]+)\s*\(\s*([^()]+?)\s*\)\s*$")
@@ -306,12 +305,12 @@ class Columns:
         if len(parts) == 2 and parts[0] in model.body_names:
             k = model.body_names.index(parts[0])
             c = parts[1]
-            if c in _BODY_Q:
-                return r.q[:, k, _BODY_Q.index(c)]
-            if c in _BODY_V:
-                return r.v[:, k, _BODY_V.index(c)]
-            if c in _BODY_A:
-                return r.vdot[:, k, _BODY_A.index(c)]
+            if c in BODY_POSITION:
+                return r.q[:, k, BODY_POSITION.index(c)]
+            if c in BODY_VELOCITY:
+                return r.v[:, k, BODY_VELOCITY.index(c)]
+            if c in BODY_ACCELERATION:
+                return r.vdot[:, k, BODY_ACCELERATION.index(c)]
         if len(parts) == 3 and f"{parts[0]}.{parts[1]}" in model.points and parts[2] in _POINT:
             key, j = _POINT[parts[2]]
             return r.point(f"{parts[0]}.{parts[1]}")[key][:, j]
@@ -325,7 +324,7 @@ class Columns:
                 return vi[parts[1]]
         if hasattr(r, "reactions") and len(parts) == 3:
             reac = self._group("reactions", r.reactions)
-            if parts[0] in reac and parts[2] in ("fx", "fy", "fz", "mx", "my", "mz"):
+            if parts[0] in reac and parts[2] in REACTION:
                 jr = reac[parts[0]]
                 j = "xyz".index(parts[2][1])
                 kind = "force" if parts[2][0] == "f" else "moment"
@@ -352,7 +351,9 @@ class Columns:
         if self._frame is not None and name in self._frame.columns:
             return self._frame[name].to_numpy()
         raise ModelError(f"output column {name!r} does not exist; columns are "
-                         "<body>.<x|y|z|e0..e3|vx..wz|ax..alphaz>, <body>.<point>.<x|..|vz>, "
-                         "<joint>.<body>.<fx..mz>, energy.<kinetic|total|error|...>, "
-                         "violation.<position|velocity>; bodies: "
+                         f"<body>.<{'|'.join(BODY_POSITION + BODY_VELOCITY + BODY_ACCELERATION)}>, "
+                         "<body>.<point>.<x|..|vz>, "
+                         f"<joint>.<body>.<{'|'.join(REACTION)}>, energy.<{'|'.join(ENERGY)}>, "
+                         f"violation.<{'|'.join(VIOLATION)}>, the requested outputs "
+                         "(`spatialmbd info` lists them); bodies: "
                          + ", ".join(r.model.body_names))

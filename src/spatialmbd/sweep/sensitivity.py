@@ -45,7 +45,6 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..errors import ModelError
-from ..integrators.controller import landing_steps, landing_time
 from .core import SUCCESS, _make_job, sweep
 from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs, peak_at
 from .params import ParameterSpace, get_path, points
@@ -216,17 +215,27 @@ def _state_index(model, column) -> int:
 
 
 def forward_sensitivities(model, params, outputs, analysis=None, *, step: Optional[float] = None,
-                          relative_delta: float = 1e-6):
+                          relative_delta: float = 1e-6, scheme: str = "analysis"):
     """d(output)/d(parameter) by the forward sensitivity equations (direct differentiation).
 
     model, params, outputs, analysis: as :func:`sensitivities` (dynamic analysis; method
     standard or baumgarte -- the model-file default, projection, is refused; a model that the
-    batch engine takes). The state and sensitivities are
-    integrated by classic RK4 with ``step`` (s; default the analysis' step, else 1e-3).
+    batch engine takes). The state and sensitivities are integrated together, as one
+    system, by the package's integrators (:mod:`spatialmbd.integrators`):
+
+    * ``scheme="analysis"`` (default): by the analysis' integrator -- adaptive (rk45, the
+      default, or dop853: the one compiled adaptive driver) with its rtol and atol and the
+      sensitivities in the error norm (atol / |x0| for the sensitivities to parameter x:
+      a simultaneous corrector, as CVODES' ``CV_SIMULTANEOUS`` with error control on the
+      sensitivities), so the step sizes resolve the sensitivities too; or rk4 with its step;
+    * ``scheme="rk4"``, or ``step`` given: classic RK4 with ``step`` (s; default the
+      analysis' step, else 1e-3) -- the scheme the discrete adjoint (:mod:`spatialmbd.design`)
+      differentiates, whose derivative this is.
+
     relative_delta: the parameter perturbation of f_p, delta = relative_delta |x0|.
     Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, the
     sensitivity time series ``S`` (time, state, parameter) and the state ``y`` (time, state)
-    of the same RK4 integration (what :mod:`spatialmbd.design` fits to measurements).
+    of the same integration (what :mod:`spatialmbd.design` fits to measurements).
     """
     import xarray as xr
     from .batch import BatchSetup
@@ -248,7 +257,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
         raise ModelError(f"forward sensitivities integrate the equations of the 'standard' or "
                          f"'baumgarte' method ({what}); set the analysis method to "
                          "'standard'")
-    h = float(step if step is not None else (an.step or 1e-3))
+    integ = _sensitivity_integrator(an, step, scheme)
     setup = BatchSetup(m0, an.method, an.method_options)
     F0 = setup.pack_F(m0)
     y0 = setup.initial_state(m0, F0, an)
@@ -294,37 +303,37 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
             dS[:, j] = jv + (f(t, y, Fp[j]) - f(t, y, Fm[j])) / (2 * deltas[j])
         return fy, dS
 
-    def project(y, S):
+    def rhs(t, z):                                 # the state and its sensitivities
+        fy, dS = g(t, z[:n], z[n:].reshape(n, npar))
+        return np.concatenate([fy, dS.ravel()])
+
+    def project(t, z):
+        """Unit Euler parameters, their sensitivities projected with (I - p p^T) / |p|."""
+        z = z.copy()
+        y, S = z[:n], z[n:].reshape(n, npar)
         for b in range(nb):
             o = 7 * b + 3
             p = y[o:o + 4].copy()
             norm = float(np.linalg.norm(p))
             ph = p / norm
-            Sp = S[o:o + 4]
+            Sp = S[o:o + 4].copy()
             S[o:o + 4] = (Sp - np.outer(ph, ph @ Sp)) / norm
             y[o:o + 4] = ph
-        return y, S
+        return z
 
+    from ..integrators import ODEProblem
     t_out = output_times(an.t_end, an.output_step, an.t_eval, 0.0)
-    Y = np.zeros((t_out.size, n))
-    SS = np.zeros((t_out.size, n, npar))
-    t, y, S = 0.0, y0.copy(), S0.copy()
-    for ko, to in enumerate(t_out.tolist()):
-        if to > t:
-            msteps = landing_steps(t, to, h)
-            t_start = t
-            for i in range(1, msteps + 1):
-                t_new = landing_time(t_start, to, h, i)
-                hh = t_new - t
-                k1, l1 = g(t, y, S)
-                k2, l2 = g(t + hh / 2, y + hh / 2 * k1, S + hh / 2 * l1)
-                k3, l3 = g(t + hh / 2, y + hh / 2 * k2, S + hh / 2 * l2)
-                k4, l4 = g(t + hh, y + hh * k3, S + hh * l3)
-                y = y + hh / 6 * (k1 + 2 * (k2 + k3) + k4)      # Eq. (13.14), (13.19)
-                S = S + hh / 6 * (l1 + 2 * (l2 + l3) + l4)
-                y, S = project(y, S)
-                t = t_new
-        Y[ko], SS[ko] = y, S
+    if integ.adaptive:                              # the sensitivities in the error norm
+        scales = np.array([_scale(nominal[nm]) for nm in names])
+        atol = np.concatenate([np.full(n, integ.atol), (integ.atol / scales)[None, :]
+                               .repeat(n, axis=0).ravel()])
+        integ = type(integ)(rtol=integ.rtol, atol=atol, max_step=integ.max_step)
+    res = integ.integrate(ODEProblem(rhs, project=project), 0.0,
+                          np.concatenate([y0, S0.ravel()]), t_out)
+    if not res.success:
+        raise ModelError(f"forward sensitivities: {res.message}")
+    Y = res.y[:, :n]
+    SS = res.y[:, n:].reshape(t_out.size, n, npar)
     deriv = np.full((len(outs), npar), np.nan)
     nominal_out = np.full(len(outs), np.nan)
     for i, o in enumerate(outs):
@@ -339,7 +348,28 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
              S=(("time", "state", "parameter"), SS), y=(("time", "state"), Y)),
         coords=dict(output=[o.name for o in outs], parameter=names, time=t_out,
                     value=(("parameter",), np.array([nominal[nm] for nm in names]))),
-        attrs=dict(method="forward sensitivity equations, RK4", step=h))
+        attrs=dict(method=f"forward sensitivity equations, {integ.name}"
+                   + (" (sensitivities in the error norm)" if integ.adaptive else ""),
+                   step=float(getattr(integ, "step", math.nan)),
+                   rtol=float(getattr(integ, "rtol", math.nan)),
+                   steps=int(res.counters.steps), nfev=int(res.counters.nfev)))
+
+
+def _sensitivity_integrator(an, step, scheme):
+    """The integrator of the forward sensitivities (:func:`forward_sensitivities`)."""
+    from ..integrators import get_integrator
+    if scheme not in ("analysis", "rk4"):
+        raise ModelError(f"forward sensitivities: scheme {scheme!r} must be 'analysis' or "
+                         "'rk4'")
+    name = an.integrator if isinstance(an.integrator, str) else "rk45"
+    if step is not None or scheme == "rk4" or name == "rk4":
+        return get_integrator("rk4", step=float(step if step is not None else
+                                                (an.step or 1e-3)))
+    if name not in ("rk45", "dop853"):
+        raise ModelError(f"forward sensitivities integrate with rk45, dop853 or rk4, not "
+                         f"{name!r}; set the analysis integrator")
+    options = {k: v for k, v in (("rtol", an.rtol), ("atol", an.atol)) if v is not None}
+    return get_integrator(name, **options)
 
 
 def _reduce_derivative(reduction, t, x, s):

@@ -7,7 +7,8 @@ import pathlib
 
 import numpy as np
 
-from .table import CSV_SUFFIXES, HDF5_SUFFIXES, LoadedResults, _Q_NAMES, _V_NAMES, _A_NAMES
+from ...outputs.vocabulary import BODY_ACCELERATION, BODY_POSITION, BODY_VELOCITY
+from .table import CSV_SUFFIXES, HDF5_SUFFIXES, LoadedResults
 from .hdf5_file import _open_h5
 from .csv_file import _csv_status, _text
 
@@ -84,5 +85,5 @@ def _loaded_from_table(path, table) -> LoadedResults:
 
     kind = "kinematic" if "newton.iterations" in table else "dynamic"
     meta = {"body_names": names, "kind": kind}
-    return LoadedResults(path=path, kind=kind, t=table["t"].to_numpy(), q=block(_Q_NAMES),
-                         v=block(_V_NAMES), vdot=block(_A_NAMES), table=table, metadata=meta)
+    return LoadedResults(path=path, kind=kind, t=table["t"].to_numpy(), q=block(BODY_POSITION),
+                         v=block(BODY_VELOCITY), vdot=block(BODY_ACCELERATION), table=table, metadata=meta)

@@ -10,6 +10,8 @@ from typing import Any, Optional
 
 import numpy as np
 
+from ...outputs.vocabulary import POINT, body_columns
+
 
 
 FORMAT_NAME = "spatialmbd-results"
@@ -29,22 +31,6 @@ def results_kind(results) -> str:
                     f"{type(results).__name__}")
 
 
-_Q_NAMES = ("x", "y", "z", "e0", "e1", "e2", "e3")
-_V_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
-_A_NAMES = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
-_POINT_NAMES = ("x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az")
-
-
-def _body_columns(model, q, v, vdot) -> dict:
-    cols = {}
-    for k, name in enumerate(model.body_names):
-        for j, c in enumerate(_Q_NAMES):
-            cols[f"{name}.{c}"] = q[:, k, j]
-        for j, c in enumerate(_V_NAMES):
-            cols[f"{name}.{c}"] = v[:, k, j]
-        for j, c in enumerate(_A_NAMES):
-            cols[f"{name}.{c}"] = vdot[:, k, j]
-    return cols
 
 
 def _point_columns(model, q, v, vdot) -> dict:
@@ -53,7 +39,7 @@ def _point_columns(model, q, v, vdot) -> dict:
     cols = {}
     if not model.points or len(q) == 0:
         for name in model.points:
-            for c in _POINT_NAMES:
+            for c in POINT:
                 cols[f"{name}.{c}"] = np.zeros(len(q))
         return cols
     A = A_from_p(q[:, :, 3:])                                   # (nt, nb, 3, 3)
@@ -65,7 +51,7 @@ def _point_columns(model, q, v, vdot) -> dict:
         rdd = vdot[:, body, :3] + np.cross(wd, s) + np.cross(w, np.cross(w, s))
         for j, arr in enumerate((r, rd, rdd)):
             for i in range(3):
-                cols[f"{name}.{_POINT_NAMES[3 * j + i]}"] = arr[:, i]
+                cols[f"{name}.{POINT[3 * j + i]}"] = arr[:, i]
     return cols
 
 
@@ -110,11 +96,11 @@ def to_dataframe(results):
         out.attrs["units"] = dict(df.attrs.get("units", {}))
         return out
     cols = {"t": t}
-    cols.update(_body_columns(model, results.q, results.v, results.vdot))
+    cols.update(body_columns(model.body_names, results.q, results.v, results.vdot))
     for name, d in results.points.items():
         for j, key in enumerate(("r", "rdot", "rddot")):
             for i in range(3):
-                cols[f"{name}.{_POINT_NAMES[3 * j + i]}"] = np.asarray(d[key])[:, i]
+                cols[f"{name}.{POINT[3 * j + i]}"] = np.asarray(d[key])[:, i]
     viol = _violation(model, results.q, results.v, t)
     cols["violation.position"] = viol["position"]
     cols["violation.velocity"] = viol["velocity"]

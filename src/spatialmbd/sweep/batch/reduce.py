@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 
+from ...outputs.vocabulary import BODY_POSITION, BODY_VELOCITY
 from .run import _integrate, as_results
 
 
@@ -35,7 +36,6 @@ def _state_plan(outputs, model):
     """[(reduction, "q" or "v", body, column)] when every output is a reduction of a body's
     position, Euler parameter or velocity column (what the member's arrays hold as they
     are); None otherwise (the outputs are then evaluated on a Results, as in a separate run)."""
-    from ..outputs import _BODY_Q, _BODY_V
     plan = []
     for o in outputs:
         if o.function is not None or o.reduction is None:
@@ -44,10 +44,10 @@ def _state_plan(outputs, model):
         if len(parts) != 2 or parts[0] not in model.body_names:
             return None
         k = model.body_names.index(parts[0])
-        if parts[1] in _BODY_Q:
-            plan.append((o.reduction, "q", k, _BODY_Q.index(parts[1])))
-        elif parts[1] in _BODY_V:
-            plan.append((o.reduction, "v", k, _BODY_V.index(parts[1])))
+        if parts[1] in BODY_POSITION:
+            plan.append((o.reduction, "q", k, BODY_POSITION.index(parts[1])))
+        elif parts[1] in BODY_VELOCITY:
+            plan.append((o.reduction, "v", k, BODY_VELOCITY.index(parts[1])))
         else:
             return None
     return plan
@@ -69,7 +69,7 @@ def _reduce_states(job, member, plan):
 
 # ------------------------------------------------------------------ members set without builds
 #: the Model arrays a sweep parameter may set directly, without building the member's model
-_STATE_COLUMNS = ("x", "y", "z", "e0", "e1", "e2", "e3", "vx", "vy", "vz", "wx", "wy", "wz")
+_STATE_COLUMNS = BODY_POSITION + BODY_VELOCITY
 
 
 def _needs_accelerations(outputs) -> bool:
