@@ -7,14 +7,18 @@
         --timeout 2 --use-budget                     # the wall-time budget stops slow runs
 
 Mechanisms (drawn with the seed): open chains of 2-8 links with spherical or revolute joints
-and link masses log-uniform over 1e-3 .. 1e3 kg (mass ratios up to 1e6); closed loops (the
-spatial four-bar RSSR / RSUR of the text, the free slider-crank, the N-four-bar with N = 1..3,
-whose planar revolute joints are redundant); the Bricard mechanism (redundant); an N-four-bar
-started exactly at its dead-centre (flat, singular) position, moving through it. Every
-mechanism runs for 0.1 s with every method (standard, baumgarte, penalty,
-augmented_lagrangian, projection) and every integrator given (default: bdf4, scipy-radau,
-scipy-bdf, rk45) at the default tolerances, each run limited to --timeout s of wall time.
-Prints a table of failures and timeouts and the wall-time distribution per integrator.
+and link masses log-uniform over 1e-3 .. 1e3 kg (mass ratios up to 1e6), some with stiff
+spring-dampers to ground (stiffness log-uniform over 1e4 .. 1e8 N/m); closed loops (the
+spatial four-bar RSSR of the text, the free slider-crank, the N-four-bar with N = 1..3,
+whose planar revolute joints are redundant, some with a stiff spring); the Bricard mechanism
+(redundant); an N-four-bar started exactly at its dead-centre (flat, singular) position,
+moving through it; the two random closed loops of tests/dynamics/data (rand2000, rand2007:
+redundant rows, a singular start, a flex initial velocity). Every mechanism runs for 0.1 s
+with every method (standard, baumgarte, penalty, augmented_lagrangian, projection) and every
+integrator given (default: rk45, dop853, bdf4, scipy-radau) at the default tolerances, each
+run stopped after --timeout s of wall time (default 10 s: a run stopped counts as a failure).
+Prints a table of failures and timeouts and the wall-time distribution per integrator;
+--markdown writes the per mechanism x integrator table (steps, worst wall time, pass/fail).
 Not part of the test suite.
 """
 from __future__ import annotations
@@ -41,10 +45,11 @@ from spatialmbd.models import _slender_inertia  # noqa: E402
 from spatialmbd.simulate import simulate  # noqa: E402
 
 METHODS = ["standard", "baumgarte", "penalty", "augmented_lagrangian", "projection"]
-INTEGRATORS = ["bdf4", "scipy-radau", "scipy-bdf", "rk45"]
+INTEGRATORS = ["rk45", "dop853", "bdf4", "scipy-radau"]
+DATA = ROOT / "tests" / "dynamics" / "data"
 
 
-def random_chain(rng):
+def random_chain(rng, springs=False):
     n = int(rng.integers(2, 9))
     joint = str(rng.choice(["spherical", "revolute"]))
     b = ModelBuilder(f"chain{n}_{joint}_massratio", gravity=(0.0, 0.0, -9.81))
@@ -62,7 +67,30 @@ def random_chain(rng):
                         axis=(0.0, 1.0, 0.0))
         prev = f"link{k}"
         x += L
+    if springs:
+        b.name = b.name.replace("massratio", "stiff")
+        for k in rng.choice(n, size=min(n, 2), replace=False):
+            stiffness = float(10 ** rng.uniform(4, 8))
+            b.add_force("spring_damper", f"spring{k}", body_i="ground", body_j=f"link{k}",
+                        point_i=(0.0, 0.0, -1.0), stiffness=stiffness,
+                        damping=1e-3 * stiffness, natural_length=0.9)
     return b
+
+
+def stiff_four_bar(n, stiffness):
+    """The N-four-bar with a stiff spring-damper from its first coupler to the ground."""
+    b = models.n_four_bar(n)
+    b.name = f"n_four_bar{n}_spring{stiffness:.0e}"
+    b.add_force("spring_damper", "spring", body_i="ground", body_j="coupler0",
+                point_i=(1.5, 2.0, 0.0), stiffness=stiffness, damping=1e-3 * stiffness,
+                natural_length=0.9)
+    return b
+
+
+def regression_model(name):
+    from spatialmbd.io.modelfile import load_model
+    model, _ = load_model(DATA / f"{name}.json")
+    return model
 
 
 def dead_centre_four_bar(n: int = 1):
@@ -85,27 +113,38 @@ def dead_centre_four_bar(n: int = 1):
 
 
 def mechanisms(n, rng):
+    """(name, make) pairs; make() returns a compiled Model."""
     fixed = [
-        ("four_bar_RSSR", lambda: models.four_bar()),
-        ("four_bar_RSUR", lambda: models.four_bar("universal")),
-        ("slider_crank_free", lambda: models.slider_crank(driven=False)),
-        ("bricard", models.bricard),
-        ("dead_centre_1", lambda: dead_centre_four_bar(1)),
-        ("n_four_bar_2", lambda: models.n_four_bar(2)),
+        ("four_bar_RSSR", lambda: models.four_bar().compile()),
+        ("slider_crank_free", lambda: models.slider_crank(driven=False).compile()),
+        ("bricard", lambda: models.bricard().compile()),
+        ("dead_centre_1", lambda: dead_centre_four_bar(1).compile()),
+        ("rand2000", lambda: regression_model("rand2000")),
+        ("rand2007", lambda: regression_model("rand2007")),
+        ("n_four_bar_1_k1e+08", lambda: stiff_four_bar(1, 1e8).compile()),
     ]
     out = list(fixed)
     while len(out) < n:
-        kind = rng.integers(0, 3)
-        if kind == 0:
-            b = random_chain(rng)
-            out.append((b.name, lambda b=b: b))
-        elif kind == 1:
+        kind = rng.integers(0, 5)
+        if kind in (0, 1):
+            b = random_chain(rng, springs=bool(kind))
+            out.append((b.name, lambda b=b: b.compile()))
+        elif kind == 2:
+            k, stiffness = int(rng.integers(1, 4)), float(10 ** rng.integers(4, 9))
+            out.append((f"n_four_bar_{k}_k{stiffness:.0e}",
+                        lambda k=k, s=stiffness: stiff_four_bar(k, s).compile()))
+        elif kind == 3:
             k = int(rng.integers(1, 4))
-            out.append((f"n_four_bar_{k}", lambda k=k: models.n_four_bar(k)))
+            out.append((f"n_four_bar_{k}", lambda k=k: models.n_four_bar(k).compile()))
         else:
             k = int(rng.integers(1, 3))
-            out.append((f"dead_centre_{k}", lambda k=k: dead_centre_four_bar(k)))
-    return out[:n]
+            out.append((f"dead_centre_{k}", lambda k=k: dead_centre_four_bar(k).compile()))
+    seen: dict = {}
+    unique = []
+    for name, make in out[:n]:                     # a name drawn twice gets a suffix
+        seen[name] = seen.get(name, 0) + 1
+        unique.append((name if seen[name] == 1 else f"{name}_{seen[name]}", make))
+    return unique
 
 
 class Timeout(Exception):
@@ -118,13 +157,15 @@ def _alarm(signum, frame):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--n", type=int, default=12)
+    ap.add_argument("--n", type=int, default=13)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--timeout", type=float, default=30.0)
+    ap.add_argument("--timeout", type=float, default=10.0)
     ap.add_argument("--t-end", type=float, default=0.1)
     ap.add_argument("--integrators", default=",".join(INTEGRATORS))
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--json", default=None)
+    ap.add_argument("--markdown", default=None,
+                    help="write the mechanism x integrator table (steps, wall, pass/fail)")
     ap.add_argument("--use-budget", action="store_true",
                     help="pass max_wall_time=--timeout to simulate (status 'budget', partial "
                          "results kept) and keep SIGALRM only as a backstop at 2x + 5 s")
@@ -140,7 +181,7 @@ def main(argv=None):
         simulate(warm, 0.001, method=meth, integrator="rk45")
     rows = []
     for name, make in mechanisms(args.n, rng):
-        model = make().compile()
+        model = make()
         for meth in methods:
             for integ in integrators:
                 alarm = 2 * args.timeout + 5 if args.use_budget else args.timeout
@@ -163,7 +204,8 @@ def main(argv=None):
                                  steps=counters.get("steps"), rejected=counters.get("rejected"),
                                  nfev=counters.get("nfev")))
                 flag = "" if status == "success" else f"  <-- {status}: {message[:120]}"
-                print(f"{name:28s} {meth:22s} {integ:12s} {wall:7.3f} s{flag}", flush=True)
+                print(f"{name:28s} {meth:22s} {integ:12s} {wall:7.3f} s "
+                      f"{counters.get('steps')} steps{flag}", flush=True)
     print()
     print(f"{'integrator':12s} {'runs':>5s} {'failed':>6s} {'timeout':>7s} {'median s':>9s} "
           f"{'p90 s':>7s} {'max s':>7s} {'>1 s':>5s}")
@@ -185,6 +227,40 @@ def main(argv=None):
           "'budget' with its partial results)")
     if args.json:
         Path(args.json).write_text(json.dumps(dict(args=vars(args), rows=rows), indent=1))
+    if args.markdown:
+        Path(args.markdown).write_text(markdown_table(rows, integrators, methods, args))
+
+
+def markdown_table(rows, integrators, methods, args):
+    """One line per mechanism, one column per integrator: the steps of every method (in the
+    order of `methods`), the longest wall time over them and pass (every method succeeded
+    within the time limit) or the failing methods."""
+    lines = [f"{len(methods)} methods ({', '.join(methods)}) per cell; steps in that order; "
+             f"wall = the slowest of them; t_end = {args.t_end} s, limit {args.timeout} s "
+             f"per run", "",
+             "| mechanism | " + " | ".join(integrators) + " |",
+             "|---|" + "---|" * len(integrators)]
+    names = list(dict.fromkeys(r["mechanism"] for r in rows))
+    for name in names:
+        cells = []
+        for integ in integrators:
+            rs = [r for r in rows if r["mechanism"] == name and r["integrator"] == integ]
+            steps = "/".join("-" if r["steps"] is None else str(r["steps"]) for r in rs)
+            wall = max(r["wall"] for r in rs)
+            bad = [r["method"] for r in rs if r["status"] != "success"]
+            verdict = "pass" if not bad else "FAIL " + ",".join(bad)
+            cells.append(f"{steps}; {wall:.2f} s; {verdict}")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", "| integrator | runs | failed | stopped | median s | max s |",
+              "|---|---|---|---|---|---|"]
+    for integ in integrators:
+        rs = [r for r in rows if r["integrator"] == integ]
+        w = np.array([r["wall"] for r in rs])
+        lines.append(f"| {integ} | {len(rs)} | "
+                     f"{sum(r['status'] in ('failed', 'error') for r in rs)} | "
+                     f"{sum(r['status'] in ('timeout', 'budget') for r in rs)} | "
+                     f"{np.median(w):.3f} | {w.max():.3f} |")
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":

@@ -37,9 +37,9 @@ def test_singular_start_runs_in_few_steps_with_every_method(name):
         # every constraint row -- the ones dependent at the start included -- holds
         limit = 1e-4 if method in ("penalty", "augmented_lagrangian") else 1e-6
         assert viol["position"].max() < limit, (method, viol["position"].max())
-    # the multiplier methods describe one motion (projection, which also projects the
-    # velocities each step, removes the flex part of the initial velocity at once and ends
-    # about 6e-3 m away: the start is inconsistent at second order)
+    # the multiplier methods describe one motion (the flex part of the initial velocity, which
+    # the projection method removed at its first projection, is removed for every method by the
+    # initial-condition correction: test_flex_correction.py and the test below)
     ref = runs["standard"].q[:, :, :3]
     assert np.abs(runs["baumgarte"].q[:, :, :3] - ref).max() < 1e-3
     # the start is sensitive: the augmented Lagrangian (its own iteration tolerance) and the
@@ -47,6 +47,32 @@ def test_singular_start_runs_in_few_steps_with_every_method(name):
     # rand2007 -- the same motion, not the same digits
     for method in ("penalty", "augmented_lagrangian"):
         assert np.abs(runs[method].q[:, :, :3] - ref).max() < 1e-2, method
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param("rand2000", marks=pytest.mark.xfail(
+        strict=True, reason="open: 6.3e-4 m at rtol 1e-8 after the correction (6e-3 before); "
+        "the start's quadratic consistency condition has several roots and the one the "
+        "projection method reaches is not yet the one the correction picks every time")),
+    "rand2007"])
+def test_singular_start_every_multiplier_method_follows_the_projection_method(name):
+    """The start is inconsistent at second order (a first-order flex); before the
+    initial-condition correction removed it, the projection method ended 6e-3 to 8e-3 m away
+    from the others (2e-2 m at rtol 1e-8). Now the motions agree to a bound tied to the
+    integration tolerance: within 1e3 rtol (the near-singular start amplifies the local
+    errors; rand2007 measured 1.3e-7 m at rtol 1e-8, was 2e-2 m)."""
+    model, _ = load_model(DATA / f"{name}.json")
+    rtol = 1e-8
+    runs = {}
+    for method in ("standard", "baumgarte", "projection"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            runs[method] = simulate(model, 0.1, method=method, integrator="rk45", rtol=rtol,
+                                    atol=1e-2 * rtol, output_step=0.01, max_steps=2000)
+        assert runs[method].status == "success", (method, runs[method].message)
+    ref = runs["projection"].q[:, :, :3]
+    for method in ("standard", "baumgarte"):
+        assert np.abs(runs[method].q[:, :, :3] - ref).max() < 1e3 * rtol, method
 
 
 def test_regularised_solve_is_exact_away_from_singular_and_bounded_at_it():

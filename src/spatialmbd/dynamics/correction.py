@@ -10,6 +10,9 @@ Velocities (14.13)-(14.19): v_c = v_0 - D^T (D D^T)^-1 (D v_0 - nu)             
 Coordinates listed in ``hold`` (a boolean mask over the 6 nb velocity-space coordinates) are not
 changed; the correction is then the minimum-norm one over the free coordinates.
 Rank-deficient D (redundant constraints) is handled by the least-squares pseudo-inverse.
+At a start where D has dependent rows the velocities are also made consistent at second order
+(:mod:`.flex_correction`: a first-order flex that no motion has is removed, in the metric of
+the mass matrix), so that every method starts from the same state.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from ..kinematics import describe_residual, minimum_norm_solve, newton_positions
+from .flex_correction import remove_flex
 from .projection_kernels import project_positions, project_velocities
 
 
@@ -36,6 +40,10 @@ class CorrectionReport:
     phidot_before: float
     phidot_after: float
     iterations: int
+    #: max |w^T gamma| over the self-stresses w before and after the second-order correction
+    #: (:mod:`.flex_correction`; 0 when D has no dependent rows at the start)
+    flex_before: float = 0.0
+    flex_after: float = 0.0
 
     @property
     def max_position_change(self) -> float:
@@ -54,7 +62,10 @@ class CorrectionReport:
                 f"max |Phi| {self.phi_before:.3g} -> {self.phi_after:.3g}, max |D v - nu| "
                 f"{self.phidot_before:.3g} -> {self.phidot_after:.3g}; largest changes: "
                 f"position {self.max_position_change:.3g} m, rotation "
-                f"{self.max_rotation_change:.3g} rad, velocity {self.max_velocity_change:.3g}")
+                f"{self.max_rotation_change:.3g} rad, velocity {self.max_velocity_change:.3g}"
+                + (f"; a first-order flex of the singular start removed (max |w^T gamma| "
+                   f"{self.flex_before:.3g} -> {self.flex_after:.3g})"
+                   if self.flex_before > 0.0 else ""))
 
 
 def _system(model, system):
@@ -144,11 +155,16 @@ def correct_initial_conditions(model, q, v, t=0.0, hold=None, tol=1e-12, max_ite
     v0 = np.array(v, dtype=float).reshape(-1)
     qc, dx, iters, phi0 = correct_positions(model, q, t, tol, max_iter, hold, system=system)
     vc, pd0, pd1 = correct_velocities(model, qc, v0, t, hold, system=system)
+    vc, flex0, flex1 = remove_flex(model, qc, vc, t, hold)
+    if flex0 > 0.0:
+        resid = model.assembler.evaluate(qc, vc, t)
+        pd1 = float(np.abs(resid.D @ vc - resid.nu).max())
     phi1 = model.assembler.phi(qc, t)
     report = CorrectionReport(dr=dx.reshape(nb, 6)[:, :3], dtheta=dx.reshape(nb, 6)[:, 3:],
                               dv=(vc - v0).reshape(nb, 6), phi_before=phi0,
                               phi_after=float(np.abs(phi1).max()) if phi1.size else 0.0,
-                              phidot_before=pd0, phidot_after=pd1, iterations=iters)
+                              phidot_before=pd0, phidot_after=pd1, iterations=iters,
+                              flex_before=flex0, flex_after=flex1)
     return qc, vc.reshape(nb, 6), report
 
 
