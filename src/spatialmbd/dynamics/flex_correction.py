@@ -39,6 +39,9 @@ from ..state import BodyState
 #: round-off
 CONSISTENT_RTOL = 1e-12
 MAX_ITERATIONS = 30
+#: above this many entries of D the analysis (dense rank, null space and mass metric) is not
+#: attempted -- the bound of the start's dense mobility analysis (simulate.setup)
+DENSE_MAX = 4_000_000
 
 
 def _dense(D):
@@ -95,13 +98,16 @@ def _projection_limit(asm, q, v, t, W, D, keep, Minv, consistent):
 
 def remove_flex(model, q, v, t=0.0, hold=None):
     """(v, |g| before, |g| after): v with the second-order inconsistent part removed (see the
-    module doc); v unchanged when D has no dependent rows or g(v) is round-off.
+    module doc); v unchanged when D has no dependent rows or g(v) is round-off, and for a D
+    of more than DENSE_MAX entries (not analysed: such a start keeps D v = nu only).
 
     q: (nb, 7) assembled; v: (6 nb,) with D v = nu; hold: boolean mask (6 nb,) of
     coordinates not to change, or None."""
     v = np.array(v, dtype=float).reshape(-1)
     asm = model.assembler
     cv = asm.evaluate(q, v, t)
+    if cv.D.shape[0] * cv.D.shape[1] > DENSE_MAX:
+        return v, 0.0, 0.0          # too large for the dense analysis: D v = nu only
     D = _dense(cv.D)
     if D.size == 0:
         return v, 0.0, 0.0
