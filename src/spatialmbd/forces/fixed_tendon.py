@@ -34,6 +34,7 @@ from ..constraints.couplers import JOINT_BLOCK, KIND_TRANSLATION, joint_coordina
 from ..errors import ModelError
 from ..jit import njit
 from ..motion import MotionLawSet, make_law
+from .actuators.common import _number, _range
 from .base import ForceType, check_unknown, register
 from .kernel_tools import add_wrench
 
@@ -97,34 +98,6 @@ def details(S, G, out):
         L, Ld = length(S, P, D)
         f, F = tendon_force(P, L, Ld, G.law[k, 0])
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = L, Ld, f, F
-
-
-def _number(spec, key, default, nonnegative=False):
-    value = spec.params.get(key, default)
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"forces[{spec.name!r}].{key}: expected a number, got "
-                         f"{value!r}") from None
-    if not math.isfinite(x) or (nonnegative and x < 0):
-        raise ModelError(f"forces[{spec.name!r}].{key}: must be "
-                         f"{'>= 0' if nonnegative else 'finite'}, got {value!r}")
-    return x
-
-
-def _pair(spec, key, unit):
-    value = spec.params.get(key)
-    if value is None:
-        return -math.inf, math.inf
-    try:
-        lo, hi = (float(x) for x in value)
-    except (TypeError, ValueError):
-        raise ModelError(f"forces[{spec.name!r}].{key}: give [lower, upper] ({unit}), got "
-                         f"{value!r}") from None
-    if math.isnan(lo) or math.isnan(hi) or lo > hi:
-        raise ModelError(f"forces[{spec.name!r}].{key}: lower {lo} > upper {hi}; give "
-                         f"[lower, upper] with lower <= upper ({unit})")
-    return lo, hi
 
 
 def _joints(spec, builder):
@@ -204,8 +177,8 @@ class FixedTendon(ForceType):
         _number(spec, "rest_length", 0.0)
         _number(spec, "gain", 1.0)
         cls._bias(spec)
-        _pair(spec, "ctrlrange", "command units")
-        _pair(spec, "forcerange", "tendon force units")
+        _range(spec, "ctrlrange", "command units")
+        _range(spec, "forcerange", "tendon force units")
         try:
             make_law(spec.params.get("command", 0.0))
         except ModelError as exc:
@@ -221,8 +194,8 @@ class FixedTendon(ForceType):
             row[REST] = _number(spec, "rest_length", 0.0)
             row[GAIN] = _number(spec, "gain", 1.0)
             row[B0:B2 + 1] = cls._bias(spec)
-            row[CTRL_LO:CTRL_HI + 1] = _pair(spec, "ctrlrange", "")
-            row[FORCE_LO:FORCE_HI + 1] = _pair(spec, "forcerange", "")
+            row[CTRL_LO:CTRL_HI + 1] = _range(spec, "ctrlrange", "")
+            row[FORCE_LO:FORCE_HI + 1] = _range(spec, "forcerange", "")
             joints = _joints(spec, ctx.builder)
             row[N_JOINTS] = len(joints)
             for m, (joint, c, kind) in enumerate(joints):
