@@ -31,8 +31,9 @@ import math
 
 import numpy as np
 
+from ..sweep.batch.direct import DIRECT_ARRAYS, written_entry
+
 #: the Model arrays a direct parameter may set
-DIRECT_ARRAYS = ("mass", "inertia", "gravity", "q0", "v0")
 #: those that move only F (the others move only y0)
 BODY_ARRAYS = ("mass", "inertia", "gravity")
 
@@ -46,24 +47,9 @@ def _patched(model, array: str, index: int, value: float):
 def direct_entry(setup, model0, model_p, F_p, value):
     """(array, flat index) when model_p (built with one parameter set to ``value``) is model0
     with exactly that entry of :data:`DIRECT_ARRAYS` set to ``value``, the same points and
-    the pack (F_p) a patched model0 gives; else None."""
-    changed = []
-    for a in DIRECT_ARRAYS:
-        x0 = np.asarray(getattr(model0, a), dtype=float).ravel()
-        x1 = np.asarray(getattr(model_p, a), dtype=float).ravel()
-        if x0.shape != x1.shape:
-            return None
-        changed += [(a, int(i), float(x1[i])) for i in np.flatnonzero(x0 != x1)]
-    if len(changed) != 1 or changed[0][2] != float(value):
-        return None
-    a, i, _ = changed[0]
-    p0, p1 = model0.points, model_p.points
-    if p1.keys() != p0.keys() or any(p1[k][0] != p0[k][0]
-                                     or not np.array_equal(p1[k][1], p0[k][1]) for k in p0):
-        return None
-    if not np.array_equal(F_p, setup.pack_F(_patched(model0, a, i, value))):
-        return None
-    return a, i
+    the pack (F_p) a patched model0 gives; else None (the batch engine's probe,
+    :func:`spatialmbd.sweep.batch.direct.written_entry`)."""
+    return written_entry(setup, model0, model_p, value, F_p)
 
 
 def keep_valid(direct: dict, dy0: np.ndarray, nb: int) -> dict:

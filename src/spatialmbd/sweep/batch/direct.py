@@ -39,27 +39,41 @@ def _direct_entries(job, member0, model0, others, setup):
             model_p, _ = job.build(probe)
         except Exception:
             return None
-        changed = []
-        for a in DIRECT_ARRAYS:
-            x0 = np.asarray(getattr(model0, a), dtype=float).ravel()
-            x1 = np.asarray(getattr(model_p, a), dtype=float).ravel()
-            if x0.shape != x1.shape:
-                return None
-            changed += [(a, int(i), float(x1[i])) for i in np.flatnonzero(x0 != x1)]
-        if len(changed) != 1 or changed[0][2] != float(other):
+        entry = written_entry(setup, model0, model_p, other)
+        if entry is None:
             return None
-        a, i, _ = changed[0]
-        if model_p.points.keys() != model0.points.keys() or any(   # (body, local point)
-                model_p.points[p][0] != model0.points[p][0]
-                or not np.array_equal(model_p.points[p][1], model0.points[p][1])
-                for p in model0.points):
-            return None
+        a, i = entry
         patched = _patched(model0, {a: _with(getattr(model0, a), i, other)})
-        if not np.array_equal(setup.pack_F(model_p), setup.pack_F(patched)) or \
-                np.array_equal(F0, setup.pack_F(patched)) != (a in ("q0", "v0")):
+        if np.array_equal(F0, setup.pack_F(patched)) != (a in ("q0", "v0")):
             return None
         entries[name] = (a, i)
     return entries
+
+
+def written_entry(setup, model0, model_p, value, F_p=None):
+    """(array, flat index) when model_p (built with one parameter set to ``value``) is model0
+    with exactly one entry of :data:`DIRECT_ARRAYS` set to ``value``, the same points (body,
+    local point) and the pack a patched model0 gives (F_p: model_p's, when already packed);
+    else None. The probe of the direct path (and of the adjoint's direct parameters)."""
+    changed = []
+    for a in DIRECT_ARRAYS:
+        x0 = np.asarray(getattr(model0, a), dtype=float).ravel()
+        x1 = np.asarray(getattr(model_p, a), dtype=float).ravel()
+        if x0.shape != x1.shape:
+            return None
+        changed += [(a, int(i), float(x1[i])) for i in np.flatnonzero(x0 != x1)]
+    if len(changed) != 1 or changed[0][2] != float(value):
+        return None
+    a, i, _ = changed[0]
+    p0, p1 = model0.points, model_p.points
+    if p1.keys() != p0.keys() or any(p1[k][0] != p0[k][0]
+                                     or not np.array_equal(p1[k][1], p0[k][1]) for k in p0):
+        return None
+    patched = _patched(model0, {a: _with(getattr(model0, a), i, value)})
+    if not np.array_equal(setup.pack_F(model_p) if F_p is None else F_p,
+                          setup.pack_F(patched)):
+        return None
+    return a, i
 
 
 def _with(x, i, value):
