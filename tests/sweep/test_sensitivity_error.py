@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from scipy.special import ellipk
 
+mp = pytest.importorskip("mpmath")
+
 from spatialmbd import ModelBuilder
 from spatialmbd.sweep import sensitivities
 
@@ -50,26 +52,68 @@ def test_the_error_estimate_bounds_the_true_error(amplitude):
         assert fd["truncation"].values[0, 1] < 0.1 * true_error[1]
 
 
+def closed_form_final_state(amplitude_deg, inertia, t):
+    """(theta'(t), z(t)) of the pendulum released from rest, to 40 digits (mpmath):
+    sin(theta / 2) = k sn(K - w0 t, k^2), theta' = -2 k w0 cn(K - w0 t, k^2), k = sin(theta0 / 2),
+    w0^2 = m g d / (I_cm + m d^2); z = -d cos(theta)."""
+    th0 = mp.radians(amplitude_deg)
+    w0 = mp.sqrt(mp.mpf(MASS) * G * D / (inertia + mp.mpf(MASS) * D * D))
+    k = mp.sin(th0 / 2)
+    u = mp.ellipk(k * k) - w0 * t
+    theta = 2 * mp.asin(k * mp.ellipfun("sn", u, m=k * k))
+    return -2 * k * w0 * mp.ellipfun("cn", u, m=k * k), -D * mp.cos(theta)
+
+
+def closed_form_derivatives(amplitude_deg, inertia, t):
+    """d(final wx, final z) / d(amplitude_deg, I_cm): central differences of the closed form
+    at 40 digits with a step of 1e-15 (their error is below 1e-25)."""
+    with mp.workdps(40):
+        x, h = [mp.mpf(amplitude_deg), mp.mpf(inertia)], mp.mpf("1e-15")
+        out = np.empty((2, 2))
+        for j in range(2):
+            plus, minus = list(x), list(x)
+            plus[j] += h
+            minus[j] -= h
+            a, b = closed_form_final_state(*plus, t), closed_form_final_state(*minus, t)
+            out[:, j] = [float((a[i] - b[i]) / (2 * h)) for i in range(2)]
+    return out
+
+
 def test_forward_sensitivities_with_error_control_on_the_sensitivities():
     """A near point mass (I_cm 1e-3 kg m^2 against m d^2 = 1.755 kg m^2) released at 150
-    degrees, the sensitivities integrated with the state by rk45 at rtol 1e-9 with the
-    sensitivities in its error norm, against the Richardson-extrapolated central differences
-    of runs at rtol 1e-11: d/d(amplitude) agrees to 1e-8 (measured 4.9e-9 and 6.7e-10);
-    d/d(I_cm) is closer than the RK4 sensitivities with step 1e-3 (the default before), but
-    still 1.4e-4 (2e-5 relative) off: not an integration error (it does not shrink with
-    rtol), an open issue."""
+    degrees, the sensitivities integrated with the state by rk45 with the sensitivities in its
+    error norm, against the closed form (Jacobi's elliptic functions) of d final(rod.wx, rod.z)
+    / d(amplitude, I_cm). The right-hand side of this model carries round-off of about 1e-12
+    relative (the constraint torque cancels the weight's), which a two-point difference of f_p
+    at a fixed step of 1e-6 |x0| amplified into a 1.4e-4 error of d/dI_cm; the f_p step now
+    chosen per parameter and Richardson-extrapolated, the I_cm column is within 1.5e-7
+    relative (measured 4e-9 to 5e-8 at rtol 1e-8 to 1e-10 on the Haswell, Prescott and
+    SkylakeX kernels) and below the error of the finite
+    differences of the same runs (sensitivities(): 1.2e-6 / 3.4e-7); the amplitude column
+    to 3.6e-10. Classic RK4 at h = 1e-3 (the discrete adjoint's scheme) within the same bound."""
     from spatialmbd.sweep import forward_sensitivities
     an = dict(type="dynamic", t_end=2.0, output_step=0.01, method=dict(name="standard"),
               integrator=dict(name="rk45", rtol=1e-9, atol=1e-12))
     params = {"amplitude_deg": 150.0, "inertia": 1e-3}
     outs = ["final(rod.wx)", "final(rod.z)"]
+    exact = closed_form_derivatives(150.0, 1e-3, 2.0)
     fw = forward_sensitivities(pendulum, params, outs, an)
     assert "error norm" in fw.attrs["method"]
-    tight = dict(an, integrator=dict(name="rk45", rtol=1e-11, atol=1e-14))
-    fd = sensitivities(pendulum, params, outs, tight, relative_steps=(1e-3, 1e-4))
-    assert (fd["status"] == "success").all()
-    ref = fd["richardson"].values
-    off = np.abs(fw["derivative"].values - ref)
+    off = np.abs(fw["derivative"].values - exact)
     assert np.all(off[:, 0] < 1e-8), off
+    assert np.all(off[:, 1] < 1.5e-7 * np.abs(exact[:, 1])), off / np.abs(exact)
+    fd = sensitivities(pendulum, params, outs, an)      # the same runs, differenced
+    assert np.all(off < np.abs(fd["derivative"].values - exact)), (off, fd["derivative"])
+    # a tighter tolerance takes more steps (the sensitivities are in the error control); the
+    # I_cm column stays at the round-off floor of its differences (4e-9 to 5e-8 relative,
+    # depending on the BLAS kernel), the amplitude column follows the tolerance
+    fine = forward_sensitivities(pendulum, params, outs,
+                                 dict(an, integrator=dict(name="rk45", rtol=1e-10, atol=1e-13)))
+    off_fine = np.abs(fine["derivative"].values - exact)
+    assert np.all(off_fine[:, 0] < 1e-9), off_fine
+    assert np.all(off_fine[:, 1] < 1.5e-7 * np.abs(exact[:, 1])), off_fine / np.abs(exact)
+    assert fine.attrs["steps"] > fw.attrs["steps"]
+    # classic RK4 at h = 1e-3 (2,000 steps; 2.1e-4 off with the fixed f_p step before)
     rk4 = forward_sensitivities(pendulum, params, outs, an, scheme="rk4")
-    assert np.all(off[:, 1] < np.abs(rk4["derivative"].values - ref)[:, 1]), off
+    assert np.all(np.abs(rk4["derivative"].values - exact) < 1.5e-7 * np.abs(exact)), \
+        rk4["derivative"].values - exact

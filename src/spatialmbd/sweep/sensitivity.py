@@ -25,13 +25,23 @@ Analyses without time integration (kinematic, static, ...) have I = 0 and no tig
 
 :func:`forward_sensitivities` -- direct differentiation: the sensitivity equations
     S' = f_y S + f_p,  S(0) = dy0/dp
-integrated with the state by the same classic RK4 steps as the batch engine (RK4 applied to the
-augmented system is the derivative of the RK4 map, so the result is the exact derivative of the
-discrete solution up to the accuracy of the products below). The kernels give D but not the
-derivatives of M, g and gamma with respect to q, so f_y S and f_p are directional central
-differences of the compiled right-hand side (as CVODES does without a user Jacobian): f_y s_j
-from f(y +- eps s_j), f_p from the packed model floats F at x0 +- delta. After each step the
-Euler parameters are renormalised and their sensitivities projected with (I - p p^T) / |p|.
+integrated with the state as one system, by the analysis' adaptive integrator with the
+sensitivities in its error norm, or by classic RK4 steps (the scheme the discrete adjoint
+differentiates). The kernels give D but not the derivatives of M, g and gamma with respect to
+q, so f_y S and f_p are central differences of the compiled right-hand side (as CVODES does
+without a user Jacobian), each Richardson-extrapolated, since the right-hand side of a
+constrained system carries round-off far above machine precision (a near point mass on a
+revolute joint: about 1e-12 relative, from the constraint torque cancelling the applied one):
+
+* f_y s_j from f(y +- eps s_j) and f(y +- eps s_j / 2), eps = 1e-3 max(1, |y|) / |s_j|;
+* f_p from the packed model floats F at x0 +- h and x0 +- h / 4, with h chosen once per
+  parameter, at the initial state, from the ladder h_k = relative_delta |x0| 4^k (k = 0..9):
+  the step whose extrapolation agrees best with the next step's (a step too small shows the
+  round-off amplified by 1/h, one too large the truncation); likewise S(0) from the initial
+  states of the same perturbed models, with its own step.
+
+After each step the Euler parameters are renormalised and their sensitivities projected with
+(I - p p^T) / |p|.
 Outputs: reductions of body state columns (x..e3, vx..wz): final, initial, mean, rms, max, min
 (derivative at the extreme sample), peak, trough (s at the interpolated extremum t*: x' = 0
 there, so d x(t*(p), p) / dp = s(t*)), period (derivatives of the crossing times, -s / xdot).
@@ -232,7 +242,9 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
       analysis' step, else 1e-3) -- the scheme the discrete adjoint (:mod:`spatialmbd.design`)
       differentiates, whose derivative this is.
 
-    relative_delta: the parameter perturbation of f_p, delta = relative_delta |x0|.
+    relative_delta: the smallest parameter step tried for f_p and S(0) (times |x0|, or 1 if
+    x0 = 0); the steps used are returned in ``attrs["parameter_steps"]`` (see the module
+    docstring).
     Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, the
     sensitivity time series ``S`` (time, state, parameter) and the state ``y`` (time, state)
     of the same integration (what :mod:`spatialmbd.design` fits to measurements).
@@ -262,21 +274,6 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     F0 = setup.pack_F(m0)
     y0 = setup.initial_state(m0, F0, an)
     n, npar = y0.size, len(names)
-    Fp, Fm, S0 = [], [], np.zeros((n, npar))
-    deltas = []
-    for j, name in enumerate(names):
-        d = relative_delta * _scale(nominal[name])
-        deltas.append(d)
-        plus, minus = dict(nominal), dict(nominal)
-        plus[name] += d
-        minus[name] -= d
-        mp_, ap_ = job.build(plus)
-        mm_, am_ = job.build(minus)
-        Fa, Fb = setup.pack_F(mp_), setup.pack_F(mm_)
-        Fp.append(Fa)
-        Fm.append(Fb)
-        S0[:, j] = (setup.initial_state(mp_, Fa, ap_)
-                    - setup.initial_state(mm_, Fb, am_)) / (2 * d)
     I, mpar = setup.system.I, setup.mp
     W = setup.system.W.copy()
     nb = m0.nb
@@ -288,6 +285,15 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
                              "sensitivity integration")
         return out
 
+    S0 = np.zeros((n, npar))
+    stencils, steps = [], []                 # per parameter: (F+h, F-h, F+h/4, F-h/4), h
+    for j, name in enumerate(names):
+        ladder = _ParameterLadder(job, setup, nominal, name, relative_delta)
+        k = ladder.best(lambda F, y0p: f(0.0, y0, F))
+        stencils.append(ladder.pairs(k))
+        steps.append(ladder.h[k])
+        S0[:, j] = ladder.derivative(ladder.best(lambda F, y0p: y0p), lambda F, y0p: y0p)
+
     def g(t, y, S):
         fy = f(t, y, F0)
         dS = np.empty_like(S)
@@ -295,12 +301,12 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
         for j in range(npar):
             s = S[:, j]
             ns = float(np.linalg.norm(s))
-            if ns > 0:
-                eps = 1e-6 * ny / ns
-                jv = (f(t, y + eps * s, F0) - f(t, y - eps * s, F0)) / (2 * eps)
-            else:
-                jv = np.zeros(n)
-            dS[:, j] = jv + (f(t, y, Fp[j]) - f(t, y, Fm[j])) / (2 * deltas[j])
+            jv = _richardson(lambda e: f(t, y + e * s, F0), 1e-3 * ny / ns, 2.0) \
+                if ns > 0 else 0.0
+            (Fa, Fb), (Fc, Fd) = stencils[j]
+            h = steps[j]
+            dS[:, j] = jv + (16.0 * (f(t, y, Fc) - f(t, y, Fd)) / (h / 2)
+                             - (f(t, y, Fa) - f(t, y, Fb)) / (2 * h)) / 15.0
         return fy, dS
 
     def rhs(t, z):                                 # the state and its sensitivities
@@ -352,7 +358,64 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
                    + (" (sensitivities in the error norm)" if integ.adaptive else ""),
                    step=float(getattr(integ, "step", math.nan)),
                    rtol=float(getattr(integ, "rtol", math.nan)),
-                   steps=int(res.counters.steps), nfev=int(res.counters.nfev)))
+                   steps=int(res.counters.steps), nfev=int(res.counters.nfev),
+                   parameter_steps=np.array(steps)))
+
+
+def _richardson(fun, h, r):
+    """(r^2 D(h / r) - D(h)) / (r^2 - 1) with D(h) = (fun(h) - fun(-h)) / (2 h)."""
+    d1 = (fun(h) - fun(-h)) / (2 * h)
+    d2 = (fun(h / r) - fun(-h / r)) * (r / (2 * h))
+    return (r * r * d2 - d1) / (r * r - 1.0)
+
+
+class _ParameterLadder:
+    """One parameter perturbed to x0 +- h_k, h_k = relative_delta |x0| 4^k (k = 0..9): the
+    packed floats F and the initial state of each perturbed model, and the choice of k for a
+    quantity computed from them (the extrapolation R_k from the steps h_k and h_(k-1) that
+    agrees best with R_(k+1))."""
+
+    RUNGS, RATIO = 10, 4.0
+
+    def __init__(self, job, setup, nominal, name, relative_delta):
+        self.points = []
+        for h in relative_delta * _scale(nominal[name]) * self.RATIO ** np.arange(self.RUNGS):
+            pair = []
+            for sign in (1.0, -1.0):
+                values = dict(nominal)
+                values[name] += sign * h
+                try:
+                    model, an = job.build(values)
+                    F = setup.pack_F(model)
+                    pair.append((F, setup.initial_state(model, F, an)))
+                except ModelError as exc:   # the ladder ends below a step the model refuses
+                    if len(self.points) < 3:
+                        raise ModelError(f"forward sensitivities: parameter {name!r} at "
+                                         f"{values[name]!r} (step {h:.3g}): {exc}") from exc
+                    break
+            if len(pair) < 2:
+                break
+            self.points.append(pair)
+        self.RUNGS = len(self.points)
+        self.h = relative_delta * _scale(nominal[name]) * self.RATIO ** np.arange(self.RUNGS)
+
+    def _estimates(self, quantity):
+        D = [(quantity(*p) - quantity(*m)) / (2 * h) for (p, m), h in zip(self.points, self.h)]
+        r2 = self.RATIO ** 2
+        return [None] + [(r2 * D[k - 1] - D[k]) / (r2 - 1.0) for k in range(1, self.RUNGS)]
+
+    def best(self, quantity) -> int:
+        R = self._estimates(quantity)
+        gaps = [float(np.max(np.abs(R[k] - R[k + 1]))) for k in range(1, self.RUNGS - 1)]
+        return 1 + int(np.argmin(gaps))
+
+    def derivative(self, k, quantity):
+        return self._estimates(quantity)[k]
+
+    def pairs(self, k):
+        """((F at +h_k, F at -h_k), (F at +h_(k-1), F at -h_(k-1)))."""
+        (p, m), (pc, mc) = self.points[k], self.points[k - 1]
+        return (p[0], m[0]), (pc[0], mc[0])
 
 
 def _sensitivity_integrator(an, step, scheme):
