@@ -18,6 +18,12 @@ import numpy as np
 from .jit import njit
 from .rotations import A_into, pdot_scalar
 
+#: the names of a body's seven coordinates (q) and six velocity components (v), in the order of
+#: the arrays: model files, drivers, result columns and sensitivities all use these
+#: (:mod:`spatialmbd.outputs.vocabulary` adds what they are and their units)
+POSITION_NAMES = ("x", "y", "z", "e0", "e1", "e2", "e3")
+VELOCITY_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
+
 
 @dataclass
 class BodyState:

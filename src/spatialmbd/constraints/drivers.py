@@ -23,10 +23,12 @@ import numpy as np
 
 from ..jit import njit
 from ..motion import MotionLawSet
+from ..state import POSITION_NAMES
 from .base import ConstraintType, register
 from .primitives import angle_row, coordinate_row, translation_row
 
-COORDINATES = ("x", "y", "z", "e0", "e1", "e2", "e3")
+#: the body coordinates a coordinate driver can prescribe
+COORDINATES = POSITION_NAMES
 
 
 @njit

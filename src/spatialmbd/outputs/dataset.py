@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .vocabulary import column_units
+from .vocabulary import BODY_POSITION, BODY_VELOCITY, column_units
 
 
 def to_xarray(results):
@@ -30,8 +30,8 @@ def to_xarray(results):
         if c != "t":
             data[c] = (("time",), table[c].to_numpy())
     ds = xr.Dataset(data, coords={"time": t, "body": names,
-                                  "q_component": ["x", "y", "z", "e0", "e1", "e2", "e3"],
-                                  "v_component": ["vx", "vy", "vz", "wx", "wy", "wz"]})
+                                  "q_component": list(BODY_POSITION),
+                                  "v_component": list(BODY_VELOCITY)})
     ds["time"].attrs["units"] = "s"
     for c, u in column_units(table.columns, table.attrs.get("units")).items():
         if c in ds:

@@ -8,14 +8,15 @@ from typing import Iterable, Optional
 import numpy as np
 
 from ..errors import ModelError
+from ..state import POSITION_NAMES, VELOCITY_NAMES
 
 
 # ============================================================================ standard columns
 #: the columns of every body in a result table (global axes, SI): position and Euler
 #: parameters (q), velocity and angular velocity (v), acceleration and angular acceleration
 #: (vdot), in the order of their arrays' last axis
-BODY_POSITION = ("x", "y", "z", "e0", "e1", "e2", "e3")
-BODY_VELOCITY = ("vx", "vy", "vz", "wx", "wy", "wz")
+BODY_POSITION = POSITION_NAMES
+BODY_VELOCITY = VELOCITY_NAMES
 BODY_ACCELERATION = ("ax", "ay", "az", "alphax", "alphay", "alphaz")
 #: of every named point "body.point": position, velocity, acceleration (global axes)
 POINT = ("x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az")

@@ -55,6 +55,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..errors import ModelError
+from ..outputs.vocabulary import BODY_POSITION, BODY_VELOCITY
 from .core import SUCCESS, _make_job, sweep
 from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs, peak_at
 from .params import ParameterSpace, get_path, points
@@ -207,8 +208,8 @@ def _tighter(model, name, value, analysis) -> dict:
 
 
 # ------------------------------------------------------------------------- forward sensitivity
-_STATE = {"x": 0, "y": 1, "z": 2, "e0": 3, "e1": 4, "e2": 5, "e3": 6}
-_VEL = {"vx": 0, "vy": 1, "vz": 2, "wx": 3, "wy": 4, "wz": 5}
+_STATE = {c: i for i, c in enumerate(BODY_POSITION)}
+_VEL = {c: i for i, c in enumerate(BODY_VELOCITY)}
 
 
 def _state_index(model, column) -> int:
