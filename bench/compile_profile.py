@@ -6,13 +6,15 @@ and prints, per compiled function, the exclusive time (its own typing, lowering 
 the inclusive time (with the callees it compiled first) and how many signatures it got; then
 the exclusive time summed by package (``forces.contact`` apart from the rest of ``forces``).
 
-    PYTHONPATH=$PWD/src python bench/compile_profile.py [--workload dynamics|recursive|kinematics]
+    PYTHONPATH=$PWD/src python bench/compile_profile.py [--workload dynamics|recursive|kinematics|batch|adjoint]
         [--top 30] [--out bench/results/compile_profile.md]
 
 Workloads (what the test session's warm-up compiles, tests/conftest.py):
     kinematics  kinematic analysis of the slider-crank;
     dynamics    the flyball governor, standard method, rk45, 1 ms;
-    recursive   a 2-link chain by the recursive method, and as a batch member.
+    recursive   a 2-link chain by the recursive method, and as a batch member;
+    batch       the slider-crank as a member of a batch (rk45, standard);
+    adjoint     the gradient of the damped pendulum's run by the discrete adjoint (RK4).
 
 This is a benchmark, not a test: a workload takes minutes on a 2-core machine.
 """
@@ -46,6 +48,22 @@ def _workload(name):
         chain = models.chain(2, "revolute").compile()
         simulate(chain, 1e-3, method="recursive", output_step=1e-3)
         simulate_batch([chain], Analysis(t_end=1e-3, output_step=1e-3, method="recursive"))
+    elif name == "batch":
+        from spatialmbd.io import Analysis
+        from spatialmbd.sweep.batch import simulate_batch
+        crank = models.slider_crank(driven=False).compile()
+        simulate_batch([crank], Analysis(t_end=1e-2, output_step=1e-2, integrator="rk45",
+                                         method="standard", rtol=1e-8, atol=1e-10))
+    elif name == "adjoint":
+        import numpy as np
+        from spatialmbd.design.adjoint import Adjoint
+        model = ROOT / "examples" / "design" / "pendulum_damped.yaml"
+        adj = Adjoint(model, ["bodies.pendulum.mass", "forces.pivot_damper.damping"],
+                      dict(type="dynamic", t_end=0.05, output_step=0.01,
+                           method=dict(name="standard"),
+                           integrator=dict(name="rk4", step=0.005)))
+        Y = adj.run(np.array([7.02, 0.8]))
+        adj.gradient(np.ones(Y.shape + (1,)))
     else:
         raise SystemExit(f"unknown workload {name!r}")
 
@@ -94,7 +112,7 @@ def _profile(name, top):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workload", default="dynamics",
-                    choices=("dynamics", "recursive", "kinematics"))
+                    choices=("dynamics", "recursive", "kinematics", "batch", "adjoint"))
     ap.add_argument("--top", type=int, default=30)
     ap.add_argument("--out", default=None, help="append the tables to this Markdown file")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)

@@ -94,8 +94,10 @@ def correct_positions(model, q, t=0.0, tol=1e-12, max_iter=30, hold=None, assemb
             sys_.table.set_time(t)
         y = np.concatenate([q.ravel(), np.zeros(6 * model.nb)])
         total = np.zeros(6 * model.nb)
-        it, phi0, err = project_positions(t, y, sys_.F, sys_.I, sys_.W, tol, max_iter,
-                                             total)
+        # every argument typed as the projection method's call types it (one compiled
+        # specialization: a default left out is a type of its own)
+        it, phi0, err = project_positions(float(t), y, sys_.F, sys_.I, sys_.W, float(tol),
+                                          int(max_iter), total, False)
         if it >= 0:
             return y[:7 * model.nb].reshape(model.nb, 7), total, it, phi0
         if it == -2:
@@ -131,7 +133,7 @@ def correct_velocities(model, q, v, t=0.0, hold=None, assembler=None, system=Non
         if sys_.table.has_drivers:
             sys_.table.set_time(t)
         y = np.concatenate([np.asarray(q, dtype=float).ravel(), v])
-        ok, before, after = project_velocities(t, y, sys_.F, sys_.I, sys_.W)
+        ok, before, after = project_velocities(float(t), y, sys_.F, sys_.I, sys_.W, False)
         if ok:
             return y[7 * model.nb:].copy(), before, after
     return _correct_velocities_lstsq(model, q, v, t, hold, assembler)

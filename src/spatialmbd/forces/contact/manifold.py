@@ -190,17 +190,19 @@ def face_manifold(P, oi, fi, oj, fj, n, Y):
     in-plane axes; count 0: no face contact (the witness pair stands alone)."""
     R = np.empty((MAX_POINTS, 3))
     X = np.empty((MAX_POINTS, 3))
-    ci, nri, ali, ui, wi = _feature(P, oi, fi, n, R, True)
-    cj, nrj, alj, uj, wj = _feature(P, oj, fj, v_scale(-1.0, n), X, True)
+    # run-time flags: a constant True / False would compile _feature once for each
+    YES, NO = np.bool_(True), np.bool_(False)
+    ci, nri, ali, ui, wi = _feature(P, oi, fi, n, R, YES)
+    cj, nrj, alj, uj, wj = _feature(P, oj, fj, v_scale(-1.0, n), X, YES)
     ref_i = ci >= 3 and (cj < 3 or ali >= alj)
     if ref_i:
         nref, nr, u, w = nri, ci, ui, wi
-        nx = _feature(P, oj, fj, v_scale(-1.0, n), X, False)[0]
+        nx = _feature(P, oj, fj, v_scale(-1.0, n), X, NO)[0]
     elif cj >= 3:
         for m in range(cj):
             R[m] = X[m]
         nref, nr, u, w = nrj, cj, uj, wj
-        nx = _feature(P, oi, fi, n, X, False)[0]
+        nx = _feature(P, oi, fi, n, X, NO)[0]
     else:
         nref, nr, nx, u, w = n, 0, 0, ui, wi
     r0 = (R[0, 0], R[0, 1], R[0, 2])

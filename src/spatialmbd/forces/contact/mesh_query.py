@@ -54,6 +54,10 @@ TOL_FEATURE = 1e-9        # barycentric weight of an edge or a vertex; cone stri
 TOL_PATCH = 1e-12         # 1 - cos(angle) of one patch's normals (angle ~ 1.4e-6 rad)
 N_OUT = 10                # contact columns: q_i (3), q_j (3), n (3), gap
 SW = sup.SIDE_WIDTH
+# _OFFSETS: the blocks' offsets (0 and SW) and flags go to the narrow phase as run-time values
+# (np.int64(...), np.bool_(...)): Numba compiles a call with a constant argument as a
+# specialization of its own (a Literal type), which compiled the whole narrow phase -- GJK, EPA,
+# the face manifolds -- twice, once for the mesh path and once for the convex pairs
 
 
 @njit(inline="always")
@@ -233,15 +237,16 @@ def _rotate(f, x):
 def triangle_contacts(P, k0, t, fm, W, fs, r, C, count, Y):
     """The contacts of triangle t with the shape (block W[SW:], frame fs, radius r) by the rule
     (module docstring, steps 1 and 2) appended to C; returns the new count."""
+    T0, S0 = np.int64(0), np.int64(SW)     # offsets as run-time values: see _OFFSETS
     ft = triangle_block(P, k0, t, fm, W)
-    a, b, n = manifold.narrow(W, 0, ft, SW, fs)
+    a, b, n = manifold.narrow(W, T0, ft, S0, fs)
     if v_dot(n, v_sub(b, a)) - r >= 0.0:
         return count
     Nl = (P[k0 + t, MS.C_NRM], P[k0 + t, MS.C_NRM + 1], P[k0 + t, MS.C_NRM + 2])
     N = _rotate(fm, Nl)
     ab = (_vertex(P, k0, t, 0), _vertex(P, k0, t, 1), _vertex(P, k0, t, 2))
     # step 1: the prism over the face
-    ny, nref, ref_i, r0, u, w = manifold.face_manifold(W, 0, ft, SW, fs, N, Y)
+    ny, nref, ref_i, r0, u, w = manifold.face_manifold(W, T0, ft, S0, fs, N, Y)
     if ny > 0 and ref_i:
         for m in range(ny):
             qi, qj, nn = manifold.face_pair(Y, m, nref, ref_i, r0)
@@ -249,7 +254,7 @@ def triangle_contacts(P, k0, t, fm, W, fs, r, C, count, Y):
             if gap < 0.0:
                 count = _push(C, count, qi, qj, nn, gap)
     else:
-        s = sup.support(W, SW, fs, v_scale(-1.0, N))
+        s = sup.support(W, S0, fs, v_scale(-1.0, N))
         sl = _local(fm, s)
         wts = triangle_weights(v_sub(ab[0], sl), v_sub(ab[1], sl), v_sub(ab[2], sl))
         x = v_add(v_add(v_scale(wts[0], ab[0]), v_scale(wts[1], ab[1])),
@@ -267,7 +272,7 @@ def triangle_contacts(P, k0, t, fm, W, fs, r, C, count, Y):
             continue
         first, nv = (f, 1) if f < 3 else (f - 3, 2)
         ft = triangle_block(P, k0, t, fm, W, first, nv)
-        a, b, n = manifold.narrow(W, 0, ft, SW, fs)
+        a, b, n = manifold.narrow(W, T0, ft, S0, fs)
         if v_dot(n, v_sub(b, a)) - r >= 0.0:
             continue
         wts = [0.0, 0.0, 0.0]                        # the feature's barycentric weights
@@ -275,7 +280,7 @@ def triangle_contacts(P, k0, t, fm, W, fs, r, C, count, Y):
             wts[(first + m) % 3] = 1.0 / nv
         if not _in_cone(P, k0, t, sup.to_local(fm, n), (wts[0], wts[1], wts[2])):
             continue
-        ny, nref, ref_i, r0, u, w = manifold.face_manifold(W, 0, ft, SW, fs, n, Y)
+        ny, nref, ref_i, r0, u, w = manifold.face_manifold(W, T0, ft, S0, fs, n, Y)
         if ny > 0:
             for m in range(ny):
                 qi, qj, nn = manifold.face_pair(Y, m, nref, ref_i, r0)
@@ -375,7 +380,7 @@ def collect_at(P, k0, fm, fs):
     for a in range(SW):
         W[SW + a] = P[k0, MS.C_SIDE + a]
     r = W[SW + sup.S_RADIUS]
-    lo, hi = shape_box(W, SW, fs, fm, r)
+    lo, hi = shape_box(W, np.int64(SW), fs, fm, r)
     nf = int(P[k0, MS.C_COUNT])
     cand = np.empty(min(nf, 256), np.int64)
     nc = candidates(P, k0, lo, hi, cand)
@@ -384,7 +389,7 @@ def collect_at(P, k0, fm, fs):
         nc = candidates(P, k0, lo, hi, cand)
     C = np.empty((16 * nc + 16, N_OUT))
     Y = np.empty((manifold.MAX_POINTS, 3))
-    count = 0
+    count = np.int64(0)
     for m in range(nc):
         count = triangle_contacts(P, k0, cand[m], fm, W, fs, r, C, count, Y)
     count = min(count, C.shape[0])
@@ -403,10 +408,11 @@ def mesh_signed_distance(P, k0, fm, W, fs):
     collision library answers for a mesh (coal's BVHModel) --, its normal from the triangle to
     the shape, the surface points and the triangle (every triangle tried: tests, benchmarks)."""
     r = W[SW + sup.S_RADIUS]
+    T0, S0 = np.int64(0), np.int64(SW)     # offsets as run-time values: see _OFFSETS
     best = (math.inf, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), -1)
     for t in range(int(P[k0, MS.C_COUNT])):
         ft = triangle_block(P, k0, t, fm, W)
-        a, b, n = manifold.narrow(W, 0, ft, SW, fs)
+        a, b, n = manifold.narrow(W, T0, ft, S0, fs)
         d = v_dot(n, v_sub(b, a)) - r
         if d < best[0]:
             best = (d, n, a, v_sub(b, v_scale(r, n)), t)
