@@ -63,7 +63,9 @@ def _workload(name):
                            method=dict(name="standard"),
                            integrator=dict(name="rk4", step=0.005)))
         Y = adj.run(np.array([7.02, 0.8]))
-        adj.gradient(np.ones(Y.shape + (1,)))
+        W = np.zeros(Y.shape)
+        W[-1, adj.column("pendulum.wx")] = 1.0             # d final(pendulum.wx) / dx
+        adj.gradient(W)
     else:
         raise SystemExit(f"unknown workload {name!r}")
 
