@@ -19,8 +19,8 @@ background process while the command runs interpreted in a child; the first resu
 whichever finishes first. Before the warm measurement the script waits for that background
 compile (``spatialmbd warmup`` waits for it on its lock).
 
-This is a benchmark, not a test: the cold runs compile the whole hot path (about a minute
-on a shared 2-core machine).
+This is a benchmark, not a test: the cold runs compile the whole hot path (minutes on a
+2-core machine: ``spatialmbd warmup`` takes 275 s; bench/compile_profile.py shows where).
 """
 from __future__ import annotations
 
