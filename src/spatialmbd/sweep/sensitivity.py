@@ -290,10 +290,10 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
     stencils, steps = [], []                 # per parameter: (F+h, F-h, F+h/4, F-h/4), h
     for j, name in enumerate(names):
         ladder = _ParameterLadder(job, setup, nominal, name, relative_delta)
-        k = ladder.best(lambda F, y0p: f(0.0, y0, F))
+        k, _ = ladder.best(lambda F, y0p: f(0.0, y0, F))
         stencils.append(ladder.pairs(k))
         steps.append(ladder.h[k])
-        S0[:, j] = ladder.derivative(ladder.best(lambda F, y0p: y0p), lambda F, y0p: y0p)
+        S0[:, j] = ladder.best(lambda F, y0p: y0p)[1]
 
     def g(t, y, S):
         fy = f(t, y, F0)
@@ -305,9 +305,9 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
             jv = _richardson(lambda e: f(t, y + e * s, F0), 1e-3 * ny / ns, 2.0) \
                 if ns > 0 else 0.0
             (Fa, Fb), (Fc, Fd) = stencils[j]
-            h = steps[j]
-            dS[:, j] = jv + (16.0 * (f(t, y, Fc) - f(t, y, Fd)) / (h / 2)
-                             - (f(t, y, Fa) - f(t, y, Fb)) / (2 * h)) / 15.0
+            h, r = steps[j], _ParameterLadder.RATIO
+            dS[:, j] = jv + _extrapolate((f(t, y, Fa) - f(t, y, Fb)) / (2 * h),
+                                         (f(t, y, Fc) - f(t, y, Fd)) * (r / (2 * h)), r)
         return fy, dS
 
     def rhs(t, z):                                 # the state and its sensitivities
@@ -363,11 +363,15 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
                    parameter_steps=np.array(steps)))
 
 
+def _extrapolate(d_h, d_hr, r):
+    """Richardson's (r^2 D(h / r) - D(h)) / (r^2 - 1) of central differences D."""
+    return (r * r * d_hr - d_h) / (r * r - 1.0)
+
+
 def _richardson(fun, h, r):
-    """(r^2 D(h / r) - D(h)) / (r^2 - 1) with D(h) = (fun(h) - fun(-h)) / (2 h)."""
-    d1 = (fun(h) - fun(-h)) / (2 * h)
-    d2 = (fun(h / r) - fun(-h / r)) * (r / (2 * h))
-    return (r * r * d2 - d1) / (r * r - 1.0)
+    """:func:`_extrapolate` of D(h) = (fun(h) - fun(-h)) / (2 h) and D(h / r)."""
+    return _extrapolate((fun(h) - fun(-h)) / (2 * h), (fun(h / r) - fun(-h / r)) * (r / (2 * h)),
+                        r)
 
 
 class _ParameterLadder:
@@ -397,21 +401,16 @@ class _ParameterLadder:
             if len(pair) < 2:
                 break
             self.points.append(pair)
-        self.RUNGS = len(self.points)
-        self.h = relative_delta * _scale(nominal[name]) * self.RATIO ** np.arange(self.RUNGS)
+        self.h = relative_delta * _scale(nominal[name]) * self.RATIO ** np.arange(
+            len(self.points))
 
-    def _estimates(self, quantity):
+    def best(self, quantity):
+        """(k, R_k) for quantity(F, initial state) of the perturbed models."""
         D = [(quantity(*p) - quantity(*m)) / (2 * h) for (p, m), h in zip(self.points, self.h)]
-        r2 = self.RATIO ** 2
-        return [None] + [(r2 * D[k - 1] - D[k]) / (r2 - 1.0) for k in range(1, self.RUNGS)]
-
-    def best(self, quantity) -> int:
-        R = self._estimates(quantity)
-        gaps = [float(np.max(np.abs(R[k] - R[k + 1]))) for k in range(1, self.RUNGS - 1)]
-        return 1 + int(np.argmin(gaps))
-
-    def derivative(self, k, quantity):
-        return self._estimates(quantity)[k]
+        R = [None] + [_extrapolate(D[k], D[k - 1], self.RATIO) for k in range(1, len(D))]
+        gaps = [float(np.max(np.abs(R[k] - R[k + 1]))) for k in range(1, len(R) - 1)]
+        k = 1 + int(np.argmin(gaps))
+        return k, R[k]
 
     def pairs(self, k):
         """((F at +h_k, F at -h_k), (F at +h_(k-1), F at -h_(k-1)))."""
