@@ -87,10 +87,10 @@ def test_forward_sensitivities_with_error_control_on_the_sensitivities():
     relative (the constraint torque cancels the weight's), which a two-point difference of f_p
     at a fixed step of 1e-6 |x0| amplified into a 1.4e-4 error of d/dI_cm; the f_p step now
     chosen per parameter and Richardson-extrapolated, the I_cm column is within 1.5e-7
-    relative (measured 4e-9 to 5e-8 at rtol 1e-8 to 1e-10 on the Haswell, Prescott and
-    SkylakeX kernels) and below the error of the finite
-    differences of the same runs (sensitivities(): 1.2e-6 / 3.4e-7); the amplitude column
-    to 3.6e-10. Classic RK4 at h = 1e-3 (the discrete adjoint's scheme) within the same bound."""
+    relative (measured up to 3.7e-8 at rtol 1e-9, 4e-9 to 5e-8 from 1e-8 to 1e-10, on the
+    Haswell, Prescott and SkylakeX kernels) and below the error of the finite differences of
+    the same runs (sensitivities(): 1.2e-6 / 3.4e-7); the amplitude column to 2.5e-10.
+    Classic RK4 at h = 1e-3 (the discrete adjoint's scheme) within the same bound."""
     from spatialmbd.sweep import forward_sensitivities
     an = dict(type="dynamic", t_end=2.0, output_step=0.01, method=dict(name="standard"),
               integrator=dict(name="rk45", rtol=1e-9, atol=1e-12))
