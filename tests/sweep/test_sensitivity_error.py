@@ -117,3 +117,28 @@ def test_forward_sensitivities_with_error_control_on_the_sensitivities():
     rk4 = forward_sensitivities(pendulum, params, outs, an, scheme="rk4")
     assert np.all(np.abs(rk4["derivative"].values - exact) < 1.5e-7 * np.abs(exact)), \
         rk4["derivative"].values - exact
+
+
+def test_forward_sensitivities_reuse_their_parameter_steps():
+    """The f_p steps chosen by the ladder come back in attrs["parameter_steps"] (relative to
+    |x0|); passed again (as identification does from one iterate to the next) they give the
+    same derivatives without the ladder, also at a moved parameter; a wrong count is refused."""
+    from spatialmbd.errors import ModelError
+    from spatialmbd.sweep import forward_sensitivities
+    an = dict(type="dynamic", t_end=0.5, output_step=0.01, method=dict(name="standard"),
+              integrator=dict(name="rk4", step=2e-3))
+    params = {"amplitude_deg": 150.0, "inertia": 1e-3}
+    outs = ["final(rod.wx)"]
+    first = forward_sensitivities(pendulum, params, outs, an)
+    steps = first.attrs["parameter_steps"]
+    assert steps.shape == (2, 2) and np.all((steps >= 1e-6) & (steps <= 0.27))
+    again = forward_sensitivities(pendulum, params, outs, an, parameter_steps=steps)
+    np.testing.assert_array_equal(again["derivative"].values, first["derivative"].values)
+    moved = {"amplitude_deg": 140.0, "inertia": 1.1e-3}
+    ladder = forward_sensitivities(pendulum, moved, outs, an)
+    reused = forward_sensitivities(pendulum, moved, outs, an, parameter_steps=steps)
+    scale = np.abs(ladder["derivative"].values)
+    assert np.all(np.abs(reused["derivative"].values - ladder["derivative"].values)
+                  < 1e-6 * scale), (reused["derivative"].values, ladder["derivative"].values)
+    with pytest.raises(ModelError, match="parameter_steps"):
+        forward_sensitivities(pendulum, params, outs, an, parameter_steps=steps[:, 0])

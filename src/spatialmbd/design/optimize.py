@@ -185,6 +185,7 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
         "adjoint" if adjoint_ok and len(names) > len(outs) else
         "forward" if forward_ok else "fd")
     adjoint = {}
+    forward_steps = {}          # the f_p steps of the first forward run, used again
     failures, history, counter = [], [], {"runs": 0}
     cache = {}
 
@@ -213,7 +214,9 @@ def optimize(model, objective, params, *, constraints=None, bounds: Optional[dic
             try:
                 fw = forward_sensitivities(data, dict(zip(names, map(float, x))),
                                            {k: f"{o.reduction}({o.column})" for k, o in
-                                            zip(specs, outs)}, scheme="rk4")
+                                            zip(specs, outs)}, scheme="rk4",
+                                           parameter_steps=forward_steps.get("x"))
+                forward_steps.setdefault("x", fw.attrs["parameter_steps"])
             except Exception as exc:
                 failures.append(dict(parameters=dict(zip(names, map(float, x))),
                                      message=f"{type(exc).__name__}: {exc}"))

@@ -221,6 +221,7 @@ class Problem:
             else:
                 self.kinds.append("forward" if jacobian != "fd" and forward_ok else "fd")
         self._adjoints = {}
+        self._forward_steps = {}       # experiment -> the f_p steps of its first forward run
         self._cache_x = None
         self._cache = None
 
@@ -258,7 +259,9 @@ class Problem:
         self.n_runs += 1 + 2 * len(self.names)
         try:
             fw = forward_sensitivities(data, params, [f"final({c})" for c in e.columns],
-                                       scheme="rk4")
+                                       scheme="rk4",
+                                       parameter_steps=self._forward_steps.get(k))
+            self._forward_steps.setdefault(k, fw.attrs["parameter_steps"])
             model, _ = load_model(apply(data, {n: v for n, v in params.items()
                                                if not n.startswith("analysis.")}))
         except Exception as exc:                        # a trial value the model refuses

@@ -226,7 +226,8 @@ def _state_index(model, column) -> int:
 
 
 def forward_sensitivities(model, params, outputs, analysis=None, *, step: Optional[float] = None,
-                          relative_delta: float = 1e-6, scheme: str = "analysis"):
+                          relative_delta: float = 1e-6, scheme: str = "analysis",
+                          parameter_steps=None):
     """d(output)/d(parameter) by the forward sensitivity equations (direct differentiation).
 
     model, params, outputs, analysis: as :func:`sensitivities` (dynamic analysis; method
@@ -244,8 +245,10 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
       differentiates, whose derivative this is.
 
     relative_delta: the smallest parameter step tried for f_p and S(0) (times |x0|, or 1 if
-    x0 = 0); the steps used are returned in ``attrs["parameter_steps"]`` (see the module
-    docstring).
+    x0 = 0); the steps chosen, relative to |x0| as relative_delta, are returned in
+    ``attrs["parameter_steps"]`` (p, 2): those of f_p and of S(0) (see the module docstring).
+    parameter_steps: those of an earlier call, used again without the ladder's model builds
+    (identification and optimization pass them from one iterate to the next).
     Returns a Dataset (output, parameter) with ``derivative`` and ``nominal``, the
     sensitivity time series ``S`` (time, state, parameter) and the state ``y`` (time, state)
     of the same integration (what :mod:`spatialmbd.design` fits to measurements).
@@ -288,12 +291,24 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
 
     S0 = np.zeros((n, npar))
     stencils, steps = [], []                 # per parameter: (F+h, F-h, F+h/4, F-h/4), h
+    if parameter_steps is not None and np.shape(parameter_steps) != (npar, 2):
+        raise ModelError(f"forward sensitivities: parameter_steps of shape "
+                         f"{np.shape(parameter_steps)} for {npar} parameters; give those of an "
+                         "earlier call, attrs['parameter_steps'] (one row per parameter)")
+    r = _ParameterLadder.RATIO
     for j, name in enumerate(names):
-        ladder = _ParameterLadder(job, setup, nominal, name, relative_delta)
-        k, _ = ladder.best(lambda F, y0p: f(0.0, y0, F))
-        stencils.append(ladder.pairs(k))
-        steps.append(ladder.h[k])
-        S0[:, j] = ladder.best(lambda F, y0p: y0p)[1]
+        if parameter_steps is None:                 # the ladder, and the best step of each
+            ladder = _ParameterLadder(job, setup, nominal, name,
+                                      relative_delta * r ** np.arange(_ParameterLadder.RUNGS), 3)
+            kf = ladder.best(lambda F, y0p: f(0.0, y0, F))[0]
+            ks, S0[:, j] = ladder.best(lambda F, y0p: y0p)
+        else:                                       # the steps of an earlier call
+            hf, hs = (float(v) for v in parameter_steps[j])
+            ladder = _ParameterLadder(job, setup, nominal, name, [hf / r, hf, hs / r, hs], 4)
+            kf, ks = 1, 3
+            S0[:, j] = ladder.estimate(ks, lambda F, y0p: y0p)
+        stencils.append(ladder.pairs(kf))
+        steps.append((ladder.h[kf] / _scale(nominal[name]), ladder.h[ks] / _scale(nominal[name])))
 
     def g(t, y, S):
         fy = f(t, y, F0)
@@ -305,7 +320,7 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
             jv = _richardson(lambda e: f(t, y + e * s, F0), 1e-3 * ny / ns, 2.0) \
                 if ns > 0 else 0.0
             (Fa, Fb), (Fc, Fd) = stencils[j]
-            h, r = steps[j], _ParameterLadder.RATIO
+            h = steps[j][0] * _scale(nominal[names[j]])
             dS[:, j] = jv + _extrapolate((f(t, y, Fa) - f(t, y, Fb)) / (2 * h),
                                          (f(t, y, Fc) - f(t, y, Fd)) * (r / (2 * h)), r)
         return fy, dS
@@ -375,16 +390,18 @@ def _richardson(fun, h, r):
 
 
 class _ParameterLadder:
-    """One parameter perturbed to x0 +- h_k, h_k = relative_delta |x0| 4^k (k = 0..9): the
-    packed floats F and the initial state of each perturbed model, and the choice of k for a
-    quantity computed from them (the extrapolation R_k from the steps h_k and h_(k-1) that
-    agrees best with R_(k+1))."""
+    """One parameter perturbed to x0 +- h_k for the relative steps ``rungs`` (times |x0|, or 1
+    if x0 = 0): the packed floats F and the initial state of each perturbed model. The
+    Richardson estimate R_k of a quantity computed from them pairs rung k with rung k - 1,
+    which must be h_k / RATIO; :meth:`best` picks the k whose R_k agrees best with R_(k+1)."""
 
     RUNGS, RATIO = 10, 4.0
 
-    def __init__(self, job, setup, nominal, name, relative_delta):
+    def __init__(self, job, setup, nominal, name, rungs, required):
+        """required: how many rungs must build (past them the ladder ends at the first step
+        the model refuses)."""
         self.points = []
-        for h in relative_delta * _scale(nominal[name]) * self.RATIO ** np.arange(self.RUNGS):
+        for h in np.asarray(rungs, dtype=float) * _scale(nominal[name]):
             pair = []
             for sign in (1.0, -1.0):
                 values = dict(nominal)
@@ -393,21 +410,28 @@ class _ParameterLadder:
                     model, an = job.build(values)
                     F = setup.pack_F(model)
                     pair.append((F, setup.initial_state(model, F, an)))
-                except ModelError as exc:   # the ladder ends below a step the model refuses
-                    if len(self.points) < 3:
+                except ModelError as exc:
+                    if len(self.points) < required:
                         raise ModelError(f"forward sensitivities: parameter {name!r} at "
                                          f"{values[name]!r} (step {h:.3g}): {exc}") from exc
                     break
             if len(pair) < 2:
                 break
             self.points.append(pair)
-        self.h = relative_delta * _scale(nominal[name]) * self.RATIO ** np.arange(
-            len(self.points))
+        self.h = np.asarray(rungs, dtype=float)[:len(self.points)] * _scale(nominal[name])
+
+    def _difference(self, k, quantity):
+        (p, m), h = self.points[k], self.h[k]
+        return (quantity(*p) - quantity(*m)) / (2 * h)
+
+    def estimate(self, k, quantity):
+        """R_k of quantity(F, initial state)."""
+        return _extrapolate(self._difference(k, quantity), self._difference(k - 1, quantity),
+                            self.RATIO)
 
     def best(self, quantity):
-        """(k, R_k) for quantity(F, initial state) of the perturbed models."""
-        D = [(quantity(*p) - quantity(*m)) / (2 * h) for (p, m), h in zip(self.points, self.h)]
-        R = [None] + [_extrapolate(D[k], D[k - 1], self.RATIO) for k in range(1, len(D))]
+        """(k, R_k) of the k whose estimate agrees best with the next one's."""
+        R = [None] + [self.estimate(k, quantity) for k in range(1, len(self.points))]
         gaps = [float(np.max(np.abs(R[k] - R[k + 1]))) for k in range(1, len(R) - 1)]
         k = 1 + int(np.argmin(gaps))
         return k, R[k]
