@@ -54,7 +54,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import ModelError, SpatialMBDError
 from ..outputs.vocabulary import BODY_POSITION, BODY_VELOCITY
 from .core import SUCCESS, _make_job, sweep
 from .outputs import _cubic_root, _poly, cubic_coefficients, parse_outputs, peak_at
@@ -410,8 +410,8 @@ class _ParameterLadder:
                     model, an = job.build(values)
                     F = setup.pack_F(model)
                     pair.append((F, setup.initial_state(model, F, an)))
-                except ModelError as exc:
-                    if len(self.points) < required:
+                except SpatialMBDError as exc:  # a model the step makes invalid, a start
+                    if len(self.points) < required:   # the correction cannot reach
                         raise ModelError(f"forward sensitivities: parameter {name!r} at "
                                          f"{values[name]!r} (step {h:.3g}): {exc}") from exc
                     break
