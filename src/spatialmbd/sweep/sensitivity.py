@@ -290,7 +290,9 @@ def forward_sensitivities(model, params, outputs, analysis=None, *, step: Option
         return out
 
     S0 = np.zeros((n, npar))
-    stencils, steps = [], []                 # per parameter: (F+h, F-h, F+h/4, F-h/4), h
+    # per parameter: the F of f_p's stencil ((+h, -h), (+h/4, -h/4)); the relative steps of
+    # f_p and S(0)
+    stencils, steps = [], []
     if parameter_steps is not None and np.shape(parameter_steps) != (npar, 2):
         raise ModelError(f"forward sensitivities: parameter_steps of shape "
                          f"{np.shape(parameter_steps)} for {npar} parameters; give those of an "
