@@ -180,6 +180,25 @@ def model_size(model, q) -> float:
     return max([extent, 1e-3] + [x for x in shapes if x])
 
 
+def guard_length(model, q) -> float:
+    """The length scale L of the singular-position guard (:mod:`.dynamics.singular_guard`):
+    the model's extent (:func:`model_size`) or, if larger, its longest lever arm -- the ratio
+    of the rotation to the translation part of a constraint row of D at q (a single link
+    swinging about a joint has no extent of body positions, but a lever arm)."""
+    L = model_size(model, q)
+    if model.n_eq:
+        D = model.assembler.evaluate(np.asarray(q, dtype=float).reshape(model.nb, 7), None,
+                                     0.0).D
+        D = D.toarray() if hasattr(D, "toarray") else np.asarray(D)
+        blocks = D.reshape(D.shape[0], model.nb, 6)
+        trans = np.linalg.norm(blocks[:, :, :3], axis=2)
+        rot = np.linalg.norm(blocks[:, :, 3:], axis=2)
+        arms = rot[trans > 1e-12] / trans[trans > 1e-12]
+        if arms.size and np.all(np.isfinite(arms)):
+            L = max(L, float(arms.max()))
+    return L
+
+
 def _shape_extent(shape) -> float:
     try:
         kind = shape.get("type")
@@ -349,34 +368,10 @@ def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float
 
     q, t: the state where the run failed (or the last output); rank0: the rank of D at the
     start; ratio0: sigma_rank0 / sigma_1 of D at the start."""
-    if not model.n_eq or q is None or not np.all(np.isfinite(q)):
+    found = _dependency(model, q, t, rank0, ratio0)
+    if found is None:
         return None
-    try:
-        out = conditioning(model, q, t)
-        if out is None:
-            return None
-        s, D = out
-        m = D.shape[0]
-        rank0 = m if rank0 is None else rank0
-        if rank0 < 1 or s[0] == 0:
-            return None
-        ratio = s[rank0 - 1] / s[0]
-        strict = int(np.sum(s > max(D.shape) * np.finfo(float).eps * s[0] * 1e3))
-        near = ratio < SINGULAR_RATIO or (ratio0 is not None and ratio < SINGULAR_DROP * ratio0)
-        if strict >= rank0 and not near:
-            return None
-        # the equations in the new dependency: the weights of the left singular vectors
-        # that lost their singular value (rank0 - 1 ... , or strict ...)
-        U = np.linalg.svd(D, full_matrices=False)[0]
-        lost = range(min(strict, rank0 - 1), min(rank0, U.shape[1]))
-        weight = np.max(np.abs(U[:, list(lost)]), axis=1)
-        rows = np.flatnonzero(weight > 0.1 * weight.max())
-        joints = sorted({model.equation_labels[r][0] for r in rows})
-        drivers = sorted({model.equation_labels[r][0] for r in rows
-                          for g, off in zip(model.constraint_groups, model.group_offsets)
-                          if g.rheonomic and off <= r < off + g.size})
-    except Exception:  # noqa: BLE001 - a diagnosis must never hide the original failure
-        return None
+    strict, rank0, m, ratio, joints, drivers = found
     when = f"t = {t:.6g} s" if t_fail is None or abs(t_fail - t) < 1e-9 else \
         f"t = {t:.6g} s (failure reported at t = {t_fail:.6g} s)"
     state = (f"rank {strict} of {m} equations, rank deficiency {rank0 - strict}"
@@ -396,7 +391,66 @@ def singular_diagnosis(model, q, t, rank0: Optional[int], ratio0: Optional[float
     return head + ("Ways on: a "
             "looser rtol (the step control stalls when a step ends within round-off of the "
             "singular position; the IFToMM N-four-bar passes its flat positions with "
-            "projection and rk45 at rtol 1e-8), or method='penalty' or "
-            "method='augmented_lagrangian', which run through singular positions but may "
-            "continue on another branch of the motion (check the result); or check the "
-            "geometry of these joints")
+            "projection and rk45 at rtol 1e-6 to 1e-10), the projection method (the default "
+            "for closed loops: it returns to Phi = 0 after every step and so passes singular "
+            "positions straight), or check the geometry of these joints")
+
+
+def branch_diagnosis(model, method: str, q, t, rank0: Optional[int]) -> str:
+    """Why a run of a method that follows its drift stopped at a singular position
+    (:mod:`.dynamics.singular_guard`): the joints of the dependency and the ways on."""
+    found = _dependency(model, q, t, rank0, None, force=True)
+    where = ""
+    if found is not None:
+        joints, drivers = found[4], found[5]
+        where = (f" (sigma_min / sigma_max of D = {found[3]:.2g}; the near-dependent "
+                 f"equations are in joint(s) {', '.join(joints)})")
+        if drivers:
+            return (f"the mechanism reaches a singular position near t = {t:.6g} s{where}, "
+                    f"and the driver(s) {', '.join(drivers)} take part in the dependency: "
+                    "they prescribe a motion the mechanism cannot continue here; drive another "
+                    "joint or change the driver's motion law")
+    return (f"the mechanism reaches a singular position near t = {t:.6g} s{where}, where two "
+            f"branches of its motion meet. The {method} method keeps the state on Phi = eps "
+            "(its drift or compliance) instead of Phi = 0, and that manifold is split there: "
+            "which branch the run continues on depends on eps, not on the mechanics "
+            "(docs/choosing.md, 'Singular positions'). Use the projection method (the default "
+            "for closed loops), which returns to Phi = 0 after every step and passes straight; "
+            "or set method option singular='continue' to go on regardless and check the "
+            "branch yourself")
+
+
+def _dependency(model, q, t, rank0, ratio0, force=False):
+    """(numerical rank, rank0, equations, sigma_rank0 / sigma_1, joints, drivers) of the
+    dependency of D at (q, t), or None where D is far from singular (unless ``force``: the
+    equations of its smallest singular value) or cannot be evaluated."""
+    if not model.n_eq or q is None or not np.all(np.isfinite(q)):
+        return None
+    try:
+        out = conditioning(model, q, t)
+        if out is None:
+            return None
+        s, D = out
+        m = D.shape[0]
+        rank0 = m if rank0 is None else rank0
+        if rank0 < 1 or s[0] == 0:
+            return None
+        ratio = s[rank0 - 1] / s[0]
+        strict = int(np.sum(s > max(D.shape) * np.finfo(float).eps * s[0] * 1e3))
+        near = force or ratio < SINGULAR_RATIO or (ratio0 is not None
+                                                   and ratio < SINGULAR_DROP * ratio0)
+        if strict >= rank0 and not near:
+            return None
+        # the equations in the new dependency: the weights of the left singular vectors
+        # that lost their singular value (rank0 - 1 ... , or strict ...)
+        U = np.linalg.svd(D, full_matrices=False)[0]
+        lost = range(min(strict, rank0 - 1), min(rank0, U.shape[1]))
+        weight = np.max(np.abs(U[:, list(lost)]), axis=1)
+        rows = np.flatnonzero(weight > 0.1 * weight.max())
+        joints = sorted({model.equation_labels[r][0] for r in rows})
+        drivers = sorted({model.equation_labels[r][0] for r in rows
+                          for g, off in zip(model.constraint_groups, model.group_offsets)
+                          if g.rheonomic and off <= r < off + g.size})
+    except Exception:  # noqa: BLE001 - a diagnosis must never hide the original failure
+        return None
+    return strict, rank0, m, ratio, joints, drivers

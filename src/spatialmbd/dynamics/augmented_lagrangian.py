@@ -45,8 +45,9 @@ class AugmentedLagrangian(_PenaltyBase):
     iterate = True
 
     def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0,
-                 tolerance: float = 1e-8, max_iterations: int = 50, floor: float = 1e-6):
-        super().__init__(alpha, omega, mu)
+                 tolerance: float = 1e-8, max_iterations: int = 50, floor: float = 1e-6,
+                 singular: str = "stop"):
+        super().__init__(alpha, omega, mu, singular)
         self.tolerance = check_positive("augmented_lagrangian tolerance", tolerance)
         self.max_iterations = int(check_positive("augmented_lagrangian max_iterations",
                                                  max_iterations))

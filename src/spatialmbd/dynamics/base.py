@@ -32,6 +32,13 @@ class Method(abc.ABC):
     name: ClassVar[str] = ""
     #: whether the method projects the state onto the constraint manifold after each step
     projects: ClassVar[bool] = False
+    #: whether the method keeps the state on a drifted manifold Phi = eps (standard,
+    #: Baumgarte, penalty, augmented Lagrangian), so that its ``singular`` option decides
+    #: what happens near a singular position (:mod:`.singular_guard`)
+    follows_drift: ClassVar[bool] = False
+    #: "stop" (default of the methods that follow their drift): stop with the diagnosis where
+    #: the drift decides the branch (:mod:`.singular_guard`); "continue": go on regardless
+    singular: str = "continue"
 
     def setup(self, eom, redundant_rows: Optional[np.ndarray] = None) -> None:
         """Called once per simulation before the first evaluation."""
@@ -89,6 +96,19 @@ def get_method(spec, **options) -> Method:
             raise ValueError(f"unknown method {spec!r}; valid names: " + ", ".join(sorted(METHODS)))
         return METHODS[key](**options)
     raise TypeError(f"method must be a name or a Method, not {type(spec).__name__}")
+
+
+#: the values of the ``singular`` option
+SINGULAR_CHOICES = ("stop", "continue")
+
+
+def check_singular(name: str, value) -> str:
+    """The ``singular`` option of method ``name``; ModelError naming the choices otherwise."""
+    if value not in SINGULAR_CHOICES:
+        raise ModelError(f"{name} singular: expected one of {', '.join(SINGULAR_CHOICES)}, got "
+                         f"{value!r} (\"stop\": stop with the diagnosis where the drift decides "
+                         "the branch at a singular position; \"continue\": go on regardless)")
+    return value
 
 
 def check_positive(name: str, value, allow_zero: bool = False) -> float:

@@ -13,8 +13,9 @@ from .standard import Standard
 class Baumgarte(Standard):
     name = "baumgarte"
 
-    def __init__(self, alpha: float = 5.0, beta: float = 5.0, solver: str = "schur"):
-        super().__init__(solver)
+    def __init__(self, alpha: float = 5.0, beta: float = 5.0, solver: str = "schur",
+                 singular: str = "stop"):
+        super().__init__(solver, singular)
         self.alpha = check_positive("baumgarte alpha", alpha, allow_zero=True)
         self.beta = check_positive("baumgarte beta", beta, allow_zero=True)
 
@@ -24,4 +25,5 @@ class Baumgarte(Standard):
         return self.alpha, self.beta
 
     def parameters(self):
-        return {"alpha": self.alpha, "beta": self.beta, "solver": self.solver}
+        return {"alpha": self.alpha, "beta": self.beta, "solver": self.solver,
+                "singular": self.singular}

@@ -39,17 +39,19 @@ import numpy as np
 
 from ..integrators.adaptive_driver import (CORRECTS_DENSE, NEED_ROOM, NEW_DERIVATIVE,  # noqa: F401
                                            NOT_FINITE_STATE, NOT_PROJECTED, OK, RHS_FAILED,
-                                           STATUS_TEXT, TOO_MANY_STEPS, UNDERFLOW, finite,
+                                           SINGULAR_STOP, STATUS_TEXT, TOO_MANY_STEPS,
+                                           UNDERFLOW, finite,
                                            register_problem, rk_steps)
 from ..integrators.controller import landing_steps, landing_time
 from ..jit import njit
 from . import system as cs
 from .projection_kernels import project
+from .singular_guard import GUARD_FACTOR, passes_guard
 from .standard import rhs_standard, stages_standard
 
 __all__ = ["OK", "NEED_ROOM", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
-           "NOT_PROJECTED", "STATUS_TEXT", "BodyProblem", "dopri_steps", "rk4_outputs",
-           "project_state", "projection_params", "dopri_run"]
+           "NOT_PROJECTED", "SINGULAR_STOP", "STATUS_TEXT", "BodyProblem", "dopri_steps",
+           "rk4_outputs", "project_state", "projection_params", "guarded", "dopri_run"]
 
 
 @njit
@@ -73,14 +75,24 @@ def _output_row(t, Y, Yd, Lam, row, y, F, I, W, mp, nb, lam_off, ydot):
         Lam[row, j] = W[lam_off + j]
 
 
-def projection_params(meth, tolerance=None) -> np.ndarray:
+def projection_params(meth, tolerance=None, length=None) -> np.ndarray:
     """pp of :func:`project_state` for a method: [projects, tolerance, max_iterations,
-    mass metric] (the compiled drivers are one-step ones; tolerance: the run's, :meth:`.projection.Projection.tolerance_for`; default
-    the method's)."""
+    mass metric, guard on, guard factor, length, the guard's last ratio] (the compiled drivers are one-step ones;
+    tolerance: the run's, :meth:`.projection.Projection.tolerance_for`; default the method's;
+    the singular-position guard of :mod:`.singular_guard` is on for a method that follows its
+    drift with option singular="stop", given the model's size ``length``)."""
     tol = getattr(meth, "tolerance", 0.0) if tolerance is None else tolerance
+    guard = length is not None and guarded(meth)
     return np.array([1.0 if meth.projects else 0.0, float(tol),
                      float(getattr(meth, "max_iterations", 0)),
-                     1.0 if getattr(meth, "metric", "mass") in ("mass", "auto") else 0.0])
+                     1.0 if getattr(meth, "metric", "mass") in ("mass", "auto") else 0.0,
+                     1.0 if guard else 0.0, GUARD_FACTOR, float(length or 1.0), 0.0])
+
+
+def guarded(meth) -> bool:
+    """Whether runs of ``meth`` stop at a singular position (:mod:`.singular_guard`)."""
+    return bool(getattr(meth, "follows_drift", False)) and getattr(meth, "singular",
+                                                                   "") == "stop"
 
 
 @njit
@@ -118,6 +130,8 @@ def _body_stages(p, t, y, hs, tableau, nodes, K, s0, s1, out, t_last):
 def _body_project(p, t, y):
     if not project_state(t, y, p.F, p.I, p.W, p.pp, p.nb, p.dx):
         return -1
+    if not passes_guard(t, y, p.F, p.I, p.W, p.pp[4:8]):
+        return -2
     return CORRECTS_DENSE | (NEW_DERIVATIVE if p.pp[0] != 0.0 else 0)
 
 
@@ -191,6 +205,8 @@ def rk4_outputs(t, y, F, I, W, mp, pp, t_out, k0, k1, k_base, h, nb, Y, Yd, Lam,
                     y[j] = y[j] + (hh / 6.0) * (k1v[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
                 if not project_state(t_new, y, F, I, W, pp, nb, dx):
                     return NOT_PROJECTED, t_new
+                if not passes_guard(t_new, y, F, I, W, pp[4:8]):
+                    return SINGULAR_STOP, t_new
                 if not finite(y):
                     return NOT_FINITE_STATE, t_new
                 t = t_new

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import SingularMatrixError
 from . import system as cs
-from .base import Method, MethodOutput, check_positive, register
+from .base import Method, MethodOutput, check_positive, check_singular, register
 from .standard import _y_of
 
 
@@ -23,7 +23,11 @@ class _PenaltyBase(Method):
     #: augmented Lagrangian iterations (12.17) instead of one penalty solve (False here)
     iterate = False
 
-    def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0):
+    follows_drift = True
+
+    def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0,
+                 singular: str = "stop"):
+        self.singular = check_singular(self.name, singular)
         self.alpha = check_positive(f"{self.name} alpha", alpha)
         self.omega = check_positive(f"{self.name} omega", omega, allow_zero=True)
         self.mu = check_positive(f"{self.name} mu", mu, allow_zero=True)
@@ -88,7 +92,8 @@ class _PenaltyBase(Method):
                             it)
 
     def parameters(self):
-        return {"alpha": self.alpha, "omega": self.omega, "mu": self.mu}
+        return {"alpha": self.alpha, "omega": self.omega, "mu": self.mu,
+                "singular": self.singular}
 
 
 @register

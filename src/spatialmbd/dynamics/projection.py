@@ -36,6 +36,7 @@ METRICS = ("auto", "mass", "euclidean")
 class Projection(Standard):
     name = "projection"
     projects = True
+    follows_drift = False         # it returns to Phi = 0 after every step
 
     #: the wide window (docs/choosing.md): the projection returns the withheld impulse
     regularisation = (spc.SINGULAR_PIVOT, spc.TIKHONOV_SHIFT)

@@ -21,7 +21,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SingularMatrixError
 from . import sparse as spc
 from . import system as cs
-from .base import Method, MethodOutput, register
+from .base import Method, MethodOutput, check_singular, register
 
 SOLVERS = ("schur", "kkt")
 #: S up to this size is solved densely (lstsq) when it is singular, larger ones by LSQR
@@ -131,10 +131,13 @@ class Standard(Method):
     #: Baumgarte mode of the compiled solve (0: gamma as is)
     mode = 0
 
-    def __init__(self, solver: str = "schur"):
+    follows_drift = True
+
+    def __init__(self, solver: str = "schur", singular: str = "stop"):
         if solver not in SOLVERS:
             raise ValueError(f"standard method: unknown solver {solver!r}; valid: {SOLVERS}")
         self.solver = solver
+        self.singular = check_singular(self.name, singular)
 
     def setup(self, eom, redundant_rows=None):
         super().setup(eom, redundant_rows)
@@ -219,7 +222,7 @@ class Standard(Method):
         return MethodOutput(sys_.fields(ev.W, "vdot").copy(), sys_.fields(ev.W, "lam").copy())
 
     def parameters(self):
-        return {"solver": self.solver}
+        return {"solver": self.solver, "singular": self.singular}
 
 
 # -------------------- Compiled right-hand side of the standard and Baumgarte methods

@@ -18,9 +18,10 @@ counterpart of :class:`.base.ODEProblem`):
   costs the reference counts of its arrays, which per stage was measurable (the hooks are
   inlined into the driver for the same reason);
 * ``project(problem, t, y) -> int``: the accepted state y mapped in place onto its manifold;
-  -1 if that failed, else flags: :data:`CORRECTS_DENSE` (the dense output of the step gets the
-  linear correction theta (y_proj - y_raw), as :mod:`.driver` does) and
-  :data:`NEW_DERIVATIVE` (the FSAL derivative is re-evaluated when the projection changed y);
+  -1 if that failed, -2 if the run is to stop at this state (:data:`SINGULAR_STOP`), else
+  flags: :data:`CORRECTS_DENSE` (the dense output of the step gets the linear correction
+  theta (y_proj - y_raw), as :mod:`.driver` does) and :data:`NEW_DERIVATIVE` (the FSAL
+  derivative is re-evaluated when the projection changed y);
 * ``output(problem, t, row, y, interpolated) -> bool``: record the output at t into row
   ``row`` of the problem's output arrays (``interpolated``: y comes from the dense output,
   not from a step's end); False if that failed (a projection there).
@@ -48,7 +49,8 @@ from .controller import (end_step, min_step_size, pi_factor, rejected_factor,
 from .pairs import DP8, pair_dense, pair_error, pair_interpolate, pair_stages
 
 __all__ = ["OK", "RHS_FAILED", "UNDERFLOW", "NOT_FINITE_STATE", "TOO_MANY_STEPS",
-           "NOT_PROJECTED", "NEED_ROOM", "STATUS_TEXT", "CORRECTS_DENSE", "NEW_DERIVATIVE",
+           "NOT_PROJECTED", "NEED_ROOM", "SINGULAR_STOP", "STATUS_TEXT", "CORRECTS_DENSE",
+           "NEW_DERIVATIVE",
            "register_problem", "problem_rhs", "problem_stages", "problem_project",
            "problem_output", "rk_start", "rk_steps", "rk_step", "kept_dense", "NO_KEEP",
            "atol_array", "finite"]
@@ -58,13 +60,18 @@ OK, RHS_FAILED, UNDERFLOW, NOT_FINITE_STATE, TOO_MANY_STEPS, NOT_PROJECTED = 0, 
 #: the next accepted step's outputs do not fit in the window (not a failure: the caller makes
 #: room and calls again; the step is retaken, with the same result)
 NEED_ROOM = 6
+#: a problem's project hook returned -2: the run reached a state it must not go beyond (the
+#: singular-position guard of :mod:`...dynamics.singular_guard`); (t, y) are that state
+SINGULAR_STOP = 7
 STATUS_TEXT = {RHS_FAILED: "the right-hand side failed (singular constraint Jacobian or "
                            "non-finite accelerations)",
                UNDERFLOW: "step size underflow (error test failed repeatedly)",
                NOT_FINITE_STATE: "the state became non-finite",
                TOO_MANY_STEPS: "more steps than max_steps",
                NOT_PROJECTED: "the projection onto the constraints failed (D D^T singular or "
-                              "Newton not converged)"}
+                              "Newton not converged)",
+               SINGULAR_STOP: "stopped at a singular position: the constraint drift decides "
+                              "the branch there"}
 
 #: flags of a problem's ``project`` hook
 CORRECTS_DENSE, NEW_DERIVATIVE = 1, 2
@@ -85,7 +92,8 @@ def problem_stages(problem, t, y, hs, tableau, nodes, K, s0, s1, out, t_last):
 
 
 def problem_project(problem, t, y):
-    """The accepted state projected in place; -1 (failed) or the flags."""
+    """The accepted state projected in place; -1 (failed), -2 (stop here: a guard) or the
+    flags."""
     return _HOOKS[type(problem)][2](problem, t, y)
 
 
@@ -323,6 +331,10 @@ def rk_steps(problem, t, y, K0, h, err_prev, pair, t0, t_out, k_out, k_base, row
         for i in range(n):
             y_raw[i] = y_new[i]
         flags = problem_project(problem, t_new, y_new)
+        if flags == -2:              # a guard stopped the run at this state: (t, y) <- it
+            for i in range(n):
+                y[i] = y_new[i]
+            return SINGULAR_STOP, t_new, h, err_prev, k_out
         if flags < 0:
             return NOT_PROJECTED, t_new, h, err_prev, k_out
         changed = False

@@ -129,7 +129,8 @@ def _fused_eligible(eom, meth, integ, compiled, couplers, events, limits, callba
     return pair_of(integ) is not None
 
 
-def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, progress=None):
+def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, progress=None,
+               guard_length=None):
     """(IntegrationResult, (vdot, lam)) of the run by :mod:`.dynamics.fused`, in calls of
     about :data:`FUSED_SLICE_SECONDS` each (between them Ctrl-C gives status "interrupted"
     with the outputs so far, and ``progress(t)`` is called); None if it failed (the Python
@@ -148,7 +149,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     nb, m = system.nb, system.model.n_eq
     lam_off = system._layout["lam"][0]
     pp = fz.projection_params(meth, meth.tolerance_for(integ, y0[:7 * nb])
-                              if hasattr(meth, "tolerance_for") else None)
+                              if hasattr(meth, "tolerance_for") else None, guard_length)
     y = np.array(y0, dtype=float)
     nt, n = t_out.size, y.size
     streaming = emit is not None and chunk > 0
@@ -241,7 +242,7 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
         # from emit (the stream's files): kept, with the cause, as the Python driver does
         status, message, code = getattr(exc, "status", "failed"), str(exc), fz.OK
     if code != fz.OK:
-        if k_base == 0 and code != fz.UNDERFLOW:
+        if k_base == 0 and code not in (fz.UNDERFLOW, fz.SINGULAR_STOP):
             # nothing handed out yet: the Python driver reruns it (its least-squares fallbacks
             # for a singular S or projection may get through) and says why. A stalled step
             # control is not rerun: the rerun would stall too, or (at a singular position,
@@ -259,6 +260,9 @@ def _fused_run(eom, meth, integ, t0, y0, t_out, project, emit=None, chunk=0, pro
     if code == fz.UNDERFLOW:                             # where the steps stalled, as the
         t_fail, last = float(t), (float(t), y.copy())    # Python driver reports it
         message = str(underflow_error(integ.name, t_fail, h, "error test failed repeatedly"))
+    elif code == fz.SINGULAR_STOP:                       # the state where the guard stopped
+        t_fail, last = float(t), (float(t), y.copy())
+        message = f"t = {t_fail:.6g} s: {meth.name} method {fz.STATUS_TEXT[code]}"
     res = IntegrationResult(
         t=np.array(times), y=states, status=status, message=message, t_fail=t_fail,
         counters=Counters(steps=int(counters[1]), rejected=int(counters[2]),

@@ -16,6 +16,7 @@ from ..dynamics import reaction_friction
 from ..dynamics import system as cs
 from ..dynamics.correction import correct_initial_conditions, hold_mask
 from ..errors import ModelError
+from ..integrators.adaptive_driver import SINGULAR_STOP, STATUS_TEXT
 from ..integrators.base import ODEProblem
 from ..results import Results
 from ..state import normalize_q
@@ -180,9 +181,13 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         and hasattr(meth, "project_y") and hasattr(meth, "tolerance_for")
     ptol = meth.tolerance_for(integ, q) if hasattr(meth, "tolerance_for") else None
 
+    guard_length, guard = _singular_guard(model, eom, meth, q, redundant_rows, t0)
+
     def project(t, y):
         y = y.copy()
         cs.normalize_y(y, nb)
+        if guard is not None:
+            guard(t, y)
         if tight:
             y = meth.project_y(eom.system, t, y, meth.tolerance_for(integ, y[:n_q], 1e-3),
                                multistep=True)
@@ -254,7 +259,8 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         try:
             fused = compiled_runs._fused_run(eom, meth, integ, t0, y0, t_out, project,
                                              emit if streaming else None,
-                                             getattr(stream, "chunk_rows", 0), callback)
+                                             getattr(stream, "chunk_rows", 0), callback,
+                                             guard_length)
         finally:
             if fused is not None and hasattr(callback, "close"):
                 callback.close()
@@ -293,9 +299,12 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
         # step instead (its trial states near a singular position are not a blow-up)
         v_last = last_state.y[7 * nb:13 * nb] if last_state.y is not None and not getattr(
             integ, "adaptive", False) else None
-        diagnosis = guards.blow_up_diagnosis(model, v, v_last, t0, float(t_last)) or \
-            guards.singular_diagnosis(model, last, float(t_last), rank0, ratio0,
-                                      t_fail=res.t_fail)
+        if guard is not None and STOP_TEXT in res.message:    # the singular-position guard
+            diagnosis = guards.branch_diagnosis(model, meth.name, last, float(t_last), rank0)
+        else:
+            diagnosis = guards.blow_up_diagnosis(model, v, v_last, t0, float(t_last)) or \
+                guards.singular_diagnosis(model, last, float(t_last), rank0, ratio0,
+                                          t_fail=res.t_fail)
         if diagnosis:
             res.message = f"{res.message}; {diagnosis}"
     for t_a, alpha, iters in getattr(meth, "adaptations", ()):
@@ -311,3 +320,42 @@ def simulate(model, t_end: float = 1.0, *, method="auto", integrator="rk45",
                              np.asarray(e.y[7 * nb:13 * nb], dtype=float).reshape(nb, 6))
                             for e in res.events]
     return results
+
+
+#: the message of a run the singular-position guard stopped
+STOP_TEXT = STATUS_TEXT[SINGULAR_STOP]
+
+
+def _singular_guard(model, eom, meth, q, redundant_rows, t0):
+    """(the model's size, a check of accepted states) of the singular-position guard
+    (:mod:`..dynamics.singular_guard`) for a method that follows its drift with option
+    singular="stop"; (None, None) otherwise. The check raises SimulationError (the run stops
+    with its outputs so far, status "failed") where the drift decides the branch; the compiled
+    drivers run the same rule (:func:`..dynamics.fused.projection_params`)."""
+    from ..dynamics.fused import guarded
+    from ..dynamics.singular_guard import GUARD_FACTOR, passes_guard
+    from ..dynamics.system import System
+    from ..errors import SimulationError
+    if not (guarded(meth) and model.n_eq) or eom.system.python_groups:
+        return None, None
+    length = guards.guard_length(model, q)
+    keep = None
+    if redundant_rows is not None and len(redundant_rows):
+        keep = np.setdiff1d(np.arange(model.n_eq), redundant_rows)
+    system = System.for_model(model, keep)       # its own work arrays: the run's stay as set
+    gp = np.array([1.0, GUARD_FACTOR, length, 0.0])
+
+    last = [t0]
+
+    def check(t, y):
+        if t <= last[0]:        # the start (corrected, its rank decided), an output between
+            return              # steps (the project hook also maps the dense outputs)
+        last[0] = t
+        if system.table.has_drivers:
+            system.table.set_time(t)
+        if not passes_guard(t, y, system.F, system.I, system.W, gp):
+            err = SimulationError(f"t = {t:.6g} s: {meth.name} method {STOP_TEXT}")
+            err.t = t
+            raise err
+    return length, check
+

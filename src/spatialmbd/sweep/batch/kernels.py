@@ -40,12 +40,13 @@ def integrate_batch(b0, b1, Y0, F, I, W, mp, pp, t_out, adaptive, pair, rtol, at
         Ydb = array_view(Ydf, b * rows * nd, (rows, nd))
         Lamb = array_view(Lamf, b * rows * nl, (rows, nl))
         cb = array_view(cf, 3 * b, (3,))
+        ppb = pp.copy()                   # the singular-position guard's state: per member
         if adaptive:
-            code, tf = dopri_run(Y0[b], Fb, I, Wb, mp, pp, pair, 0.0, t_out, rtol, atol,
+            code, tf = dopri_run(Y0[b], Fb, I, Wb, mp, ppb, pair, 0.0, t_out, rtol, atol,
                                  max_step, max_steps, nb, Yb, Ydb, Lamb, lam_off, cb)
         else:
-            code, tf = rk4_outputs(0.0, Y0[b].copy(), Fb, I, Wb, mp, pp, t_out, 0, t_out.size,
-                                   0, step, nb, Yb, Ydb, Lamb, lam_off, cb)
+            code, tf = rk4_outputs(0.0, Y0[b].copy(), Fb, I, Wb, mp, ppb, t_out, 0,
+                                   t_out.size, 0, step, nb, Yb, Ydb, Lamb, lam_off, cb)
         status[b] = code
         t_fail[b] = tf
 

@@ -10,6 +10,7 @@ import numpy as np
 from ...dynamics import recursive as rc
 from ...dynamics import system as cs
 from ...dynamics.fused import projection_params
+from ...guards import guard_length
 from ...errors import ModelError
 
 
@@ -75,7 +76,9 @@ class BatchSetup:
                                  "constraints; use engine='simulate'")
         meth.setup(self.eom, None)
         self.mp = np.asarray(meth.params(), dtype=float)
-        self.pp = projection_params(meth)
+        # the singular-position guard as in simulate() (standard and Baumgarte members)
+        self.pp = projection_params(meth, None,
+                                    guard_length(model, np.asarray(model.q0, dtype=float)))
         self.method = meth
         self.model = model
         self.nb = model.nb
