@@ -46,9 +46,9 @@ import numpy as np
 from scipy.linalg import lapack
 
 from .base import Integrator, register
-from .controller import (EPS, atol_vector, default_max_step, hermite, initial_step,
-                         lagrange_weights, non_negative, positive, raise_if_nonfinite,
-                         resample_matrix, validate_tolerances)
+from .controller import (EPS, atol_vector, default_max_step, fd_jacobian, hermite,
+                         initial_step, lagrange_weights, non_negative, positive,
+                         raise_if_nonfinite, resample_matrix, validate_tolerances)
 from .controllers import FixedStepController, IController
 from .driver import Step, Stepper
 
@@ -128,13 +128,7 @@ class NewtonSolver:
             if fy is None:
                 fy = f(t, y)
                 counters.nfev += 1
-            typical = self.atol / self.rtol
-            for j in range(nd):
-                yj = y.copy()
-                d = math.sqrt(EPS) * max(abs(y[j]), typical[j])
-                yj[j] += d
-                d = yj[j] - y[j]                 # the exactly representable increment
-                J[:, j] = (f(t, yj) - fy) / d
+            fd_jacobian(f, t, y, fy, self.atol / self.rtol, nd, J)
             counters.nfev += nd
         counters.njev += 1
         if not np.all(np.isfinite(self.J)):
