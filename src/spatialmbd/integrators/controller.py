@@ -16,8 +16,6 @@
 * :func:`resample_matrix`: the Lagrange matrix that re-spaces the uniform history of a multistep
   method (derivatives for Adams, states for Gear/BDF) to a new step size, and
   :func:`lagrange_weights` for the dense output of the BDF history polynomial;
-* :func:`fd_jacobian`: the forward-difference Jacobian of the implicit integrators (bdf4 and
-  the SciPy ones);
 * :func:`underflow_error` / :func:`raise_if_nonfinite`: the :class:`SimulationError` raised on
   step-size underflow or NaN, with its ``.t`` attribute set.
 
@@ -223,28 +221,6 @@ def initial_step(rhs, t0: float, y0: np.ndarray, f0: np.ndarray, order: int, rto
     counters.nfev += 1
     d2 = rms_norm((f1 - f0) / scale) / h0
     return start_step(h0, d1, d2, 1.0 / (order + 1), float(max_step), float(span))
-
-
-# ----------------------------------------------------------------------------- Jacobian
-def fd_jacobian(rhs, t: float, y: np.ndarray, fy: np.ndarray, typical: np.ndarray, nd: int,
-                J: np.ndarray) -> None:
-    """J[:, :nd] = forward differences of ``rhs`` at (t, y), one evaluation per column.
-
-    The increment of component j is sqrt(eps) max(|y_j|, typical_j) (rounded to a
-    representable one), typical = atol / rtol: the size below which a component counts as
-    small, not atol itself. SciPy's own ``num_jac`` starts from sqrt(eps) max(|y_j|, atol),
-    which is 1.5e-17 for a component at 0 with atol = 1e-9 -- pure round-off of the
-    right-hand side; on the four-bar with a 1e8 N/m spring such columns made Newton diverge
-    with a fresh Jacobian (contraction rate ~1) at every step. The columns from nd on (the
-    quadratures, which rhs does not read) are left as they are (zero). fy = rhs(t, y).
-    The caller counts the nd evaluations.
-    """
-    for j in range(nd):
-        yj = y.copy()
-        d = math.sqrt(EPS) * max(abs(y[j]), typical[j])
-        yj[j] += d
-        d = yj[j] - y[j]                 # the exactly representable increment
-        J[:, j] = (rhs(t, yj) - fy) / d
 
 
 # ----------------------------------------------------------------------------- multistep history

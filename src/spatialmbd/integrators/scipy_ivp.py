@@ -8,8 +8,8 @@ reports, partial outputs up to a failure and the failure time. Outputs at ``t_ev
 each method's own dense output (or are the step end points).
 
 Jacobian (implicit methods): ``problem.jac`` when given, else forward differences of
-``problem.rhs`` by the scheme bdf4 uses (:class:`_FDJacobian`), not SciPy's ``num_jac``,
-whose increments are round-off for state components at 0.
+``problem.rhs`` by the scheme bdf4 uses (:class:`_FDJacobian`, :mod:`.jacobian`), not
+SciPy's ``num_jac``, whose increments are round-off for state components at 0.
 
 Counters: nfev counts every call of ``problem.rhs`` (including those for the finite-difference
 Jacobians, which SciPy's own ``nfev`` omits); steps counts accepted steps;
@@ -38,9 +38,10 @@ import scipy.integrate
 
 from ..errors import SimulationError
 from .base import Integrator, register
-from .controller import (atol_vector, default_max_step, fd_jacobian, non_negative, positive,
+from .controller import (atol_vector, default_max_step, non_negative, positive,
                          raise_if_nonfinite, validate_tolerances)
 from .driver import Step, Stepper
+from .jacobian import fd_jacobian
 
 
 class ScipyIntegrator(Integrator):
@@ -133,7 +134,7 @@ class ScipyStepper(Stepper):
 
 class _FDJacobian:
     """J = df/dy for SciPy's implicit methods when the problem has no ``jac``: forward
-    differences of ``rhs`` by :func:`.controller.fd_jacobian`, the scheme of bdf4 (increments
+    differences of ``rhs`` by :func:`.jacobian.fd_jacobian`, the scheme of bdf4 (increments
     sqrt(eps) max(|y_j|, atol_j / rtol); the quadrature columns left at zero), instead of
     SciPy's ``num_jac`` (increments from max(|y_j|, atol), round-off for components at 0).
     SciPy keeps J across steps and asks for a new one when Newton fails or converges slowly.
@@ -151,8 +152,7 @@ class _FDJacobian:
             fy = self.fun(t, y)
         n = y.size
         J = np.zeros((n, n))
-        fd_jacobian(self.rhs, t, y, fy, self.typical, self.nd, J)
-        self.counters.nfev += self.nd
+        self.counters.nfev += fd_jacobian(self.rhs, t, y, fy, self.typical, self.nd, J)
         raise_if_nonfinite(t, J.ravel(), "Jacobian")
         return J
 
