@@ -187,3 +187,34 @@ def test_bdf4_projection_through_the_dead_centre():
     assert res.success, res.message
     assert res.counters["steps"] < 1000, res.counters
     assert end_difference(model, "projection", res) < 1e-5
+
+
+@pytest.mark.parametrize("level, converges", [(1e-9, True), (1e-6, False)])
+def test_bdf4_newton_accepts_corrections_stalled_below_its_tolerance(level, converges):
+    """Newton started at the solution of y = psi + gh f(y), f = -y + round-off that grows by
+    1.2 at every evaluation: the corrections are that round-off and grow (rate 1.2). Below
+    the Newton tolerance (1e-3 of the error scale; ~1e-4 here) the iterate is accepted --
+    the iteration has reached f's round-off, as CVODE's test accepts it (the old code failed
+    it as "diverging"); above it (~1e-1) it still fails as diverging."""
+    from spatialmbd.integrators.base import Counters
+    from spatialmbd.integrators.gear import NewtonSolver
+
+    y_star = np.array([1.0, 2.0, 3.0])
+    gh = 0.1
+    calls = [0]
+
+    def f(t, y):
+        calls[0] += 1
+        return -y + level * 1.2 ** calls[0] * np.array([1.0, -1.0, 1.0])
+
+    problem = ODEProblem(f, jac=lambda t, y: -np.eye(3))
+    atol = np.full(3, 1e-9)
+    newton = NewtonSolver(problem, 3, 1e-6, atol, 1e-3, 8, Counters())
+    newton.refresh(0.0, y_star)
+    scale = atol + 1e-6 * np.abs(y_star)
+    y, cause = newton.solve(0.0, (1.0 + gh) * y_star, gh, y_star.copy(), scale)
+    if converges:
+        assert y is not None, cause
+        assert np.abs((y - y_star) / scale).max() < 1e-2
+    else:
+        assert y is None and cause.startswith("diverging"), cause
