@@ -4,9 +4,10 @@
 
 An implicit, stiffly stable multistep method. Each step solves G(y) = y - (12/25) h f(t, y) - psi
 = 0 by simplified Newton iterations with the iteration matrix M = I - (12/25) h J, J = df/dy from
-``problem.jac`` or forward finite differences of ``rhs`` (one evaluation per column, except the
-``problem.n_quadrature`` trailing quadrature components whose columns are zero, + 1; counted in
-nfev), evaluated at the predicted end of the step (t_(n+1), y^p), where Newton works (J can turn
+``problem.jac`` or forward finite differences of ``rhs`` (:func:`.jacobian.fd_jacobian`: one
+evaluation per column, except the ``problem.n_quadrature`` trailing quadrature components whose
+columns are zero, + 1 for f(y) + 1 measuring f's round-off, which sizes the increments; counted
+in nfev), evaluated at the predicted end of the step (t_(n+1), y^p), where Newton works (J can turn
 fast along the solution: on the flyball governor the stiff spring directions rotate with the
 shaft). J and the LU factorisation of M are reused across iterations and steps: J is
 re-evaluated when Newton fails with a reused J (the step is retried with the fresh J, same h) or
@@ -15,7 +16,8 @@ next 1, 2, 4, then 8 steps (reset when a reused J succeeds again). M is re-facto
 J or the step size changes. Newton stops when the estimated remaining error
 rate/(1 - rate) ||dy|| < newton_tol (weighted RMS norm over the non-quadrature components, scale
 atol + rtol |y|), the rate being carried over between solves as rate^0.8 (Hairer & Wanner,
-Sec. IV.8, and their RADAU5).
+Sec. IV.8, and their RADAU5), or when a correction ||dy|| <= newton_tol no longer shrinks (the
+round-off of f reached, see :mod:`.jacobian`).
 
 Structure: :class:`GearStepper` is the stepping formula (:class:`.driver.Stepper`), the step
 size comes from an :class:`.controllers.IController` with a deadband (or a constant step), and
@@ -46,11 +48,12 @@ import numpy as np
 from scipy.linalg import lapack
 
 from .base import Integrator, register
-from .controller import (EPS, atol_vector, default_max_step, hermite, initial_step,
-                         lagrange_weights, non_negative, positive, raise_if_nonfinite,
-                         resample_matrix, validate_tolerances)
+from .controller import (EPS, atol_vector, default_max_step, hermite,
+                         initial_step, lagrange_weights, non_negative, positive,
+                         raise_if_nonfinite, resample_matrix, validate_tolerances)
 from .controllers import FixedStepController, IController
 from .driver import Step, Stepper
+from .jacobian import fd_jacobian
 
 BDF4_ALPHA = np.array([48.0, -36.0, 16.0, -3.0]) / 25.0    # Eq. (13.26), on y_n .. y_(n-3)
 BDF4_BETA = 12.0 / 25.0                                    # Eq. (13.26), on h f_(n+1)
@@ -98,7 +101,7 @@ class NewtonSolver:
     """Simplified Newton for y = psi + gh f(t, y) with the iteration matrix I - gh J.
 
     J = df/dy from ``problem.jac`` or forward differences of ``rhs`` (one column per
-    non-quadrature component, + 1 evaluation; counted in nfev). J and the LU factorisations of
+    non-quadrature component, + 2 evaluations; counted in nfev). J and the LU factorisations of
     I - gh J (kept for the last two values of gh) are reused across iterations and steps; the
     caller refreshes J only when Newton fails with a J that is not current. Convergence:
     rate/(1 - rate) ||dy|| < newton_tol in the weighted RMS norm over the non-quadrature
@@ -128,14 +131,7 @@ class NewtonSolver:
             if fy is None:
                 fy = f(t, y)
                 counters.nfev += 1
-            typical = self.atol / self.rtol
-            for j in range(nd):
-                yj = y.copy()
-                d = math.sqrt(EPS) * max(abs(y[j]), typical[j])
-                yj[j] += d
-                d = yj[j] - y[j]                 # the exactly representable increment
-                J[:, j] = (f(t, yj) - fy) / d
-            counters.nfev += nd
+            counters.nfev += fd_jacobian(f, t, y, fy, self.atol / self.rtol, nd, J)
         counters.njev += 1
         if not np.all(np.isfinite(self.J)):
             raise_if_nonfinite(t, self.J.ravel(), "Jacobian")
@@ -189,10 +185,21 @@ class NewtonSolver:
             dn = math.sqrt(float(np.dot(e, e)) / nd)
             if it > 0:
                 rate = dn / dn_old
+                slow = rate >= 1.0 or rate ** (max_newton - it) / (1.0 - rate) * dn > newton_tol
+                if slow and dn <= newton_tol:
+                    # a correction below the tolerance that no longer shrinks: the iteration
+                    # has reached the round-off of f (CVODE's test, del min(1, rate) <= tol,
+                    # accepts it too). At the singular start of rand2007 f's round-off is
+                    # 1e-5 of f and such "divergence" failed Newton down to h = 4e-8 s.
+                    self.rate = None
+                    y = y + dy
+                    if nd < self.n:
+                        y = self._quadratures(t_new, psi, gh, y)
+                    return y, it + 1
                 if rate >= 1.0:
                     self.rate = None
                     return None, f"diverging, contraction rate {rate:.3g}"
-                if rate ** (max_newton - it) / (1.0 - rate) * dn > newton_tol:
+                if slow:
                     self.rate = None
                     return None, f"too slow, contraction rate {rate:.3g}"
             y = y + dy

@@ -7,8 +7,12 @@ algorithms, same options rtol / atol / max_step / first_step), which gives per-s
 reports, partial outputs up to a failure and the failure time. Outputs at ``t_eval`` come from
 each method's own dense output (or are the step end points).
 
-Counters: nfev counts every call of ``problem.rhs`` (including those SciPy makes for
-finite-difference Jacobians, which SciPy's own ``nfev`` omits); steps counts accepted steps;
+Jacobian (implicit methods): ``problem.jac`` when given, else forward differences of
+``problem.rhs`` by the scheme bdf4 uses (:class:`_FDJacobian`, :mod:`.jacobian`), not
+SciPy's ``num_jac``, whose increments are round-off for state components at 0.
+
+Counters: nfev counts every call of ``problem.rhs`` (including those for the finite-difference
+Jacobians, which SciPy's own ``nfev`` omits); steps counts accepted steps;
 njev and nlu are SciPy's counts; ``rejected`` is not reported by SciPy and stays 0.
 
 Projection: SciPy owns its internal state, so ``problem.project`` can only be applied to the
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+import numpy as np
 import scipy.integrate
 
 from ..errors import SimulationError
@@ -36,6 +41,7 @@ from .base import Integrator, register
 from .controller import (atol_vector, default_max_step, non_negative, positive,
                          raise_if_nonfinite, validate_tolerances)
 from .driver import Step, Stepper
+from .jacobian import fd_jacobian
 
 
 class ScipyIntegrator(Integrator):
@@ -83,16 +89,22 @@ class ScipyStepper(Stepper):
         rhs = problem.rhs
         self.counters = counters
 
+        last = [None, None, None]                      # t, y, rhs(t, y) of the last call
+
         def fun(t, y):
             counters.nfev += 1
             dy = rhs(t, y)
             raise_if_nonfinite(t, dy, "derivative")    # SciPy's LU would raise ValueError
+            last[:] = t, y.copy(), dy
             return dy
 
-        kwargs = dict(rtol=integ.rtol, atol=atol_vector(integ.atol, y0.size),
-                      max_step=integ.max_step, first_step=integ.first_step)
-        if integ.implicit and problem.jac is not None:
-            kwargs["jac"] = problem.jac
+        atol = atol_vector(integ.atol, y0.size)
+        kwargs = dict(rtol=integ.rtol, atol=atol, max_step=integ.max_step,
+                      first_step=integ.first_step)
+        if integ.implicit:
+            kwargs["jac"] = problem.jac if problem.jac is not None else _FDJacobian(
+                rhs, fun, last, atol / integ.rtol, y0.size - int(problem.n_quadrature or 0),
+                counters)
         if integ.method == "LSODA":
             kwargs["min_step"] = integ.min_step
         self.solver = getattr(scipy.integrate, integ.method)(fun, t0, y0, t_end, **kwargs)
@@ -118,6 +130,31 @@ class ScipyStepper(Stepper):
                 cache.append(solver.dense_output())
             return cache[0](s)
         return Step(solver.t, y_new, 0.0, 1, dense)
+
+
+class _FDJacobian:
+    """J = df/dy for SciPy's implicit methods when the problem has no ``jac``: forward
+    differences of ``rhs`` by :func:`.jacobian.fd_jacobian`, the scheme of bdf4 (increments
+    sqrt(eps) max(|y_j|, atol_j / rtol); the quadrature columns left at zero), instead of
+    SciPy's ``num_jac`` (increments from max(|y_j|, atol), round-off for components at 0).
+    SciPy keeps J across steps and asks for a new one when Newton fails or converges slowly.
+    Reuses rhs(t, y) when SciPy has just evaluated it at the same point (it does so before
+    every Jacobian after an accepted step). Evaluations are counted in nfev.
+    """
+
+    def __init__(self, rhs, fun, last, typical, nd, counters):
+        self.rhs, self.fun, self.last = rhs, fun, last
+        self.typical, self.nd, self.counters = typical, nd, counters
+
+    def __call__(self, t, y):
+        t_last, y_last, fy = self.last
+        if t_last != t or y_last is None or not np.array_equal(y_last, y):
+            fy = self.fun(t, y)
+        n = y.size
+        J = np.zeros((n, n))
+        self.counters.nfev += fd_jacobian(self.rhs, t, y, fy, self.typical, self.nd, J)
+        raise_if_nonfinite(t, J.ravel(), "Jacobian")
+        return J
 
 
 @register
