@@ -227,6 +227,8 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--offsets", action="store_true",
                     help="boxes shifted by up to 1 cm and turned by up to 0.05 rad")
+    ap.add_argument("--cap", type=float, default=WALL_CAP,
+                    help="wall-time cap of each spatialmbd run (s)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "results"))
     args = ap.parse_args(argv)
     OFFSETS = args.offsets
@@ -241,7 +243,7 @@ def main(argv=None) -> int:
     if args.quick:
         smbd_settings = [("rk4", 5e-4, True), ("rk4", 5e-4, False)]
     for integ, v, ev in smbd_settings:
-        rows.append(smbd_run(model, integ, v, t_end=t_end, events=ev))
+        rows.append(smbd_run(model, integ, v, t_end=t_end, events=ev, cap=args.cap))
         r = rows[-1]
         print(f"spatialmbd {r['setting']}: {r['wall_per_s']:.4f} s/s, err {r['error']:.2e}",
               flush=True)
@@ -278,11 +280,12 @@ def main(argv=None) -> int:
     flags = (" --quick" if args.quick else "") + (" --offsets" if args.offsets else "")
     lines = ["# A tower of 20 boxes settling (bench/contact_tower.py" + flags + ")", "",
              f"Command: `PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python bench/contact_tower.py"
-             f"{flags}`; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
+             f"{flags}{'' if args.cap == WALL_CAP else f' --cap {args.cap:g}'}`; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
              f"load average {load0:.2f} before, {load1:.2f} after (2 cores, shared with other "
              f"jobs). MuJoCo {__import__('mujoco').__version__}. Settle time {t_end:g} s. "
              + ("Boxes shifted by up to 1 cm and turned by up to 0.05 rad." if args.offsets
-                else "Boxes in one aligned column."), "",
+                else "Boxes in one aligned column.")
+             + f" Each spatialmbd run capped at {args.cap:g} s of wall time.", "",
              f"20 boxes, 1 kg, half extents {HALF} m; K = {K:g} N/m and c = {C:.1f} N s/m per "
              f"contact point, mu = {MU} (creep velocity {V_EPS:g} m/s). Closed form for the "
              f"linear law: rigid heights less {rigid[0] - closed[0]:.2e} m (bottom) to "
