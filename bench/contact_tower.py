@@ -151,8 +151,10 @@ def smbd_run(model, integrator, value, t_end=T_END, method="standard", events=Tr
     label = f"rk4 h={value:g}" if integrator == "rk4" else f"rk45 rtol={value:g}"
     if not events:
         label += ", touch events off (experiment)"
-    if res.status != "success":
-        label += f" [{res.status} at t = {res.t[-1]:.3g} s]"
+    if res.status == "budget":
+        label += f" [stopped by the {cap:g} s wall-time cap before t = {t_end:g} s]"
+    elif res.status != "success":
+        label += f" [{res.status}]"
     steps = res.counters.get("steps") or 0
     return dict(code="spatialmbd", setting=f"{method}, {label}", events=events,
                 integrator=integrator, value=value, wall_per_s=wall / t_end,
@@ -190,14 +192,17 @@ def mj_run(h, solver, integrator, cone="pyramidal", tolerance=1e-8, t_end=T_END,
     start = time.perf_counter()
     mujoco.mj_step(model, data, steps)
     wall = time.perf_counter() - start
+    # MuJoCo resets the state to the start when it meets a bad acceleration: not a result
+    unstable = data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
     q = data.qpos.reshape(-1, 7)
     z = q[:, 2].copy()
-    ok = bool(np.all(np.isfinite(data.qpos)))
+    ok = bool(np.all(np.isfinite(data.qpos))) and not unstable
     err = float(np.abs(z - ref).max()) if (ok and ref is not None) else math.inf
-    return dict(code="mujoco", setting=f"{solver} {integrator} {cone} h={h:g}",
+    return dict(code="mujoco", setting=f"{solver} {integrator} {cone} h={h:g}"
+                + ("" if ok else " [unstable: reset by MuJoCo]"),
                 wall_per_s=wall / t_end, steps=steps, nfev=steps, error=err,
                 speed=float(np.abs(data.qvel.reshape(-1, 6)[:, :3]).max()) if ok else math.inf,
-                status="ok" if ok else "nan", z=z, ncon=int(data.ncon))
+                status="ok" if ok else "unstable", z=z, ncon=int(data.ncon))
 
 
 # ---------------------------------------------------------------------------- main
@@ -271,7 +276,7 @@ def main(argv=None) -> int:
             picks[key] = retime(b, lambda: smbd_run(model, b["integrator"], b["value"],
                                                     t_end=t_end, events=ev))
         else:
-            s, i, cone, hh = b["setting"].split(" ")
+            s, i, cone, hh = b["setting"].split(" ")[:4]
             hv = float(hh.split("=")[1])
             picks[key] = retime(b, lambda: mj_run(hv, s, i, cone, t_end=t_end,
                                                   ref=ref_run[cone]["z"]))
