@@ -111,10 +111,10 @@ def scene(n, seed=11):
     quat = rng.normal(size=(n, 4))
     quat /= np.linalg.norm(quat, axis=1)[:, None]
     w, x, y, z = quat.T
-    A = np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                  np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                  np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)],
-                 1)
+    A = np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
     return Lx, Ly, kinds, np.array(pos), A, quat
 
 
@@ -350,8 +350,8 @@ def main(argv=None) -> int:
               f"Pass: every body centre at least its inner radius less {DEPTH * 1e3:g} mm from "
               "the floor and the walls (a probe is not judged).", "",
               "| code | N | setting | simulated s | wall s per simulated s | ms per step | inside "
-              "| largest speed (m/s) | mean height (m) | pass |", "|---|---|---|---|---|---|---|---|"
-              "---|---|"]
+              "| largest speed (m/s) | mean height (m) | pass |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         judged = r["t_end"] >= args.t_end
         lines.append(f"| {r['code']} | {r['n']} | {r['setting']} | {r['t_end']:g} | "
@@ -386,7 +386,8 @@ def main(argv=None) -> int:
                               est / 1e3 / h_smbd)
                         lines.append(f"Wall time per simulated s at N = {r['n']}: spatialmbd "
                                      f"{sm:.4g} s{'' if r['n'] == ns[big] else ' (extrapolated)'}"
-                                     f", MuJoCo {r['wall_per_s']:.3g} s: ratio {sm / r['wall_per_s']:.0f}x "
+                                     f", MuJoCo {r['wall_per_s']:.3g} s: ratio "
+                                     f"{sm / r['wall_per_s']:.0f}x "
                                      f"(goal <= 1.0x at N = 1000: not met).")
     lines += ["", "spatialmbd profile: one right-hand-side evaluation at the start (Python "
               "call of the compiled stages), with the contact elements and of the bodies alone:",
