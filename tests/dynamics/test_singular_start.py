@@ -26,9 +26,9 @@ METHODS = ("standard", "baumgarte", "penalty", "augmented_lagrangian", "projecti
 def test_singular_start_runs_in_few_steps_with_every_method(name):
     """Every method runs the 0.1 s; the penalty methods on rand2007 only with singular=
     'continue': from t = 0.07 s on their runs head back towards the singular position they
-    started at (r = sigma_min / sigma_max of the scaled D falling from 4e-4) while their
-    compliance keeps the drift eps far above it (r / sqrt(eps / L) = 0.08 for penalty, 0.23
-    for the augmented Lagrangian; 6 to 8 for the standard method) -- the drift decides the
+    started at (r, the guard's measure of the distance to it, falling from its largest value)
+    while their compliance keeps the drift eps far above it (r a fraction of sqrt(eps / L);
+    the standard method's r is several times sqrt(eps / L)) -- the drift decides the
     branch there, and by default the run stops with the diagnosis
     (test_penalty_stops_where_its_compliance_decides_the_branch)."""
     model, _ = load_model(DATA / f"{name}.json")
@@ -88,7 +88,7 @@ def test_penalty_stops_where_its_compliance_decides_the_branch():
     """rand2007 under the penalty method with its defaults: the singular-position guard
     (dynamics/singular_guard.py) stops the run before 0.1 s with the diagnosis naming the
     joints, keeping the outputs reached. The stop is decided by the approach (r halving from
-    its largest value, near t = 0.075 s), r being 12 times inside the guard's band there."""
+    its largest value, near t = 0.075 s), r being well inside the guard's band there."""
     model, _ = load_model(DATA / "rand2007.json")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

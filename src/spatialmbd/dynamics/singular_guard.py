@@ -17,8 +17,8 @@ its steps cross the singular position straight; it is not guarded).
 The guard measures, after every accepted step, how close the state is to a singular position:
 r = sigma_min / sigma_max of the kept rows of D with the rotation columns divided by L and
 every row then scaled to unit length, so r is a geometric quantity, independent of masses and
-of the rows' units (0.12 for the 2-loop N-four-bar at its start,
-0 at a singular position; it shrinks with the size of a closed-loop mechanism: 6e-4 for 40
+of the rows' units (0.19 for the 2-loop N-four-bar at its start,
+0 at a singular position; it shrinks with the size of a closed-loop mechanism: 1e-3 for 40
 loops); L is the model's length scale (:func:`..guards.guard_length`: its
 extent, or its longest lever arm if larger). With eps = max_a |Phi_a| / |row a| (the drift as
 a distance, in m) it stops where
@@ -28,20 +28,21 @@ a distance, in m) it stops where
 
 the region where the drifted manifold's split is within a few times its distance to the
 singular position (at the turn of the 2-loop N-four-bar under the standard method at rk45 rtol
-1e-6, r fell to 4.9e-5 with sqrt(eps / L) = 1.5e-3: 0.03 of the band). A turn has a curvature radius of
-order sqrt(eps L), so the integrator resolves it with steps that land inside that region
+1e-6, r fell to 7.5e-5 with sqrt(eps / L) = 1.5e-3: 0.05 of the band). A turn has a curvature
+radius of order sqrt(eps L), so the integrator resolves it with steps that land inside that region
 on the approach. Only an approach counts: a run that starts at a singular position (rows
 dependent there, independent along the initial velocity: the regression models rand2000 and
 rand2007 of tests/dynamics/data) has had its branch chosen by that velocity and moves away from
 it, r growing from 0. (The penalty methods' compliance keeps rand2007 inside the band all along
--- r about 0.1 to 0.2 sqrt(eps / L) -- so they stop there once r heads back towards the
+-- r a fraction of sqrt(eps / L) -- so they stop there once r heads back towards the
 singular position, near t = 0.075 and 0.1 s.)
 
-sigma_min and sigma_max come from compiled inverse and power iterations on the sparse Cholesky
-factor of D~ D~^T (no BLAS: the same decision on every processor). The inverse iteration's
-estimate is an upper bound of sigma_min and the power iteration's a lower bound of sigma_max,
-so the estimated r is never below the true one: the guard never stops a run earlier than the
-rule says.
+sigma_min comes from a compiled inverse iteration on the sparse Cholesky factor of D~ D~^T
+(no BLAS: the same decision on every processor), an upper bound of it; sigma_max is taken as
+its lower bound 1 (the rows have unit length, and the largest eigenvalue of D~ D~^T is at least
+its largest diagonal entry). So the estimated r is never below the true one: the guard never
+stops a run earlier than the rule says. It costs one evaluation of the constraints, one
+factorisation and GUARD_ITERATIONS triangular solve pairs per accepted step.
 """
 from __future__ import annotations
 
@@ -51,7 +52,7 @@ import numpy as np
 
 from ..jit import njit
 from . import sparse as spc
-from .algebra import _P, _R, assemble_schur, stage_state
+from .algebra import _P, _R, _state, assemble_schur
 from .layout import body_views, cons_views, schur_views
 
 #: the guard stops where r < GUARD_FACTOR sqrt(eps / L) (module docstring)
@@ -59,8 +60,8 @@ GUARD_FACTOR = 1.0
 #: a run approaches a singular position once r has fallen below this fraction of its largest
 #: value so far
 APPROACH = 0.5
-#: iterations of the power (sigma_max) and inverse (sigma_min) iterations
-GUARD_ITERATIONS = 12
+#: iterations of the inverse iteration (sigma_min)
+GUARD_ITERATIONS = 8
 
 
 @njit
@@ -82,8 +83,8 @@ def singular_ratio(t, y, F, I, W, length):
     length after the rotation columns are divided by ``length``; the largest constraint
     violation as a distance, max_a |Phi_a| / |row a|, m): r = 0 where D~ D~^T has no positive
     pivot (a singular position, a vanishing row, a NaN), 1 without constraint rows."""
-    stage_state(t, y, 0.0, F, I, W)
     bo, co, sc = body_views(F, I, W), cons_views(F, I, W), schur_views(F, I, W)
+    _state(t, y, 0.0, bo, co)                       # the constraints at y (no forces)
     P = _P(sc)
     n = P[0].size
     D, row_bi, row_bj = _R(co)
@@ -117,16 +118,6 @@ def singular_ratio(t, y, F, I, W, length):
     assemble_schur((mass, unit, unit), (Ds, row_bi, row_bj), P, True, True)
     sym, Cx, Lx, xs, ys = P[11], P[7], P[8], P[9], P[10]
     x = np.empty(n)
-    ax = np.empty(n)
-    _start_vector(n, x)                              # sigma_max^2: power iteration
-    top = 0.0
-    for _ in range(GUARD_ITERATIONS):
-        spc.multiply(sym, Cx, x, ax)
-        top = math.sqrt(np.sum(ax * ax))
-        if not top > 0.0:
-            return 0.0, eps
-        for k in range(n):
-            x[k] = ax[k] / top
     if spc.numeric_ratio(sym, Cx, Lx, xs) <= 0.0:
         return 0.0, eps
     _start_vector(n, x)                              # sigma_min^2: inverse iteration
@@ -138,7 +129,7 @@ def singular_ratio(t, y, F, I, W, length):
             return 0.0, eps
         for k in range(n):
             x[k] /= inv
-    return math.sqrt(max(1.0 / inv, 0.0) / top), eps
+    return math.sqrt(max(1.0 / inv, 0.0)), eps     # / sigma_max, taken as its lower bound 1
 
 
 @njit
