@@ -414,10 +414,10 @@ def branch_diagnosis(model, method: str, q, t, rank0: Optional[int]) -> str:
             f"branches of its motion meet. The {method} method keeps the state on Phi = eps "
             "(its drift or compliance) instead of Phi = 0, and that manifold is split there: "
             "which branch the run continues on depends on eps, not on the mechanics "
-            "(docs/choosing.md, 'Singular positions'). Use the projection method (the default "
-            "for closed loops), which returns to Phi = 0 after every step and passes straight; "
-            "or set method option singular='continue' to go on regardless and check the "
-            "branch yourself")
+            "(docs/choosing.md, 'The other methods at singular positions'). Use the projection "
+            "method (the default for closed loops), which returns to Phi = 0 after every step "
+            "and passes straight; or set method option singular='continue' (a model file's "
+            "analysis: method_options) to go on regardless and check the branch yourself")
 
 
 def _dependency(model, q, t, rank0, ratio0, force=False):
