@@ -41,7 +41,6 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from spatialmbd import ModelBuilder, models  # noqa: E402
-from spatialmbd.models import _slender_inertia  # noqa: E402
 from spatialmbd.simulate import simulate  # noqa: E402
 
 METHODS = ["standard", "baumgarte", "penalty", "augmented_lagrangian", "projection"]
@@ -94,22 +93,8 @@ def regression_model(name):
 
 
 def dead_centre_four_bar(n: int = 1):
-    """The N-four-bar of models.n_four_bar at its flat (singular) position: cranks along +x,
-    couplers collinear with them, every crank turning at -1 rad/s about z, so the mechanism
-    moves through the dead centre at t = 0."""
-    b = ModelBuilder(f"n_four_bar{n}_dead_centre", gravity=(0.0, -9.81, 0.0))
-    for k in range(n + 1):
-        b.add_body(f"crank{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 0.5, 0.0, 0.0),
-                   omega=(0.0, 0.0, -1.0), rdot=(0.0, -0.5, 0.0))
-        b.add_joint("revolute", f"O{k}", "ground", f"crank{k}", point=(k, 0, 0), axis=(0, 0, 1))
-    for k in range(n):
-        b.add_body(f"coupler{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 1.5, 0.0, 0.0),
-                   rdot=(0.0, -1.0, 0.0))
-        b.add_joint("revolute", f"A{k}", f"crank{k}", f"coupler{k}", point=(k + 1, 0, 0),
-                    axis=(0, 0, 1))
-        b.add_joint("revolute", f"B{k}", f"coupler{k}", f"crank{k + 1}", point=(k + 2, 0, 0),
-                    axis=(0, 0, 1))
-    return b
+    """models.n_four_bar_flat: the N-four-bar started in its flat (singular) position."""
+    return models.n_four_bar_flat(n)
 
 
 def mechanisms(n, rng):

@@ -12,7 +12,6 @@ from scipy.integrate import solve_ivp
 
 from spatialmbd import ModelBuilder, models
 from spatialmbd.dynamics import get_method
-from spatialmbd.models import _slender_inertia
 from spatialmbd.simulate import RedundantConstraintsWarning, simulate
 
 
@@ -136,20 +135,8 @@ def test_n_four_bar_passes_its_first_flat_position_at_tight_tolerance():
 
 
 def dead_centre_four_bar(n=1):
-    """models.n_four_bar's linkage started exactly in its flat (singular) position, moving."""
-    b = ModelBuilder("dead_centre", gravity=(0.0, -9.81, 0.0))
-    for k in range(n + 1):
-        b.add_body(f"crank{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 0.5, 0.0, 0.0),
-                   omega=(0.0, 0.0, -1.0), rdot=(0.0, -0.5, 0.0))
-        b.add_joint("revolute", f"O{k}", "ground", f"crank{k}", point=(k, 0, 0), axis=(0, 0, 1))
-    for k in range(n):
-        b.add_body(f"coupler{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 1.5, 0.0, 0.0),
-                   rdot=(0.0, -1.0, 0.0))
-        b.add_joint("revolute", f"A{k}", f"crank{k}", f"coupler{k}", point=(k + 1, 0, 0),
-                    axis=(0, 0, 1))
-        b.add_joint("revolute", f"B{k}", f"coupler{k}", f"crank{k + 1}", point=(k + 2, 0, 0),
-                    axis=(0, 0, 1))
-    return b.compile()
+    """models.n_four_bar_flat: the N-four-bar started in its flat (singular) position."""
+    return models.n_four_bar_flat(n).compile()
 
 
 @pytest.mark.parametrize("integrator", ["bdf4", "rk45"])

@@ -37,21 +37,8 @@ def flat_triangle(flex: float):
 
 
 def dead_centre_four_bar(n: int):
-    """The N-four-bar at its flat position moving along its parallelogram branch (as in
-    bench/robustness.py)."""
-    b = ModelBuilder(f"n_four_bar{n}_dead_centre", gravity=(0.0, -9.81, 0.0))
-    for k in range(n + 1):
-        b.add_body(f"crank{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 0.5, 0.0, 0.0),
-                   omega=(0.0, 0.0, -1.0), rdot=(0.0, -0.5, 0.0))
-        b.add_joint("revolute", f"O{k}", "ground", f"crank{k}", point=(k, 0, 0), axis=(0, 0, 1))
-    for k in range(n):
-        b.add_body(f"coupler{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 1.5, 0.0, 0.0),
-                   rdot=(0.0, -1.0, 0.0))
-        b.add_joint("revolute", f"A{k}", f"crank{k}", f"coupler{k}", point=(k + 1, 0, 0),
-                    axis=(0, 0, 1))
-        b.add_joint("revolute", f"B{k}", f"coupler{k}", f"crank{k + 1}", point=(k + 2, 0, 0),
-                    axis=(0, 0, 1))
-    return b.compile()
+    """models.n_four_bar_flat: the N-four-bar started in its flat (singular) position."""
+    return models.n_four_bar_flat(n).compile()
 
 
 def second_order_residual(model, q, v):

@@ -18,11 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from spatialmbd import ModelBuilder, models
+from spatialmbd import models
 from spatialmbd.integrators import ODEProblem, get_integrator
 from spatialmbd.integrators.jacobian import EPS, MAX_NOISE, fd_jacobian, rhs_noise
 from spatialmbd.io.modelfile import load_model
-from spatialmbd.models import _slender_inertia
 from spatialmbd.simulate import simulate
 
 DATA = Path(__file__).parent.parent / "dynamics" / "data"
@@ -162,20 +161,8 @@ def test_bdf4_from_the_singular_start_of_rand2007():
 
 
 def dead_centre_four_bar(n):
-    """The N-four-bar flat (singular) at t = 0, moving through it (bench dead_centre_n)."""
-    b = ModelBuilder(f"n_four_bar{n}_dead_centre", gravity=(0.0, -9.81, 0.0))
-    for k in range(n + 1):
-        b.add_body(f"crank{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 0.5, 0.0, 0.0),
-                   omega=(0.0, 0.0, -1.0), rdot=(0.0, -0.5, 0.0))
-        b.add_joint("revolute", f"O{k}", "ground", f"crank{k}", point=(k, 0, 0), axis=(0, 0, 1))
-    for k in range(n):
-        b.add_body(f"coupler{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 1.5, 0.0, 0.0),
-                   rdot=(0.0, -1.0, 0.0))
-        b.add_joint("revolute", f"A{k}", f"crank{k}", f"coupler{k}", point=(k + 1, 0, 0),
-                    axis=(0, 0, 1))
-        b.add_joint("revolute", f"B{k}", f"coupler{k}", f"crank{k + 1}", point=(k + 2, 0, 0),
-                    axis=(0, 0, 1))
-    return b.compile()
+    """models.n_four_bar_flat: the N-four-bar started in its flat (singular) position."""
+    return models.n_four_bar_flat(n).compile()
 
 
 def test_bdf4_projection_through_the_dead_centre():

@@ -23,7 +23,8 @@ from .andrews import ANDREWS, ANDREWS_BODIES, andrews_body_angles, andrews_coord
 from .bicycle import MEIJAARD, bicycle_lean_steer, whipple_bicycle
 from .contact import slider_crank_clearance, spheres_in_box
 from .iftomm import (HEAVY_TOP, ROBOT_ARM, _slender_inertia, double_pendulum, flyball_governor,
-                     heavy_top, n_four_bar, robot_arm, simple_pendulum_a01, slider_crank_iftomm)
+                     heavy_top, n_four_bar, n_four_bar_flat, robot_arm, simple_pendulum_a01,
+                     slider_crank_iftomm)
 from .rolling import ball_on_turntable, rolling_disc, rolling_disc_steady
 from .sliding import bead_on_wire, cam_follower, cam_profile, gear_train
 from .textbook import (FOUR_BAR, G_TEXT, bricard, chain, four_bar, four_bar_rocker_direction,

@@ -126,6 +126,28 @@ def n_four_bar(n: int = 2) -> ModelBuilder:
     return b
 
 
+def n_four_bar_flat(n: int = 1) -> ModelBuilder:
+    """The linkage of :func:`n_four_bar` started exactly in its flat (singular) position and
+    moving through it along the parallelogram branch: cranks along +x (tips at (k + 1, 0, 0)),
+    couplers collinear with them, every crank turning at -1 rad/s about z (the rows of the
+    loops are dependent at t = 0 and independent a moment later: a singular start). Gravity
+    9.81 m/s^2 along -y; the bars as in :func:`n_four_bar`, slender."""
+    b = ModelBuilder(f"n_four_bar{n}_dead_centre", gravity=(0.0, -G_TEXT, 0.0))
+    for k in range(n + 1):
+        b.add_body(f"crank{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 0.5, 0.0, 0.0),
+                   omega=(0.0, 0.0, -1.0), rdot=(0.0, -0.5, 0.0))
+        b.add_joint("revolute", f"O{k}", "ground", f"crank{k}", point=(k, 0, 0),
+                    axis=(0, 0, 1))
+    for k in range(n):
+        b.add_body(f"coupler{k}", 1.0, _slender_inertia(1.0, 1.0, 0), r=(k + 1.5, 0.0, 0.0),
+                   rdot=(0.0, -1.0, 0.0))
+        b.add_joint("revolute", f"A{k}", f"crank{k}", f"coupler{k}", point=(k + 1, 0, 0),
+                    axis=(0, 0, 1))
+        b.add_joint("revolute", f"B{k}", f"coupler{k}", f"crank{k + 1}", point=(k + 2, 0, 0),
+                    axis=(0, 0, 1))
+    return b
+
+
 def flyball_governor() -> ModelBuilder:
     """IFToMM benchmark A05, stiff flyball governor (IFToMM benchmark library).
 
