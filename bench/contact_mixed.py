@@ -409,9 +409,9 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     name = "contact_mixed_quick.md" if args.quick else "contact_mixed.md"
-    tmp = out / f".{name}.tmp"
-    tmp.write_text(text)
-    os.replace(tmp, out / name)
+    from spatialmbd.atomic import atomic_write
+    with atomic_write(out / name) as tmp:
+        Path(tmp).write_text(text)
     print(text)
     return 0
 

@@ -326,9 +326,9 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     name = "contact_tower" + ("_offsets" if args.offsets else "") + \
         ("_quick" if args.quick else "") + ".md"
-    tmp = out / f".{name}.tmp"
-    tmp.write_text(text)
-    os.replace(tmp, out / name)
+    from spatialmbd.atomic import atomic_write
+    with atomic_write(out / name) as tmp:
+        Path(tmp).write_text(text)
     print(text)
     return 0
 
