@@ -2,9 +2,9 @@
 convex hulls) falling into a box, spatialmbd and MuJoCo in one run: cost per step against N and
 the ratio at the largest N both codes run.
 
-    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python bench/contact_mixed.py             # ~20 min
-    PYTHONPATH=src python bench/contact_mixed.py --sizes 25 50 --smbd-sizes 10 20 \
-        --smbd-settle 10 --t-end 0.2 --quick --out /tmp/mixed        # a smoke run
+    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python bench/contact_mixed.py             # ~15 min
+    PYTHONPATH=src python bench/contact_mixed.py --sizes 25 50 --smbd-sizes 25 50 \
+        --pairwise 10 --t-end 0.2 --quick --out /tmp/mixed        # a smoke run
 
 Scene: N bodies of m = 0.5 kg, one shape each in turn (box 0.1 x 0.08 x 0.06 m; sphere R 0.04
 m; capsule R 0.025 m, half length 0.035 m; cylinder R 0.035 m, half length 0.03 m; the hull
@@ -24,16 +24,12 @@ finite. The largest speed at the end is reported, not required small: spheres, c
 cylinders roll without rolling resistance in both codes (MuJoCo condim 3; spatialmbd has no
 rolling friction), so a pile on a flat floor is not at rest after T.
 
-spatialmbd has no broad phase for mixed shapes wired into its ``contact`` elements yet
-(docs/contact.md, "Not yet"; ``sphere_set`` covers spheres only): the scene needs a contact
-element for every pair of bodies (N (N - 1) / 2) and per body and wall, each tested at every
-evaluation, so its cost per step grows as N^2 and its model as N^2 rows. It runs (rk4, h = 0.5
-ms: the stable step of these contacts) at the sizes given by ``--smbd-sizes``: to the end at
-``--smbd-settle`` (judged), timed per step over ``--smbd-probe`` s at the others (not judged);
-its cost at N = 1000 is extrapolated as N^2 from the largest size, said so. Profile: one
-evaluation of the right-hand side with the contacts against the bodies alone, and what the
-sweep-and-prune broad phase (``spatialmbd.broadphase.aabb_pairs``, not wired into the contact
-elements) costs and leaves on MuJoCo's final piles.
+spatialmbd: one ``shape_set`` element holds every body's shape and the walls (its compiled
+kernel finds the pairs by the grid broad phase at every evaluation), rk4 at the largest step of
+``--smbd-steps`` that passes at the first size, then that step at every size, each run to the
+end and judged. ``--pairwise N`` also probes the scene at N with a ``contact`` element for
+every pair and per body and wall (what a user without the set writes: N^2 elements). Profile:
+one evaluation of the right-hand side at the start, with the set and of the bodies alone.
 
 MuJoCo: every timestep x solver (Newton, CG) x integrator (Euler, implicitfast) at the first
 size, then its two fastest passing settings at every size.
@@ -160,8 +156,9 @@ def smbd_shape(kind):
     return {"type": "convex", "vertices": hull_points().tolist()}
 
 
-def smbd_model(n, contacts=True):
-    """A body per shape; a contact element for every pair and per body and wall."""
+def smbd_model(n, contacts=True, pairwise=False):
+    """A body per shape; one ``shape_set`` element (the broad phase) holding every shape with
+    the walls, or (pairwise) a ``contact`` element for every pair and per body and wall."""
     from spatialmbd import ModelBuilder
     Lx, Ly, kinds, pos, A, _ = scene(n)
     b = ModelBuilder("mixed", gravity=(0, 0, -G))
@@ -169,7 +166,11 @@ def smbd_model(n, contacts=True):
                creep_velocity=1e-2)
     for k in range(n):
         b.add_body(f"b{k}", M, inertia(kinds[k]), r=tuple(pos[k]), A=A[k])
-    if contacts:
+    if contacts and not pairwise:
+        b.add_force("shape_set", "pile", bodies=[f"b{k}" for k in range(n)],
+                    shapes=[smbd_shape(kd) for kd in kinds],
+                    walls=[{"normal": nn, "point": pp} for nn, pp in _walls(Lx, Ly)], **law)
+    elif contacts:
         for k in range(n):
             for w, (normal, point) in enumerate(_walls(Lx, Ly)):
                 b.add_force("contact", f"w{w}_{k}", body_i="ground", body_j=f"b{k}",
@@ -209,19 +210,6 @@ def smbd_profile(n, model):
         out[label] = 1e3 * (time.perf_counter() - start) / reps
     out["instances"] = int(EquationsOfMotion(model).system.force_table.n)
     return out
-
-
-def broadphase_cost(n, pos):
-    """ms of one sweep-and-prune over the bodies' bounding boxes (half size 0.06 m, every
-    shape fits) at positions pos, and the candidate pairs it leaves."""
-    from spatialmbd.broadphase import aabb_pairs
-    lo, hi = pos - 0.06, pos + 0.06
-    aabb_pairs(lo, hi)
-    reps = 20
-    start = time.perf_counter()
-    for _ in range(reps):
-        pairs = aabb_pairs(lo, hi)
-    return 1e3 * (time.perf_counter() - start) / reps, len(pairs)
 
 
 def _rhs(model):
@@ -299,10 +287,12 @@ def slope(ns, ts):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[125, 250, 500, 1000])
-    ap.add_argument("--smbd-sizes", type=int, nargs="+", default=[25, 50, 125, 250])
-    ap.add_argument("--smbd-settle", type=int, default=25,
-                    help="the spatialmbd size run to the end (the others probed)")
-    ap.add_argument("--smbd-probe", type=float, default=0.005, help="s simulated per probe")
+    ap.add_argument("--smbd-sizes", type=int, nargs="+", default=[125, 250, 500, 1000])
+    ap.add_argument("--smbd-steps", type=float, nargs="+", default=[2e-3, 1e-3, 5e-4],
+                    help="rk4 steps tried at the first size (the largest passing one is kept)")
+    ap.add_argument("--pairwise", type=int, default=50,
+                    help="also probe this size with a contact element per pair (0: no)")
+    ap.add_argument("--smbd-probe", type=float, default=0.01, help="s simulated, pairwise")
     ap.add_argument("--t-end", type=float, default=T_END)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default=str(ROOT / "bench" / "results"))
@@ -323,20 +313,34 @@ def main(argv=None) -> int:
             s, i, cone, hh = r["setting"].split(" ")[:4]
             rows.append(mj_run(n, float(hh.split("=")[1]), s, i, args.t_end))
             print({k: v for k, v in rows[-1].items() if k != "pos"}, flush=True)
-    # spatialmbd: a contact element per pair (no mixed broad phase yet)
+    # spatialmbd: one shape_set (the broad phase); its largest passing rk4 step at the first
+    # size, then that step at every size, each run to the end and judged
     prof = {}
-    h_smbd = 5e-4
+    steps = sorted(args.smbd_steps, reverse=True)
+    h_smbd = None
     for n in args.smbd_sizes:
         start = time.perf_counter()
         model = smbd_model(n)
         build = time.perf_counter() - start
-        smbd_run(model, n, h_smbd, 4 * h_smbd)                  # compile / load
-        t = args.t_end if n == args.smbd_settle else args.smbd_probe
-        r = smbd_run(model, n, h_smbd, t)
-        r["build_s"] = build
-        rows.append(r)
+        for h in (steps if h_smbd is None else [h_smbd]):
+            smbd_run(model, n, h, 4 * h)                        # compile / load
+            r = smbd_run(model, n, h, args.t_end)
+            r["build_s"] = build
+            rows.append(r)
+            print({k: v for k, v in r.items() if k != "pos"}, flush=True)
+            if h_smbd is None and passes(r):
+                h_smbd = h
+                break
+        if h_smbd is None:
+            h_smbd = steps[-1]
         prof[n] = smbd_profile(n, model)
-        print({k: v for k, v in r.items() if k != "pos"}, prof[n], flush=True)
+        del model
+    pairwise = None
+    if args.pairwise:
+        n = args.pairwise
+        model = smbd_model(n, pairwise=True)
+        smbd_run(model, n, h_smbd, 4 * h_smbd)
+        pairwise = smbd_run(model, n, h_smbd, args.smbd_probe)
         del model
     load1 = _load()
     import mujoco
@@ -344,67 +348,59 @@ def main(argv=None) -> int:
               f"Command: `PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python bench/contact_mixed.py "
               f"{' '.join(sys.argv[1:] if argv is None else argv)}`; "
               f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average {load0:.2f} "
-              f"before, {load1:.2f} after (2 cores shared with other jobs); MuJoCo "
-              f"{mujoco.__version__}. Settle time {args.t_end:g} s; spatialmbd probes "
-              f"{args.smbd_probe:g} s (rk4, h = {h_smbd:g} s) except N = {args.smbd_settle}.", "",
-              f"Pass: every body centre at least its inner radius less {DEPTH * 1e3:g} mm from "
-              "the floor and the walls (a probe is not judged).", "",
+              f"before, {load1:.2f} after (2 cores); MuJoCo {mujoco.__version__}. Settle time "
+              f"{args.t_end:g} s. spatialmbd: one `shape_set` element (the broad phase), rk4 "
+              f"at the largest step of {', '.join(f'{h:g}' for h in steps)} s that passes at "
+              f"N = {args.smbd_sizes[0]}, then at every N.", "",
+              f"Pass (the same for both codes): every body centre at least its inner radius "
+              f"less {DEPTH * 1e3:g} mm from the floor and the walls, all finite.", "",
               "| code | N | setting | simulated s | wall s per simulated s | ms per step | inside "
               "| largest speed (m/s) | mean height (m) | pass |",
               "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        judged = r["t_end"] >= args.t_end
         lines.append(f"| {r['code']} | {r['n']} | {r['setting']} | {r['t_end']:g} | "
                      f"{r['wall_per_s']:.3f} | {r['per_step_ms']:.3f} | {r['inside']} | "
                      f"{r['speed']:.2e} | {r['mean_z']:.3f} | "
-                     f"{('yes' if passes(r) else 'no') if judged else 'probe'} |")
+                     f"{'yes' if passes(r) else 'no'} |")
     lines += [""]
-    # cost per step against N
+    best = {}
     for code in ("mujoco", "spatialmbd"):
         sel = [r for r in rows if r["code"] == code]
         if code == "mujoco" and keep:
             sel = [r for r in sel if r["setting"] == keep[0]["setting"]]
-        if code == "spatialmbd" and sum(r["t_end"] < args.t_end for r in sel) > 1:
-            sel = [r for r in sel if r["t_end"] < args.t_end]     # the probes: the same phase
+        if code == "spatialmbd":
+            sel = [r for r in sel if r["setting"] == f"rk4 h={h_smbd:g}"]
+        best[code] = {r["n"]: r for r in sel}
         ns = [r["n"] for r in sel]
         ts = [r["per_step_ms"] for r in sel]
         if ns:
             lines.append(f"{code} ({sel[0]['setting']}): ms per step " + ", ".join(
                 f"{t:.3f} at N = {n}" for n, t in zip(ns, ts)) +
                 f"; log-log slope {slope(ns, ts):.2f} (1 = linear).")
-            if code == "spatialmbd" and max(ns) < 1000:
-                big = ns.index(max(ns))
-                est = ts[big] * (1000 / ns[big]) ** 2
-                lines.append(f"spatialmbd at N = 1000, extrapolated from N = {ns[big]} as N^2 "
-                             f"(the pairs' count): about {est / 1e3:.0f} s per step (not run: "
-                             f"{1000 * 999 // 2 + 5000} contact elements).")
-                mj = [r for r in rows if r["code"] == "mujoco" and keep
-                      and r["setting"] == keep[0]["setting"]]
-                for r in mj:
-                    if r["n"] == ns[big] or r["n"] == 1000:
-                        sm = (sel[big]["wall_per_s"] if r["n"] == ns[big] else
-                              est / 1e3 / h_smbd)
-                        lines.append(f"Wall time per simulated s at N = {r['n']}: spatialmbd "
-                                     f"{sm:.4g} s{'' if r['n'] == ns[big] else ' (extrapolated)'}"
-                                     f", MuJoCo {r['wall_per_s']:.3g} s: ratio "
-                                     f"{sm / r['wall_per_s']:.0f}x "
-                                     f"(goal <= 1.0x at N = 1000: not met).")
-    lines += ["", "spatialmbd profile: one right-hand-side evaluation at the start (Python "
-              "call of the compiled stages), with the contact elements and of the bodies alone:",
-              "", "| N | contact elements | contact instances | ms per evaluation, with "
-              "contacts | bodies only | model build (s) |", "|---|---|---|---|---|---|"]
+    for n in sorted(set(best["mujoco"]) & set(best["spatialmbd"])):
+        sm, mj = best["spatialmbd"][n], best["mujoco"][n]
+        ok = passes(sm) and passes(mj)
+        lines.append(f"Wall time per simulated s at N = {n}: spatialmbd {sm['wall_per_s']:.3g} "
+                     f"s, MuJoCo {mj['wall_per_s']:.3g} s: ratio "
+                     f"{sm['wall_per_s'] / mj['wall_per_s']:.1f}x"
+                     f"{'' if ok else ' (not both passing)'} (goal <= 1.0x at N = 1000: "
+                     f"{'met' if ok and sm['wall_per_s'] <= mj['wall_per_s'] else 'not met'}).")
+    if pairwise is not None:
+        n = pairwise["n"]
+        ref = best["spatialmbd"].get(n)
+        lines.append(f"The same scene with a `contact` element per pair and wall (N = {n}, "
+                     f"{n * (n - 1) // 2 + 5 * n} elements, probed {args.smbd_probe:g} s): "
+                     f"{pairwise['per_step_ms']:.2f} ms per step" +
+                     (f" against {ref['per_step_ms']:.2f} with the `shape_set`" if ref else "")
+                     + ".")
+    lines += ["", "spatialmbd profile: one right-hand-side evaluation at the start (no contact "
+              "yet: the broad phase alone), with the `shape_set` and of the bodies alone:",
+              "", "| N | ms per evaluation, with the shape_set | bodies only | model build (s) |",
+              "|---|---|---|---|"]
     for n, p in prof.items():
         build = next(r["build_s"] for r in rows if r["code"] == "spatialmbd" and r["n"] == n)
-        lines.append(f"| {n} | {n * (n - 1) // 2 + 5 * n} | {p['instances']} | "
-                     f"{p['with contacts']:.3f} | {p['bodies only']:.4f} | {build:.1f} |")
-    lines += ["", "What a broad phase would leave: `spatialmbd.broadphase.aabb_pairs` "
-              "(sweep and prune, compiled) on MuJoCo's final positions, boxes of half size "
-              "0.06 m:", "", "| N | ms per call | candidate pairs | all pairs |",
-              "|---|---|---|---|"]
-    for r in rows:
-        if r["code"] == "mujoco" and keep and r["setting"] == keep[0]["setting"]:
-            ms, npairs = broadphase_cost(r["n"], r["pos"])
-            lines.append(f"| {r['n']} | {ms:.3f} | {npairs} | {r['n'] * (r['n'] - 1) // 2} |")
+        lines.append(f"| {n} | {p['with contacts']:.3f} | {p['bodies only']:.4f} | "
+                     f"{build:.1f} |")
     text = "\n".join(lines) + "\n"
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

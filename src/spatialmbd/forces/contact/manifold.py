@@ -223,6 +223,23 @@ def face_pair(Y, at, nref, ref_i, r0):
 
 
 @njit
+def _picks(Y, ny, u, w):
+    """The clipped points of slots 0 .. MAX_SLOTS - 1 when there are more than MAX_SLOTS: slot
+    s takes the point furthest in the diagonal direction (+-u +-w)_s (module docstring)."""
+    pick = np.empty(MAX_SLOTS, np.int64)
+    for s in range(MAX_SLOTS):
+        su = 1.0 if s in (0, 3) else -1.0
+        sw = 1.0 if s in (0, 1) else -1.0
+        best, pick[s] = -math.inf, 0
+        for m in range(ny):
+            p = (Y[m, 0], Y[m, 1], Y[m, 2])
+            h = su * v_dot(p, u) + sw * v_dot(p, w)
+            if m == 0 or h > best + 1e-12 * (1.0 + abs(best)):
+                best, pick[s] = h, m
+    return pick
+
+
+@njit
 def convex_core_points(P, oi, fi, oj, fj, slot):
     """(q_i, q_j, n) of manifold slot ``slot`` (module docstring); an open slot has
     n . (q_j - q_i) = OPEN."""
@@ -238,18 +255,44 @@ def convex_core_points(P, oi, fi, oj, fj, slot):
             return a, v_add(a, v_scale(OPEN, n)), n
         at = slot
     else:                                           # the extremes in 4 diagonal directions
-        pick = np.empty(MAX_SLOTS, np.int64)
-        for s in range(slot + 1):
-            su = 1.0 if s in (0, 3) else -1.0
-            sw = 1.0 if s in (0, 1) else -1.0
-            best, pick[s] = -math.inf, 0
-            for m in range(ny):
-                p = (Y[m, 0], Y[m, 1], Y[m, 2])
-                h = su * v_dot(p, u) + sw * v_dot(p, w)
-                if m == 0 or h > best + 1e-12 * (1.0 + abs(best)):
-                    best, pick[s] = h, m
+        pick = _picks(Y, ny, u, w)
         for s in range(slot):
             if pick[s] == pick[slot]:
                 return a, v_add(a, v_scale(OPEN, n)), n
         at = pick[slot]
     return face_pair(Y, at, nref, ref_i, r0)
+
+
+@njit
+def manifold_points(P, oi, fi, oj, fj, Q):
+    """Every point of the pair's manifold at once (what :func:`convex_core_points` gives slot
+    by slot, the open slots left out) into Q (MAX_SLOTS, 9), rows (q_i, q_j, n); returns their
+    number. One narrow phase for the whole manifold."""
+    a, b, n = narrow(P, oi, fi, oj, fj)
+    Y = np.empty((MAX_POINTS, 3))
+    ny, nref, ref_i, r0, u, w = face_manifold(P, oi, fi, oj, fj, n, Y)
+    if ny == 0:
+        _put(Q, 0, a, b, n)
+        return 1
+    if ny <= MAX_SLOTS:
+        for s in range(ny):
+            qi, qj, nn = face_pair(Y, s, nref, ref_i, r0)
+            _put(Q, s, qi, qj, nn)
+        return ny
+    pick = _picks(Y, ny, u, w)
+    count = 0
+    for s in range(MAX_SLOTS):
+        seen = False
+        for t in range(s):
+            seen = seen or pick[t] == pick[s]
+        if not seen:
+            qi, qj, nn = face_pair(Y, pick[s], nref, ref_i, r0)
+            _put(Q, count, qi, qj, nn)
+            count += 1
+    return count
+
+
+@njit(inline="always")
+def _put(Q, m, qi, qj, n):
+    for c in range(3):
+        Q[m, c], Q[m, 3 + c], Q[m, 6 + c] = qi[c], qj[c], n[c]
