@@ -93,32 +93,19 @@ PILE_SHAPES = (
 )
 
 
-def display_shape(shape: dict) -> dict:
-    """The display shape (docs/model-file.md, "Shapes") of a convex contact shape: a box,
-    sphere, capsule or cylinder as itself, an ellipsoid and a hull as a mesh (outward faces)."""
+def display_shape(shape: dict) -> list:
+    """The display shapes (docs/model-file.md, "Shapes") of a convex contact shape: a box,
+    sphere, capsule or cylinder as itself; none for an ellipsoid or a hull (a display mesh
+    would go to a sidecar archive of the model file)."""
     kind = shape["type"]
     if kind == "box":
-        return {"type": "box", "size": [2.0 * h for h in shape["half_extents"]]}
+        return [{"type": "box", "size": [2.0 * h for h in shape["half_extents"]]}]
     if kind == "sphere":
-        return {"type": "sphere", "radius": shape["radius"]}
+        return [{"type": "sphere", "radius": shape["radius"]}]
     if kind in ("capsule", "cylinder"):
-        return {"type": kind, "radius": shape["radius"], "length": 2.0 * shape["half_length"]}
-    from scipy.spatial import ConvexHull
-    if kind == "ellipsoid":                 # a unit sphere of 8 x 16 facets, scaled
-        th, ph = np.meshgrid(np.linspace(0.0, math.pi, 9)[1:-1],
-                             np.linspace(0.0, 2 * math.pi, 17)[:-1], indexing="ij")
-        unit = np.column_stack([np.sin(th).ravel() * np.cos(ph).ravel(),
-                                np.sin(th).ravel() * np.sin(ph).ravel(), np.cos(th).ravel()])
-        v = np.vstack([unit, [[0, 0, 1], [0, 0, -1]]]) * np.asarray(shape["semi_axes"])
-    else:
-        v = np.asarray(shape["vertices"], dtype=float)
-    hull = ConvexHull(v)
-    faces = []
-    for simplex, eq in zip(hull.simplices, hull.equations):
-        a, b, c = v[simplex]
-        faces.append(simplex.tolist() if np.dot(np.cross(b - a, c - a), eq[:3]) > 0
-                     else simplex[::-1].tolist())
-    return {"type": "mesh", "vertices": np.round(v, 12).tolist(), "faces": faces}
+        return [{"type": kind, "radius": shape["radius"],
+                 "length": 2.0 * shape["half_length"]}]
+    return []
 
 
 def mixed_pile(n_side: int = 3, layers: int = 3, mass: float = 0.05,
@@ -152,7 +139,7 @@ def mixed_pile(n_side: int = 3, layers: int = 3, mass: float = 0.05,
                 inertia = tuple(mass / 12.0 * (ext[[1, 0, 0]] ** 2 + ext[[2, 2, 1]] ** 2))
                 names.append(b.add_body(f"p{len(names):02d}", mass, inertia, r=p,
                                         p=tuple(q / np.linalg.norm(q)),
-                                        shapes=[display_shape(shape)]))
+                                        shapes=display_shape(shape)))
                 shapes.append(shape)
     walls = [{"normal": [0, 0, 1], "point": [0, 0, 0]},
              {"normal": [1, 0, 0], "point": [-half, 0, 0]},
