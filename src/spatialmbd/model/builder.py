@@ -100,7 +100,9 @@ def orientation_to_p(what: str, p=None, euler_zxz=None, bryant=None, A=None) -> 
     key, value = next(iter(given.items()))
     if key == "p":
         pv = _vector(value, f"{what}.p", 4)
-        norm = np.linalg.norm(pv)
+        # an exactly rounded sum, not BLAS: the normalised parameters are the same bits on
+        # every machine (OpenBLAS's dot differs in the last bit between its kernels)
+        norm = math.sqrt(math.fsum(pv * pv))
         if abs(norm - 1.0) > P_NORM_TOLERANCE:
             raise ModelError(f"{what}.p: Euler parameters {pv.tolist()} have norm {norm:.6g}, "
                              "far from 1; give e0^2 + e1^2 + e2^2 + e3^2 = 1 (or use "

@@ -135,10 +135,11 @@ def mixed_pile(n_side: int = 3, layers: int = 3, mass: float = 0.05,
                 p = (-half + 0.01 + (i + 0.5) * step, -half + 0.01 + (j + 0.5) * step,
                      0.12 + k * step)
                 q = rng.normal(size=4)
+                q = q / math.sqrt(math.fsum(q * q))    # no BLAS: the same bits on every machine
                 ext = 2.0 * np.array([0.03, 0.025, 0.02])
                 inertia = tuple(mass / 12.0 * (ext[[1, 0, 0]] ** 2 + ext[[2, 2, 1]] ** 2))
                 names.append(b.add_body(f"p{len(names):02d}", mass, inertia, r=p,
-                                        p=tuple(q / np.linalg.norm(q)),
+                                        p=tuple(q),
                                         shapes=display_shape(shape)))
                 shapes.append(shape)
     walls = [{"normal": [0, 0, 1], "point": [0, 0, 0]},
