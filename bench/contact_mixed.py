@@ -197,8 +197,7 @@ def smbd_run(model, n, h, t_end):
 
 def smbd_profile(n, model):
     """ms per evaluation of the right-hand side at the start, with the contacts and of the
-    bodies alone, and the number of contact instances."""
-    from spatialmbd.dynamics import EquationsOfMotion
+    bodies alone."""
     out = {}
     for label, mdl in (("with contacts", model), ("bodies only", smbd_model(n, False))):
         f, y0 = _rhs(mdl)
@@ -208,7 +207,6 @@ def smbd_profile(n, model):
         for _ in range(reps):
             f(0.0, y0)
         out[label] = 1e3 * (time.perf_counter() - start) / reps
-    out["instances"] = int(EquationsOfMotion(model).system.force_table.n)
     return out
 
 

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from fd_check import q_along
+from test_sphere_set import _forces
 from spatialmbd import ModelBuilder, models
 from spatialmbd.errors import ModelError
 from spatialmbd.simulate import simulate
-from spatialmbd.state import BodyState
 
 SHAPES = [{"type": "box", "half_extents": [0.05, 0.04, 0.03]},
           {"type": "sphere", "radius": 0.04, "center": [0.005, 0.0, -0.004]},
@@ -36,13 +36,6 @@ def _lattice(n):
     for k in range(n):
         b.add_body(f"b{k}", 1.0 + 0.1 * k, (0.001, 0.002, 0.003), r=tuple(pos[k]))
     return b
-
-
-def _forces(model, q, v, t=0.0):
-    s = BodyState.from_qv(q, v, t)
-    parts = [grp._run(s, t) for grp in model.force_groups]
-    return (sum(p[0] for p in parts), sum(p[1].sum() for p in parts),
-            sum(p[2].sum() for p in parts))
 
 
 def test_equals_contact_elements_for_every_pair_and_wall():

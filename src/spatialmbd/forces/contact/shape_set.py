@@ -36,7 +36,6 @@ pair; the others (one per shape, for the outputs' names) do nothing.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -51,9 +50,9 @@ from . import laws as L
 from . import manifold as MF
 from . import plane_convex as PC
 from . import support as sup
-from .element import _err, _number, _vec, law_params, parse_shape
+from .element import _err, _number, parse_shape
 from .geometry import segment_closest
-from .sphere_set import _contact
+from .sphere_set import _contact, set_law, wall_columns
 
 #: walls an element may have (a box: 6)
 MAX_WALLS = 6
@@ -75,6 +74,14 @@ MAX_WALL_POINTS = max(8, sup.MAX_HULL_VERTICES)
 def _frame(F, a):
     return ((F[a, 0, 0], F[a, 0, 1], F[a, 0, 2]), (F[a, 1, 0], F[a, 1, 1], F[a, 1, 2]),
             (F[a, 2, 0], F[a, 2, 1], F[a, 2, 2]), (F[a, 3, 0], F[a, 3, 1], F[a, 3, 2]))
+
+
+@njit(inline="always")
+def _put(out, m, P, n, delta):
+    """Row m of a contact-point table: (P, n, penetration delta)."""
+    for c in range(3):
+        out[m, c], out[m, 3 + c] = P[c], n[c]
+    out[m, 6] = delta
 
 
 @njit
@@ -112,10 +119,8 @@ def pair_points(Pp, fi, fj, margin, Q, out):
         n = (Q[s, 6], Q[s, 7], Q[s, 8])
         gap = v_dot(n, v_sub(qj, qi)) - ri - rj - margin
         if gap < 0.0:
-            P = v_scale(0.5, v_add(v_add(qi, v_scale(ri, n)), v_sub(qj, v_scale(rj, n))))
-            for c in range(3):
-                out[m, c], out[m, 3 + c] = P[c], n[c]
-            out[m, 6] = -gap
+            _put(out, m, v_scale(0.5, v_add(v_add(qi, v_scale(ri, n)),
+                                            v_sub(qj, v_scale(rj, n)))), n, -gap)
             m += 1
     return m
 
@@ -160,10 +165,8 @@ def wall_points(B, o, f, nw, pw, margin, out):
         h = v_dot(nw, v_sub(p, pw))
         gap = h - r - margin
         if gap < 0.0:
-            P = v_scale(0.5, v_add(v_sub(p, v_scale(h, nw)), v_sub(p, v_scale(r, nw))))
-            for c in range(3):
-                out[m, c], out[m, 3 + c] = P[c], nw[c]
-            out[m, 6] = -gap
+            _put(out, m, v_scale(0.5, v_add(v_sub(p, v_scale(h, nw)), v_sub(p, v_scale(r, nw)))),
+                 nw, -gap)
             m += 1
     return m
 
@@ -361,34 +364,9 @@ class ShapeSet(ForceType):
                                                 f"{shape.get('type')!r}; give planes as "
                                                 "'walls'")
             parsed.append(parse_shape(name, key, shape, builder, b))
-        law = p.get("law", "linear")
-        if law not in ("linear", "hertz"):
-            raise _err(name, "law", f"a shape set takes the law 'linear' (with damping) or "
-                                    f"'hertz', not {law!r}: its pairs change as it runs, so "
-                                    "the impact velocity the hysteresis laws need is not kept; "
-                                    "declare 'contact' elements per pair for those")
-        if p.get("friction") == "lugre":
-            raise _err(name, "friction", "the lugre law keeps a bristle state per contact, and "
-                                         "a shape set's pairs change as it runs: use coulomb "
-                                         "or stribeck here, or 'contact' elements per pair")
         walls = p.get("walls") or []
-        if not isinstance(walls, (list, tuple)) or len(walls) > MAX_WALLS:
-            raise _err(name, "walls", f"expected a list of at most {MAX_WALLS} walls "
-                                      f"{{normal, point}}, got {walls!r:.200}")
-        wall_cols = []
-        for w, wall in enumerate(walls):
-            if not isinstance(wall, dict) or set(wall) - {"normal", "point"} or \
-                    "normal" not in wall:
-                raise _err(name, f"walls[{w}]", f"expected {{normal: [x, y, z], point: "
-                                                f"[x, y, z]}}, got {wall!r}")
-            nw = _vec(name, f"walls[{w}].normal", wall["normal"], None)
-            if not np.linalg.norm(nw) > 0:
-                raise _err(name, f"walls[{w}].normal", "must not be zero")
-            wall_cols += list(nw / np.linalg.norm(nw))
-            wall_cols += list(_vec(name, f"walls[{w}].point", wall.get("point"),
-                                   (0.0, 0.0, 0.0)))
-        law_row = law_params(dataclasses.replace(spec, params=dict(p, law=law)), (0.0, 0.0),
-                             ("box", "box"))
+        wall_cols = wall_columns(name, walls)
+        law_row = set_law(spec, "a shape set", ("box", "box"))
         margin = _number(name, "margin", p.get("margin", 0.0), 0.0)
         rows = np.zeros((len(bodies), N_COLUMNS))
         rows[:, L.C_LAW:L.N_COLUMNS] = law_row

@@ -139,6 +139,45 @@ def kernel(S, G, k, g, energy, power, D):
     power[k] = W
 
 
+def set_law(spec, what, kinds):
+    """The law columns (C_LAW .. C_RELAX) of an element whose pairs come and go as it runs (a
+    sphere or shape set, ``what`` in the errors): the law ``linear`` (default) or ``hertz``
+    only -- the hysteresis laws need each touch's impact velocity, LuGre a bristle state per
+    contact, and neither is kept for pairs that change."""
+    name, p = spec.name, spec.params
+    law = p.get("law", "linear")
+    if law not in ("linear", "hertz"):
+        raise _err(name, "law", f"{what} takes the law 'linear' (with damping) or 'hertz', "
+                                f"not {law!r}: its pairs change as it runs, so the impact "
+                                "velocity the hysteresis laws need is not kept; declare "
+                                "'contact' elements per pair for those")
+    if p.get("friction") == "lugre":
+        raise _err(name, "friction", f"the lugre law keeps a bristle state per contact, and "
+                                     f"{what}'s pairs change as it runs: use coulomb or "
+                                     "stribeck here, or 'contact' elements per pair")
+    return law_params(dataclasses.replace(spec, params=dict(p, law=law)), (0.0, 0.0), kinds)
+
+
+def wall_columns(name, walls) -> list:
+    """(n (unit), p) of each wall ``{normal, point}`` in global axes, flattened (checked: at
+    most MAX_WALLS, a non-zero normal)."""
+    if not isinstance(walls, (list, tuple)) or len(walls) > MAX_WALLS:
+        raise _err(name, "walls", f"expected a list of at most {MAX_WALLS} walls "
+                                  f"{{normal, point}}, got {walls!r:.200}")
+    cols = []
+    for w, wall in enumerate(walls):
+        if not isinstance(wall, dict) or set(wall) - {"normal", "point"} or \
+                "normal" not in wall:
+            raise _err(name, f"walls[{w}]", f"expected {{normal: [x, y, z], point: "
+                                            f"[x, y, z]}}, got {wall!r}")
+        nw = _vec(name, f"walls[{w}].normal", wall["normal"], None)
+        if not np.linalg.norm(nw) > 0:
+            raise _err(name, f"walls[{w}].normal", "must not be zero")
+        cols += list(nw / np.linalg.norm(nw))
+        cols += list(_vec(name, f"walls[{w}].point", wall.get("point"), (0.0, 0.0, 0.0)))
+    return cols
+
+
 @register
 class SphereSet(ForceType):
     """Many spheres on many bodies colliding with each other and with walls (planes), the
@@ -194,37 +233,12 @@ class SphereSet(ForceType):
         else:
             radii = [_number(name, "radius", radius, 0.0, True)] * len(bodies)
         centre = _vec(name, "center", p.get("center"), (0.0, 0.0, 0.0))
-        law = p.get("law", "linear")
-        if law not in ("linear", "hertz"):
-            raise _err(name, "law", f"a sphere set takes the law 'linear' (with damping) or "
-                                    f"'hertz', not {law!r}: its pairs change as it runs, so "
-                                    "the impact velocity the hysteresis laws need is not kept; "
-                                    "declare 'contact' elements per pair for those")
-        if p.get("friction") == "lugre":
-            raise _err(name, "friction", "the lugre law keeps a bristle state per contact, and "
-                                         "a sphere set's pairs change as it runs: use coulomb "
-                                         "or stribeck here, or 'contact' elements per pair")
         if "stiffness" not in p:
             raise _err(name, "stiffness", "give the contact stiffness (N/m for linear, "
                                           "N/m^1.5 for hertz)")
         walls = p.get("walls") or []
-        if not isinstance(walls, (list, tuple)) or len(walls) > MAX_WALLS:
-            raise _err(name, "walls", f"expected a list of at most {MAX_WALLS} walls "
-                                      "{normal, point}, got {walls!r}")
-        wall_cols = []
-        for w, wall in enumerate(walls):
-            if not isinstance(wall, dict) or set(wall) - {"normal", "point"} or \
-                    "normal" not in wall:
-                raise _err(name, f"walls[{w}]", f"expected {{normal: [x, y, z], point: "
-                                                f"[x, y, z]}}, got {wall!r}")
-            nw = _vec(name, f"walls[{w}].normal", wall["normal"], None)
-            if not np.linalg.norm(nw) > 0:
-                raise _err(name, f"walls[{w}].normal", "must not be zero")
-            wall_cols += list(nw / np.linalg.norm(nw))
-            wall_cols += list(_vec(name, f"walls[{w}].point", wall.get("point"),
-                                   (0.0, 0.0, 0.0)))
-        law_row = law_params(dataclasses.replace(spec, params=dict(p, law=law)), (0.0, 0.0),
-                              ("sphere", "sphere"))
+        wall_cols = wall_columns(name, walls)
+        law_row = set_law(spec, "a sphere set", ("sphere", "sphere"))
         rows = np.zeros((len(bodies), N_COLUMNS))
         rows[:, L.C_LAW:L.N_COLUMNS] = law_row
         rows[:, C_FIRST] = np.arange(len(bodies))
