@@ -54,7 +54,7 @@ METHODS = [
     ("standard", "Standard", {}, 1639, 6.3),
     ("baumgarte", "Baumgarte", BAUMGARTE, 2401, 10.7),
     ("penalty", "Penalty", PENALTY, 3769, 17.2),
-    ("augmented_lagrangian", "Augmented Lagrangian", PENALTY, 3769, 17.6),
+    ("augmented_lagrangian", "Augmented Lagrangian", dict(PENALTY, project=False), 3769, 17.6),
     ("projection", "Projection (not in the text)", {}, None, None),
 ]
 

@@ -38,26 +38,33 @@ def branch_error(model, res, n):
     return float(np.linalg.norm(tips - path, axis=1).max()), phi
 
 
+@pytest.mark.parametrize("method", ["projection", "augmented_lagrangian"])
 @pytest.mark.parametrize("n, integrator, rtol", [(2, "rk45", 1e-6), (2, "rk45", 1e-10),
                                                  (2, "dop853", 1e-10), (8, "rk45", 1e-8),
                                                  (8, "dop853", 1e-10)])
-def test_projection_follows_the_parallelogram_branch_through_every_flat_position(n, integrator,
-                                                                                 rtol):
+def test_projection_follows_the_parallelogram_branch_through_every_flat_position(
+        method, n, integrator, rtol):
     """10 s: 14 flat positions. Before, rk45 at rtol 1e-10 crawled into any budget at the first
     (68,200 steps for 3.3 s), and the Euclidean projection put an energy error into every
     passage (3.4e-4 m off after 10 s at rtol 1e-10); dop853 at 1e-10 and N = 8 at 1e-8 stopped
-    or left the branch."""
+    or left the branch. The augmented Lagrangian with its projection (its default) passes
+    likewise; without it, it stopped with the diagnosis (test_singular_guard)."""
     model = models.n_four_bar(n).compile()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = simulate(model, 10.0, method="projection", integrator=integrator, rtol=rtol,
+        res = simulate(model, 10.0, method=method, integrator=integrator, rtol=rtol,
                        atol=rtol * 1e-2, output_step=0.05, max_wall_time=120.0)
     assert res.status == "success" and res.t[-1] == 10.0, res.message
     err, phi = branch_error(model, res, n)
     flats = np.floor((-phi[-1] - np.pi / 2) / np.pi) + 1
     assert flats >= 10                                   # it did pass the flat positions
-    # the integration error at this rtol, not a branch jump (those are ~1 m)
-    assert err < {1e-6: 2e-4, 1e-8: 2e-6, 1e-10: 2e-6}[rtol], err
+    # the integration error at this rtol, not a branch jump (those are ~1 m); the augmented
+    # Lagrangian's accelerations carry its iteration tolerance (1e-8 of |vdot|), a floor under
+    # its error below the integrator's at rtol 1e-10 (N = 8, dop853: 3.2e-6 m)
+    bound = {1e-6: 2e-4, 1e-8: 2e-6, 1e-10: 2e-6}[rtol]
+    if method == "augmented_lagrangian":
+        bound = max(bound, 5e-6)
+    assert err < bound, err
 
 
 def test_projection_tolerance_follows_the_integrator_atol():

@@ -19,6 +19,8 @@ leading matrix serves every iteration of an instant (compiled: :func:`.system.so
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 from ..errors import ConvergenceError
@@ -44,10 +46,11 @@ class AugmentedLagrangian(_PenaltyBase):
     name = "augmented_lagrangian"
     iterate = True
 
-    def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0,
+    def __init__(self, alpha: float = 1e7, omega: Optional[float] = None,
+                 mu: Optional[float] = None,
                  tolerance: float = 1e-8, max_iterations: int = 50, floor: float = 1e-6,
-                 singular: str = "stop"):
-        super().__init__(alpha, omega, mu, singular)
+                 singular: str = "stop", project: bool = True):
+        super().__init__(alpha, omega, mu, singular, project)
         self.tolerance = check_positive("augmented_lagrangian tolerance", tolerance)
         self.max_iterations = int(check_positive("augmented_lagrangian max_iterations",
                                                  max_iterations))

@@ -4,30 +4,62 @@
 
 The constraint forces are D^T lam with lam = -alpha (D vdot - gamma + 2 mu omega Phidot +
 omega^2 Phi) (the convention of eom.py). Redundant constraints need no special treatment: the
-leading matrix stays positive definite. Defaults alpha = 1e7, omega = 10, mu = 1 (text).
+leading matrix stays positive definite. Defaults alpha = 1e7, omega = 10, mu = 1 (text); with
+option ``project`` omega = mu = 0 (:class:`_PenaltyBase`).
 
 M + alpha D^T D has the block pattern of the bodies connected by joints; it is assembled into
 that fixed pattern and factorised by a sparse Cholesky (compiled: :func:`penalty_solve`).
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
-from ..errors import SingularMatrixError
+from ..errors import ModelError, SingularMatrixError
 from . import system as cs
 from .base import Method, MethodOutput, check_positive, check_singular, register
+from .step_projection import ProjectsState
 from .standard import _y_of
 
 
-class _PenaltyBase(Method):
+#: the projection of the penalty methods with option ``project``: max |Phi| (m; never coarser
+#: than the run's atol, :meth:`.projection.ProjectsState.tolerance_for`) and Newton iterations
+PROJECTION_TOLERANCE = 1e-10
+PROJECTION_ITERATIONS = 10
+
+
+class _PenaltyBase(ProjectsState, Method):
+    """Option ``project`` (default True): after every accepted step the positions and
+    velocities are projected onto Phi = 0 and D v = nu in the metric of the mass matrix, as the
+    projection method does -- the penalty and augmented Lagrangian formulations with
+    projections (Bayo and Ledesma 1996). The run then stays on the constraint manifold instead
+    of the drifted one the penalty's compliance holds it on, and passes singular positions
+    straight (docs/choosing.md). project=False: the text's formulation (12.14) alone, whose
+    drift decides the branch at a singular position -- there option ``singular`` applies
+    (:mod:`.singular_guard`)."""
     #: augmented Lagrangian iterations (12.17) instead of one penalty solve (False here)
     iterate = False
 
-    follows_drift = True
-
-    def __init__(self, alpha: float = 1e7, omega: float = 10.0, mu: float = 1.0,
-                 singular: str = "stop"):
+    def __init__(self, alpha: float = 1e7, omega: Optional[float] = None,
+                 mu: Optional[float] = None, singular: str = "stop", project: bool = False):
         self.singular = check_singular(self.name, singular)
+        if not isinstance(project, (bool, np.bool_)):
+            raise ModelError(f"{self.name} project: expected true or false, got {project!r} "
+                             "(true: project the positions and velocities onto the constraints "
+                             "after every step; false: the text's formulation alone)")
+        self.project_steps = bool(project)
+        self.projects = self.project_steps        # the run projects after every step
+        self.follows_drift = not self.project_steps
+        # the stabilisation terms of (12.14) by default only without the projection, which
+        # removes the drift itself: with both, the terms 2 mu omega Phidot + omega^2 Phi act on
+        # what the step left before the projection, and the N-four-bar's augmented Lagrangian
+        # run (rk45, rtol 1e-6) took 389 steps to 171 and ended 2.5e-4 m off the exact path to
+        # 4.5e-5 m (docs/choosing.md)
+        if omega is None:
+            omega = 0.0 if self.project_steps else 10.0
+        if mu is None:
+            mu = 0.0 if self.project_steps else 1.0
         self.alpha = check_positive(f"{self.name} alpha", alpha)
         self.omega = check_positive(f"{self.name} omega", omega, allow_zero=True)
         self.mu = check_positive(f"{self.name} mu", mu, allow_zero=True)
@@ -91,14 +123,56 @@ class _PenaltyBase(Method):
         return MethodOutput(sys_.fields(ev.W, "vdot").copy(), sys_.fields(ev.W, "lam").copy(),
                             it)
 
+    def _projection_settings(self):
+        return PROJECTION_TOLERANCE, PROJECTION_ITERATIONS
+
+    def _projection_advice(self, iterations, tol) -> str:
+        return (f"the {self.name} method's projection ({iterations} iterations, tolerance "
+                f"{tol:.3g}) failed here; run with method option project: false, or method "
+                "projection")
+
     def parameters(self):
         return {"alpha": self.alpha, "omega": self.omega, "mu": self.mu,
-                "singular": self.singular}
+                "singular": self.singular, "project": self.project_steps}
 
 
 @register
 class Penalty(_PenaltyBase):
+    """The penalty method (12.14). With option ``project`` its step projection is in the
+    metric of its own leading matrix K = M + alpha D^T D (Bayo and Ledesma 1996):
+
+        q <- q - K^-1 alpha D^T Phi (iterated),    v <- v - K^-1 alpha D^T (D v - nu)
+
+    Along a direction in which D keeps a singular value sigma this removes the violation as the
+    mass metric does where alpha sigma^2 >> m, and leaves it where the penalty's own stiffness
+    alpha sigma^2 is small -- near a singular position, where the penalty delivers only part of
+    the constraint force along the near-dependent rows. Removing the velocity that part left
+    (the mass metric) is a plastic impact: the 2-loop N-four-bar lost 0.5 J of its 35.8 J at
+    its first flat position (rk45, rtol 1e-8), against 4e-6 J over 10 s in this metric
+    (docs/choosing.md). The augmented Lagrangian, whose iterations deliver the whole force,
+    projects in the mass metric."""
     name = "penalty"
+
+    def project_y(self, system, t, y, tolerance=None, multistep=False):
+        if system.python_groups:             # no compiled constraints: the mass metric
+            return super().project_y(system, t, y, tolerance, multistep)
+        y = y.copy()
+        tol = PROJECTION_TOLERANCE if tolerance is None else float(tolerance)
+        if system.table.has_drivers:
+            system.table.set_time(t)
+        KI, KW = system.penalty_pack()
+        mp = self.__dict__.get("_mp")
+        if mp is None:
+            mp = self._mp = self.params()
+        if penalty_project(t, y, system.F, system.I, system.W, KI, KW, mp, tol,
+                           PROJECTION_ITERATIONS) < 0:
+            err = SingularMatrixError(
+                f"t = {t:.6g} s: the penalty method's projection failed: M + alpha D^T D is "
+                "not positive definite or the positions are not finite; run with method "
+                "option project: false, or method projection")
+            err.t = t
+            raise err
+        return y
 
 
 # -------------------- Compiled solve of the penalty and augmented Lagrangian methods, Eq. (12.14)
@@ -107,6 +181,8 @@ from ..integrators.explicit import rk_combine
 from .layout import unpack_k
 from . import sparse as spc
 from ..jit import njit
+from ..jit import array_view
+from ..rotations import rotate_p_scalar
 from .system import (NOT_CONVERGED, NOT_FINITE, OK, SINGULAR, _M, _R, _write_ydot,
                      add_transpose_times, body_views, cons_views, copy, copy_v, fill, finite,
                      force_views, m_all, minv_all, row_times, stage_state)  # noqa: E402
@@ -295,3 +371,78 @@ def _after_penalty(y, ydot, bo, co, fo, k, mp):
         return it
     _write_ydot(bo, co, fo, ydot)
     return it if finite(ydot) else NOT_FINITE
+
+
+@njit
+def penalty_project(t, y, F, I, W, KI, KW, mp, tol, max_it):
+    """The penalty method's step projection (:class:`Penalty`), in place on y: Newton-like
+    iterations q <- q - K^-1 alpha D^T Phi until max |Phi| <= tol or ``max_it`` of them (along
+    a near-dependent direction it converges only by the factor m / (m + alpha sigma^2) per
+    iteration, and that is meant), rotations applied exactly, then v <- v - K^-1 alpha D^T
+    (D v - nu) at the final positions; K = M + alpha D^T D (12.14) factorised at each
+    position. Returns the iterations, SINGULAR if K is not positive definite, NOT_FINITE if
+    the positions are not finite."""
+    bo, co, k = body_views(F, I, W), cons_views(F, I, W), unpack_k(KI, KW)
+    nb = bo.mass.size
+    m = co.phi.size
+    q = array_view(y, 0, (nb, 7))
+    M, R = _M(bo), _R(co)
+    sym = (k.K_Cp, k.K_Ci, k.K_Lp, k.K_Li, k.K_Rp, k.K_Rj, k.K_Rpos, k.K_perm)
+    alpha = mp[1]
+    it = 0
+    while True:
+        stage_state(t, y, 0.0, F, I, W)
+        err = 0.0
+        for a in range(m):
+            if k.rowblk[a, 3] >= 0:
+                err = max(err, abs(co.phi[a]))
+        if not math.isfinite(err):
+            return NOT_FINITE
+        assemble_penalty(M, R, k.blkpos, k.rowblk, alpha, k.rotor, k.Kx)
+        if not spc.numeric(sym, k.Kx, k.KLx, k.xk):
+            return SINGULAR
+        if err <= tol or it == max_it:
+            break
+        _k_correction(M, R, co.phi, k, sym, alpha, m, bo.t6, bo.u6, co.lam_all)
+        for b in range(nb):
+            for c in range(3):
+                q[b, c] += bo.t6[6 * b + c]
+            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
+                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
+            for c in range(4):
+                q[b, 3 + c] = pn[c]
+        it += 1
+    copy_v(y, bo.v)
+    for a in range(m):
+        co.rg[a] = row_times(R, a, bo.v) - co.nu[a]
+    _k_correction(M, R, co.rg, k, sym, alpha, m, bo.t6, bo.u6, co.lam_all)
+    for j in range(6 * nb):
+        y[7 * nb + j] += bo.t6[j]
+    return it
+
+
+@njit
+def _k_correction(M, R, r, k, sym, alpha, m, out, res, lam):
+    """out = -K^-1 alpha D^T r over the kept constraint rows (r: (>= m,); the armature rows
+    beyond m carry no violation), K factorised in k.KLx, with one step of iterative refinement
+    as in :func:`penalty_solve` (K's condition number is about alpha |D|^2 / m_min). res (6 nb,)
+    and lam (the rows) are scratch."""
+    for a in range(k.ck.size):
+        k.ck[a] = r[a] if a < m and k.rowblk[a, 3] >= 0 else 0.0
+    fill(k.dtc, 0.0)
+    add_transpose_times(R, k.ck, k.dtc)
+    for j in range(out.size):
+        out[j] = -alpha * k.dtc[j]
+    spc.solve(sym, k.KLx, out, k.yk)
+    m_all(M, out, res)                                                # K out
+    for a in range(lam.size):
+        if a >= m:
+            lam[a] = k.rotor[a - m] * row_times(R, a, out)
+        else:
+            lam[a] = alpha * row_times(R, a, out) if k.rowblk[a, 3] >= 0 else 0.0
+    add_transpose_times(R, lam, res)
+    for j in range(out.size):
+        res[j] = -alpha * k.dtc[j] - res[j]                           # residual
+    spc.solve(sym, k.KLx, res, k.yk)
+    for j in range(out.size):
+        out[j] += res[j]

@@ -1,5 +1,5 @@
 """The singular-position guard of the methods that follow their constraint drift (standard,
-Baumgarte, penalty, augmented Lagrangian): where the run comes so close to a singular position
+Baumgarte, penalty, augmented Lagrangian without its projection): where the run comes so close to a singular position
 that its drift decides the branch, it stops with a diagnosis instead of going on, perhaps on
 the other branch, and reporting success.
 
