@@ -21,7 +21,8 @@ from . import andrews, bicycle, contact, iftomm, rolling, sliding, textbook
 from .andrews import ANDREWS, ANDREWS_BODIES, andrews_body_angles, andrews_coordinates, \
     andrews_squeezer
 from .bicycle import MEIJAARD, bicycle_lean_steer, whipple_bicycle
-from .contact import mixed_pile, slider_crank_clearance, spheres_in_box
+from .contact import (DOMINO, domino_tipping_speed, dominoes, mixed_pile, slider_crank_clearance,
+                      spheres_in_box)
 from .iftomm import (HEAVY_TOP, ROBOT_ARM, _slender_inertia, double_pendulum, flyball_governor,
                      heavy_top, n_four_bar, n_four_bar_flat, robot_arm, simple_pendulum_a01,
                      slider_crank_iftomm)
