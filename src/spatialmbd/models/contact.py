@@ -95,8 +95,9 @@ PILE_SHAPES = (
 
 def display_shape(shape: dict) -> list:
     """The display shapes (docs/model-file.md, "Shapes") of a convex contact shape: a box,
-    sphere, capsule or cylinder as itself; none for an ellipsoid or a hull (a display mesh
-    would go to a sidecar archive of the model file)."""
+    sphere, capsule or cylinder as itself; an ellipsoid as an inline mesh of 42 vertices on its
+    surface (ELLIPSOID_MESH), a convex hull as the inline mesh of its hull (faces wound outward;
+    both under the 64 vertices that would send a mesh to a sidecar file)."""
     kind = shape["type"]
     if kind == "box":
         return [{"type": "box", "size": [2.0 * h for h in shape["half_extents"]]}]
@@ -105,7 +106,60 @@ def display_shape(shape: dict) -> list:
     if kind in ("capsule", "cylinder"):
         return [{"type": kind, "radius": shape["radius"],
                  "length": 2.0 * shape["half_length"]}]
+    if kind == "ellipsoid":
+        V, F = _unit_sphere_mesh(*ELLIPSOID_MESH)
+        return [{"type": "mesh", "vertices": (V * np.asarray(shape["semi_axes"])).tolist(),
+                 "faces": F.tolist()}]
+    if kind == "convex":
+        return [_hull_mesh(np.asarray(shape["vertices"], dtype=float))]
     return []
+
+
+#: the ellipsoid's display mesh: (longitudes, latitude bands)
+ELLIPSOID_MESH = (8, 6)
+
+
+def _unit_sphere_mesh(n_lon: int, n_lat: int):
+    """(vertices, faces) of a UV sphere of radius 1: two poles and n_lat - 1 rings of n_lon
+    points (exact sines and cosines: the same bits on every machine), faces wound outward."""
+    V = [[0.0, 0.0, 1.0]]
+    for i in range(1, n_lat):
+        th = math.pi * i / n_lat
+        for j in range(n_lon):
+            ph = 2.0 * math.pi * j / n_lon
+            V.append([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
+    V.append([0.0, 0.0, -1.0])
+    south = len(V) - 1
+    F = []
+    for j in range(n_lon):
+        k = (j + 1) % n_lon
+        F.append([0, 1 + j, 1 + k])
+        last = 1 + (n_lat - 2) * n_lon
+        F.append([south, last + k, last + j])
+    for i in range(n_lat - 2):
+        a, b = 1 + i * n_lon, 1 + (i + 1) * n_lon
+        for j in range(n_lon):
+            k = (j + 1) % n_lon
+            F.append([a + j, b + j, b + k])
+            F.append([a + j, b + k, a + k])
+    return np.array(V), np.array(F, dtype=int)
+
+
+def _hull_mesh(points: np.ndarray) -> dict:
+    """The inline display mesh of the convex hull of ``points``: its vertices, triangles wound
+    outward (counter-clockwise seen from outside)."""
+    from scipy.spatial import ConvexHull
+    hull = ConvexHull(points)
+    used = sorted(set(int(i) for f in hull.simplices for i in f))
+    index = {v: k for k, v in enumerate(used)}
+    centre = points[used].mean(axis=0)
+    faces = []
+    for f in hull.simplices:
+        a, b, c = (points[i] for i in f)
+        if float(np.dot(np.cross(b - a, c - a), (a + b + c) / 3.0 - centre)) < 0.0:
+            f = (f[0], f[2], f[1])
+        faces.append([index[int(i)] for i in f])
+    return {"type": "mesh", "vertices": points[used].tolist(), "faces": faces}
 
 
 def mixed_pile(n_side: int = 3, layers: int = 3, mass: float = 0.05,
