@@ -138,6 +138,12 @@ def test_tendon_actuator_accelerates_each_joint_by_its_coefficient():
     (dict(joints=["j1"], coefficients=[1], ctrlrange=[1, -1]), r"ctrlrange: lower 1.0 > upper"),
     (dict(joints=["j1"], coefficients=[1], bias=[1, 2]), r"bias: give \[b0, b1, b2\]"),
     (dict(joints=["s"], coefficients=[1]), r"joint 's' is a spherical joint"),
+    (dict(joints=["j1"], coefficients=[1], range=[0.2, -0.2], limit_stiffness=1.0),
+     r"range: lower 0.2 > upper -0.2"),
+    (dict(joints=["j1"], coefficients=[1], range=[-0.2, 0.2]), r"needs limit_stiffness="),
+    (dict(joints=["j1"], coefficients=[1], range=[-0.2, 0.2], limit_stiffness=0),
+     r"limit_stiffness: must be > 0"),
+    (dict(joints=["j1"], coefficients=[1], limit_stiffness=10.0), r"without range has no limit"),
 ])
 def test_bad_input_names_the_element(params, match):
     b = chain(**JOINTS)
@@ -146,3 +152,62 @@ def test_bad_input_names_the_element(params, match):
     with pytest.raises(ModelError, match=match):
         b.add_force("fixed_tendon", "t2", **params)
         b.compile()
+
+
+@pytest.mark.parametrize("side", ["lower", "upper"])
+def test_limit_force_is_the_stop_on_the_gradient_of_the_length(side):
+    """With the limit passed (L below lo or above hi): F = +-max(K delta + C delta', 0), the
+    power of g is F L', and its conservative part is -dV/dt of V = K delta^2 / 2 (central
+    differences along random motions, the spring and actuator off)."""
+    lo, hi = (0.6, 5.0) if side == "lower" else (-5.0, -0.6)
+    model = chain(**JOINTS, range=[lo, hi], limit_stiffness=400.0,
+                  limit_damping=3.0).compile()
+    group = model.force_groups[0]
+    rng = np.random.default_rng(11)
+    checked = 0
+    for _ in range(40):
+        q0, v = random_state(rng, 4)
+        h = 1e-6
+        state = BodyState.from_qv(q0, v, 0.0)
+        L, Ld, f, F = group.details(state, 0.0)[0]
+        if not (L < lo if side == "lower" else L > hi):
+            continue
+        delta, rate = (lo - L, -Ld) if side == "lower" else (L - hi, Ld)
+        expect = max(400.0 * delta + 3.0 * rate, 0.0) * (1.0 if side == "lower" else -1.0)
+        assert F == pytest.approx(expect, rel=1e-12, abs=1e-12)
+        g = np.zeros((5, 6))
+        group.evaluate(state, 0.0, g)
+        vv = np.concatenate([state.rdot, state.omega], axis=1)
+        power = float(np.sum(g[:4] * vv[:4]))
+        assert power == pytest.approx(F * Ld, rel=1e-9, abs=1e-10)
+        E = [group.potential_energy(BodyState.from_qv(q_along(q0, v, dt), v, dt), 0.0)
+             for dt in (-h, h)]
+        assert E[0] >= 0.0 and E[1] >= 0.0
+        assert power - group.nonconservative_power(state, 0.0) == pytest.approx(
+            -(E[1] - E[0]) / (2 * h), rel=1e-5, abs=1e-7)
+        checked += 1
+    assert checked >= 5
+
+
+def test_slider_rests_on_its_tendon_limit_at_the_closed_form_compression():
+    """A 2 kg slider on a vertical translational joint, its tendon L = 0.5 x limited below at
+    lo = -0.1: at rest on the stop 0.5 K delta = m g (the stop's force c F on the joint), so
+    x = (lo - delta) / 0.5 with delta = 2 m g / K; released at rest 0.2 m above it, it lands
+    and settles there (the limit's damping), and the energy balance closes."""
+    b = ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_body("s", 2.0, (0.1, 0.1, 0.1), r=(0, 0, 0))
+    b.add_joint("translational", "x", "ground", "s", point=(0, 0, 0), axis=(0, 0, 1))
+    K, C = 2e4, 400.0          # on x: 5,000 N/m and 100 N s/m, damping ratio 0.5
+    b.add_force("fixed_tendon", "t", joints=["x"], coefficients=[0.5], range=[-0.1, 1.0],
+                limit_stiffness=K, limit_damping=C)
+    model = b.compile()
+    res = simulate(model, 3.0, method="standard", integrator="rk45", rtol=1e-10, atol=1e-12,
+                   output_step=0.01)
+    assert res.status == "success"
+    delta = 2.0 * 2.0 * 9.81 / K
+    x_rest = (-0.1 - delta) / 0.5
+    z = res.q[:, 0, 2]
+    assert z.min() < x_rest                              # it did land on the stop
+    assert z[-1] == pytest.approx(x_rest, abs=1e-9)
+    e = res.energy()
+    assert abs(e["error"]).max() < 1e-6 * abs(e["work_nonconservative"][-1])

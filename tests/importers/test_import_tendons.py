@@ -77,7 +77,7 @@ def test_fixed_tendons_from_a_keyframe_match_mujoco():
     assert err < 1e-6, err
 
 
-def test_tendon_limits_friction_and_spatial_tendons_are_left_out_named():
+def test_tendon_friction_and_spatial_tendons_are_left_out_named():
     xml = ROBOT.replace('springlength="0.15"', 'springlength="0.15" range="-1 1" '
                         'frictionloss="0.1"').replace(
         "</tendon>", '<spatial name="rope"><site site="a"/><site site="b"/></spatial>'
@@ -92,7 +92,9 @@ def test_tendon_limits_friction_and_spatial_tendons_are_left_out_named():
     xml = xml.replace('ctrl="0.4 0.2"', 'ctrl="0.4 0 0.2"')
     imported = read_mjcf(xml)
     left = {(x.kind, x.element): x.detail for x in imported.left_out}
-    assert left[("tendon", "spring3")] == "its limit, frictionloss"
+    assert left[("tendon", "spring3")] == "its frictionloss"
+    approx = {(x.kind, x.element): x.detail for x in imported.approximated}
+    assert "linear stop" in approx[("limit approximation", "spring3")]    # the limit imports
     assert "spatial tendon" in left[("actuator", "rope_motor")]
     assert ("tendon", "rope") not in left          # nothing of its own to import
     assert "spring3_spring" in imported.builder.forces
@@ -130,3 +132,42 @@ def test_robotiq_gripper_closes_on_its_tendon_actuator(assets):
             assert err < 3e-4, err                # 2.5e-4 m measured
         else:
             assert err < 1e-6, err                # 1.5e-7 m measured
+
+
+SLIDER = """<mujoco model="tendon_limit"><option gravity="0 0 -9.81" timestep="1e-4">
+  <flag contact="disable"/></option>
+  <worldbody><body name="s" pos="0 0 1"><joint name="x" type="slide" axis="0 0 1" ref="0.04"/>
+    <geom type="box" size="0.05 0.05 0.05" mass="2"/></body></worldbody>
+  <tendon><fixed name="t" range="-0.1 0.3" margin="0.01"><joint joint="x" coef="0.5"/></fixed>
+  </tendon></mujoco>"""
+
+
+def test_tendon_limit_imports_as_a_linear_stop_and_holds_the_slider():
+    """A fixed tendon's range becomes the fixed_tendon's limit: the range less the margin,
+    measured from the assembly (ref 0.04: shifted by 0.5 x 0.04), stiffness and damping of
+    MuJoCo's soft limit on the tendon's inertia 1 / tendon_invweight0 as for a joint limit
+    (docs/import.md). The 2 kg slider falls onto it and rests at the linear stop's closed-form
+    compression m g / (0.5 K); MuJoCo's soft constraint rests on the same stop, deflected by
+    (1 - d) of that (its static deflection is not a spring's: the approximation is named)."""
+    from spatialmbd.importers.mjcf.joint_elements import soft_spring
+    from spatialmbd.simulate import simulate
+    imported = read_mjcf(SLIDER)
+    assert imported.left_out == []
+    assert [(x.kind, x.element) for x in imported.approximated] == [
+        ("limit approximation", "t")]
+    spec = imported.builder.forces["t_spring"].params
+    m = mujoco.MjModel.from_xml_string(SLIDER)
+    K, C = soft_spring(mujoco, m, m.tendon_solref_lim[0], m.tendon_solimp_lim[0],
+                       1.0 / m.tendon_invweight0[0])
+    assert spec["range"] == pytest.approx([-0.1 + 0.01 - 0.02, 0.3 - 0.01 - 0.02], abs=1e-15)
+    assert (spec["limit_stiffness"], spec["limit_damping"]) == (K, C)
+    res = simulate(imported.builder.compile(), 2.0, method="standard", integrator="rk45",
+                   rtol=1e-10, atol=1e-12, output_step=0.01)
+    L = 0.5 * (res.q[:, 0, 2] - 1.0)                    # ours, from the assembly (x = ref)
+    delta = 2.0 * 9.81 / (0.5 * K)
+    assert L[-1] == pytest.approx(-0.11 - delta, abs=1e-9)
+    d = mujoco.MjData(m)
+    while d.time < 2.0 - 1e-12:
+        mujoco.mj_step(m, d)
+    L_mj = 0.5 * d.qpos[0] - 0.5 * 0.04                # MuJoCo's L from the same origin
+    assert -0.11 - delta < L_mj < -0.11

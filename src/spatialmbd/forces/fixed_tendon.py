@@ -15,11 +15,16 @@ other joints' bodies. The tendon's force is
     u = clamp(command, ctrlrange),
 
 (k ``stiffness``, c ``damping``, L0 ``rest_length``; the actuator part as MuJoCo's affine
-actuators: ``gain``, ``bias = [b0, b1, b2]``) and each joint m receives the effort c_m F as the
+actuators: ``gain``, ``bias = [b0, b1, b2]``), plus, with ``range = [lo, hi]``, the tendon's
+limit: a linear stop of ``limit_stiffness`` K and ``limit_damping`` C on the penetration
+delta = lo - L (or L - hi) > 0, pushing with Q = max(K delta + C delta', 0) (it never pulls),
++Q at the lower and -Q at the upper end (MJCF ``limited`` / ``range`` of a fixed tendon,
+its soft limit mapped as a joint's: docs/import.md). Each joint m receives the effort c_m F as the
 generalized force c_m F D_qm^T, D_qm the exact Jacobian row of q_m over its two bodies (the
 gradient of L: the potential k (L - L0)^2 / 2 is exact in every state). Power of the
-non-conservative parts: (f - c L') L'. An angle is read within half a turn of its assembled
-value (atan2), enough for tendons that do not wind.
+non-conservative parts: (f - c L') L' and the limit's (Q -/+ K delta) L'; its elastic energy
+K delta^2 / 2. An angle is read within half a turn of its assembled value (atan2), enough for
+tendons that do not wind.
 
 MuJoCo's tendon length is measured from qpos = 0; ours from the assembly: the import shifts
 ``rest_length`` and the bias b0 by sum_m c_m qpos0_m (docs/import.md).
@@ -44,7 +49,10 @@ MAX_JOINTS = 4
 STIFF, DAMP, REST, GAIN, B0, B1, B2, CTRL_LO, CTRL_HI, FORCE_LO, FORCE_HI, N_JOINTS = range(12)
 COEF = 12                                 # c_1 .. c_4
 BLOCKS = COEF + MAX_JOINTS
-N_PARAM = BLOCKS + MAX_JOINTS * JOINT_BLOCK
+#: the limit's columns after the joint blocks: range lo, hi, stiffness K, damping C
+LIMIT = BLOCKS + MAX_JOINTS * JOINT_BLOCK
+LIM_LO, LIM_HI, LIM_K, LIM_C = LIMIT, LIMIT + 1, LIMIT + 2, LIMIT + 3
+N_PARAM = LIMIT + 4
 
 
 @njit
@@ -68,11 +76,28 @@ def tendon_force(P, L, Ld, u):
 
 
 @njit
+def limit_force(P, L, Ld):
+    """(Q signed along L, its elastic energy K delta^2 / 2, its non-conservative power) of the
+    tendon's limit at length L, rate L'."""
+    if L < P[LIM_LO]:
+        delta, rate, sign = P[LIM_LO] - L, -Ld, 1.0
+    elif L > P[LIM_HI]:
+        delta, rate, sign = L - P[LIM_HI], Ld, -1.0
+    else:
+        return 0.0, 0.0, 0.0
+    K = P[LIM_K]
+    q = max(K * delta + P[LIM_C] * rate, 0.0)
+    return sign * q, 0.5 * K * delta * delta, sign * (q - K * delta) * Ld
+
+
+@njit
 def kernel(S, G, k, g, energy, power, D):
     """param: the columns above; law[k, 0] = command u. g += c_m F D_qm^T for every joint m."""
     P = G.param[k]
     L, Ld = length(S, P, D)
     f, F = tendon_force(P, L, Ld, G.law[k, 0])
+    Q, V_lim, P_lim = limit_force(P, L, Ld)
+    F += Q
     for m in range(int(P[N_JOINTS])):
         off = BLOCKS + m * JOINT_BLOCK
         for c in range(12):
@@ -85,8 +110,8 @@ def kernel(S, G, k, g, energy, power, D):
         add_wrench(g, bj, tau * D[0, 6], tau * D[0, 7], tau * D[0, 8], tau * D[0, 9],
                    tau * D[0, 10], tau * D[0, 11])
     dL = L - P[REST]
-    energy[k] = 0.5 * P[STIFF] * dL * dL
-    power[k] = (f - P[DAMP] * Ld) * Ld
+    energy[k] = 0.5 * P[STIFF] * dL * dL + V_lim
+    power[k] = (f - P[DAMP] * Ld) * Ld + P_lim
 
 
 @njit
@@ -97,7 +122,7 @@ def details(S, G, out):
         P = G.param[k]
         L, Ld = length(S, P, D)
         f, F = tendon_force(P, L, Ld, G.law[k, 0])
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = L, Ld, f, F
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = L, Ld, f, F + limit_force(P, L, Ld)[0]
 
 
 def _joints(spec, builder):
@@ -149,7 +174,8 @@ class FixedTendon(ForceType):
     parameters = {"joints": "any", "coefficients": "any", "coordinates": "any",
                   "stiffness": "number", "damping": "number", "rest_length": "number",
                   "command": "law", "gain": "number", "bias": "any", "ctrlrange": "any",
-                  "forcerange": "any"}
+                  "forcerange": "any", "range": "any", "limit_stiffness": "number",
+                  "limit_damping": "number"}
 
     def __init__(self, names, param, laws):
         super().__init__(names)
@@ -169,6 +195,24 @@ class FixedTendon(ForceType):
         return bias
 
     @classmethod
+    def _limit(cls, spec):
+        """(lo, hi, K, C) of the tendon's limit; (-inf, inf, 0, 0) without ``range``."""
+        has = "range" in spec.params
+        for key in ("limit_stiffness", "limit_damping"):
+            if key in spec.params and not has:
+                raise ModelError(f"forces[{spec.name!r}].{key}: a tendon without range has no "
+                                 "limit; give range: [lower, upper] (tendon units) as well")
+        if not has:
+            return -math.inf, math.inf, 0.0, 0.0
+        lo, hi = _range(spec, "range", "tendon units")
+        K = _number(spec, "limit_stiffness", None, nonnegative=True)
+        if K == 0.0:
+            raise ModelError(f"forces[{spec.name!r}].limit_stiffness: must be > 0 for a limit "
+                             "(range given), got 0")
+        C = _number(spec, "limit_damping", 0.0, nonnegative=True)
+        return lo, hi, K, C
+
+    @classmethod
     def validate(cls, spec, builder):
         check_unknown(spec, cls.allowed)
         _joints(spec, builder)
@@ -179,6 +223,7 @@ class FixedTendon(ForceType):
         cls._bias(spec)
         _range(spec, "ctrlrange", "command units")
         _range(spec, "forcerange", "tendon force units")
+        cls._limit(spec)
         try:
             make_law(spec.params.get("command", 0.0))
         except ModelError as exc:
@@ -196,6 +241,7 @@ class FixedTendon(ForceType):
             row[B0:B2 + 1] = cls._bias(spec)
             row[CTRL_LO:CTRL_HI + 1] = _range(spec, "ctrlrange", "")
             row[FORCE_LO:FORCE_HI + 1] = _range(spec, "forcerange", "")
+            row[LIM_LO:LIM_C + 1] = cls._limit(spec)
             joints = _joints(spec, ctx.builder)
             row[N_JOINTS] = len(joints)
             for m, (joint, c, kind) in enumerate(joints):

@@ -411,26 +411,45 @@ class JointElements:
         return None
 
     def _tendon_spring(self, t, tname):
-        """Add the stiffness and damping of fixed tendon t as a ``fixed_tendon`` force; return
-        what of the tendon is left out (its limit, friction loss, armature, a dead band)."""
+        """Add the stiffness, damping and limit of fixed tendon t as a ``fixed_tendon`` force;
+        return what of the tendon is left out (its friction loss, armature, a dead band). The
+        limit's soft constraint (solref_lim, solimp_lim) becomes a linear stop as a joint's
+        does (:func:`soft_spring`), on the tendon's own inertia 1 / tendon_invweight0."""
         m = self.m
         rest = [float(x) for x in m.tendon_lengthspring[t]]
         k = 0.0 if _disabled(self.mujoco, m, "mjDSBL_SPRING") else float(m.tendon_stiffness[t])
         c = 0.0 if _disabled(self.mujoco, m, "mjDSBL_DAMPER") else float(m.tendon_damping[t])
+        limited = bool(m.tendon_limited[t]) and not _disabled(self.mujoco, m, "mjDSBL_LIMIT")
         left = [what for what, on in (
-            ("limit", bool(m.tendon_limited[t])),
             ("frictionloss", m.tendon_frictionloss[t] != 0),
             ("armature", float(getattr(m, "tendon_armature", np.zeros(m.ntendon))[t]) != 0),
             ("spring dead band", k != 0 and rest[0] != rest[1])) if on]
-        if k == 0 and c == 0 or "spring dead band" in left:
+        if "spring dead band" in left:
+            k = c = 0.0
+        if k == 0 and c == 0 and not limited:
             return left
         tendon = self.fixed_tendon(t)
         if isinstance(tendon, str):
-            return ["stiffness/damping (" + tendon + ")"] + left
+            return ["stiffness/damping/limit (" + tendon + ")"] + left
         joints, coefs, shift = tendon
-        self.builder.add_force("fixed_tendon", self.fresh(re_name(tname) + "_spring"),
-                               joints=joints, coefficients=coefs, stiffness=k, damping=c,
-                               rest_length=rest[0] - shift)
+        spec = dict(joints=joints, coefficients=coefs, stiffness=k, damping=c,
+                    rest_length=rest[0] - shift)
+        if limited:
+            lo, hi = (float(x) for x in m.tendon_range[t])
+            margin = float(m.tendon_margin[t])
+            stiffness, damping = soft_spring(self.mujoco, m, m.tendon_solref_lim[t],
+                                             m.tendon_solimp_lim[t],
+                                             1.0 / float(m.tendon_invweight0[t]))
+            spec.update(range=[lo + margin - shift, hi - margin - shift],
+                        limit_stiffness=stiffness, limit_damping=damping)
+            self.leave("limit approximation", tname, f"tendon range {lo:.6g} .. {hi:.6g}: "
+                       "MuJoCo's soft limit (solref, solimp) as a linear stop, stiffness "
+                       f"{stiffness:.6g}, damping {damping:.6g}")
+        try:
+            self.builder.add_force("fixed_tendon", self.fresh(re_name(tname) + "_spring"),
+                                   **spec)
+        except ModelError as exc:
+            return [f"stiffness/damping/limit ({exc})"] + left
         return left
 
     def add_tendons(self) -> None:
