@@ -144,6 +144,9 @@ def test_tendon_actuator_accelerates_each_joint_by_its_coefficient():
     (dict(joints=["j1"], coefficients=[1], range=[-0.2, 0.2], limit_stiffness=0),
      r"limit_stiffness: must be > 0"),
     (dict(joints=["j1"], coefficients=[1], limit_stiffness=10.0), r"without range has no limit"),
+    (dict(joints=["j1"], coefficients=[1], frictionloss=-1.0), r"frictionloss: must be >= 0"),
+    (dict(joints=["j1"], coefficients=[1], frictionloss=1.0, creep_velocity=0),
+     r"creep_velocity: must be > 0"),
 ])
 def test_bad_input_names_the_element(params, match):
     b = chain(**JOINTS)
@@ -211,3 +214,39 @@ def test_slider_rests_on_its_tendon_limit_at_the_closed_form_compression():
     assert z[-1] == pytest.approx(x_rest, abs=1e-9)
     e = res.energy()
     assert abs(e["error"]).max() < 1e-6 * abs(e["work_nonconservative"][-1])
+
+
+
+def slider(angle_deg=90.0, speed=0.0, **tendon):
+    """A 2 kg slider on a translational joint inclined angle_deg from the horizontal, started
+    at ``speed`` along it, its tendon L = 0.5 x."""
+    a = math.radians(angle_deg)
+    axis = (math.cos(a), 0.0, math.sin(a))
+    b = ModelBuilder(gravity=(0, 0, -9.81))
+    b.add_body("s", 2.0, (0.1, 0.1, 0.1), r=(0, 0, 0), rdot=tuple(speed * x for x in axis))
+    b.add_joint("translational", "x", "ground", "s", point=(0, 0, 0), axis=axis)
+    b.add_force("fixed_tendon", "t", joints=["x"], coefficients=[0.5], **tendon)
+    return b.compile()
+
+
+def test_tendon_friction_creeps_at_the_closed_form_speed_and_stops_a_slide():
+    """Tendon friction -F tanh(L' / v_eps) on L = 0.5 x: (1) a vertical slider held by a level
+    F above its weight's 2 m g creeps at the steady L' = -v_eps atanh(2 m g / F); (2) a
+    horizontal one started at 1 m/s stops after m v0^2 / (2 (0.5 F)) (less the tail of the
+    regularization, of order v_eps / v0 relative), dissipating its kinetic energy."""
+    m, g = 2.0, 9.81
+    F, v_eps = 3.0 * 2.0 * m * g, 1e-3
+    res = simulate(slider(frictionloss=F, creep_velocity=v_eps), 1.0, method="standard",
+                   integrator="rk45", rtol=1e-10, atol=1e-12, output_step=0.01)
+    Ld = 0.5 * res.v[-1, 0, 2]
+    assert Ld == pytest.approx(-v_eps * math.atanh(2.0 * m * g / F), rel=1e-6)
+    F = 8.0
+    res = simulate(slider(0.0, 1.0, frictionloss=F, creep_velocity=1e-6), 1.0,
+                   method="standard", integrator="rk45", rtol=1e-10, atol=1e-12,
+                   output_step=0.01)
+    stop = m * 1.0 ** 2 / (2 * 0.5 * F)                  # 0.25 m after 0.5 s
+    assert res.q[-1, 0, 0] == pytest.approx(stop, rel=1e-4)
+    assert abs(res.v[-1, 0, 0]) < 1e-5
+    e = res.energy()
+    assert e["work_nonconservative"][-1] == pytest.approx(-0.5 * m, rel=1e-6)
+    assert abs(e["error"]).max() < 1e-8

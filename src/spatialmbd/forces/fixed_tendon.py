@@ -19,10 +19,13 @@ actuators: ``gain``, ``bias = [b0, b1, b2]``), plus, with ``range = [lo, hi]``, 
 limit: a linear stop of ``limit_stiffness`` K and ``limit_damping`` C on the penetration
 delta = lo - L (or L - hi) > 0, pushing with Q = max(K delta + C delta', 0) (it never pulls),
 +Q at the lower and -Q at the upper end (MJCF ``limited`` / ``range`` of a fixed tendon,
-its soft limit mapped as a joint's: docs/import.md). Each joint m receives the effort c_m F as the
+its soft limit mapped as a joint's: docs/import.md), and with ``frictionloss`` F_f the
+regularized Coulomb friction -F_f tanh(L' / v_eps) of the joint friction's law (``creep_velocity``
+v_eps, default 1e-4; MJCF ``frictionloss`` of a fixed tendon). Each joint m receives the effort c_m F as the
 generalized force c_m F D_qm^T, D_qm the exact Jacobian row of q_m over its two bodies (the
 gradient of L: the potential k (L - L0)^2 / 2 is exact in every state). Power of the
-non-conservative parts: (f - c L') L' and the limit's (Q -/+ K delta) L'; its elastic energy
+non-conservative parts: (f - c L') L', the friction's, and the limit's (Q -/+ K delta) L'; its
+elastic energy
 K delta^2 / 2. An angle is read within half a turn of its assembled value (atan2), enough for
 tendons that do not wind.
 
@@ -52,7 +55,9 @@ BLOCKS = COEF + MAX_JOINTS
 #: the limit's columns after the joint blocks: range lo, hi, stiffness K, damping C
 LIMIT = BLOCKS + MAX_JOINTS * JOINT_BLOCK
 LIM_LO, LIM_HI, LIM_K, LIM_C = LIMIT, LIMIT + 1, LIMIT + 2, LIMIT + 3
-N_PARAM = LIMIT + 4
+#: the friction's columns: level F_f and creep velocity v_eps
+FRIC, V_EPS = LIMIT + 4, LIMIT + 5
+N_PARAM = LIMIT + 6
 
 
 @njit
@@ -73,6 +78,14 @@ def tendon_force(P, L, Ld, u):
     f = P[GAIN] * u + P[B0] + P[B1] * L + P[B2] * Ld
     f = min(max(f, P[FORCE_LO]), P[FORCE_HI])
     return f, f - P[STIFF] * (L - P[REST]) - P[DAMP] * Ld
+
+
+@njit
+def friction_force(P, Ld):
+    """The tendon's friction force -F_f tanh(L' / v_eps) (0 without frictionloss)."""
+    if P[FRIC] == 0.0:
+        return 0.0
+    return -P[FRIC] * math.tanh(Ld / P[V_EPS])
 
 
 @njit
@@ -97,7 +110,8 @@ def kernel(S, G, k, g, energy, power, D):
     L, Ld = length(S, P, D)
     f, F = tendon_force(P, L, Ld, G.law[k, 0])
     Q, V_lim, P_lim = limit_force(P, L, Ld)
-    F += Q
+    Qf = friction_force(P, Ld)
+    F += Q + Qf
     for m in range(int(P[N_JOINTS])):
         off = BLOCKS + m * JOINT_BLOCK
         for c in range(12):
@@ -111,7 +125,7 @@ def kernel(S, G, k, g, energy, power, D):
                    tau * D[0, 10], tau * D[0, 11])
     dL = L - P[REST]
     energy[k] = 0.5 * P[STIFF] * dL * dL + V_lim
-    power[k] = (f - P[DAMP] * Ld) * Ld + P_lim
+    power[k] = (f - P[DAMP] * Ld + Qf) * Ld + P_lim
 
 
 @njit
@@ -122,7 +136,8 @@ def details(S, G, out):
         P = G.param[k]
         L, Ld = length(S, P, D)
         f, F = tendon_force(P, L, Ld, G.law[k, 0])
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = L, Ld, f, F + limit_force(P, L, Ld)[0]
+        out[k, 0], out[k, 1], out[k, 2] = L, Ld, f
+        out[k, 3] = F + limit_force(P, L, Ld)[0] + friction_force(P, Ld)
 
 
 def _joints(spec, builder):
@@ -175,7 +190,8 @@ class FixedTendon(ForceType):
                   "stiffness": "number", "damping": "number", "rest_length": "number",
                   "command": "law", "gain": "number", "bias": "any", "ctrlrange": "any",
                   "forcerange": "any", "range": "any", "limit_stiffness": "number",
-                  "limit_damping": "number"}
+                  "limit_damping": "number", "frictionloss": "number",
+                  "creep_velocity": "number"}
 
     def __init__(self, names, param, laws):
         super().__init__(names)
@@ -213,6 +229,16 @@ class FixedTendon(ForceType):
         return lo, hi, K, C
 
     @classmethod
+    def _friction(cls, spec):
+        """(F_f, v_eps) of the tendon's friction."""
+        level = _number(spec, "frictionloss", 0.0, nonnegative=True)
+        v_eps = _number(spec, "creep_velocity", 1e-4, nonnegative=True)
+        if v_eps == 0.0:
+            raise ModelError(f"forces[{spec.name!r}].creep_velocity: must be > 0 (tendon "
+                             "units/s: the regularization of the friction), got 0")
+        return level, v_eps
+
+    @classmethod
     def validate(cls, spec, builder):
         check_unknown(spec, cls.allowed)
         _joints(spec, builder)
@@ -224,6 +250,7 @@ class FixedTendon(ForceType):
         _range(spec, "ctrlrange", "command units")
         _range(spec, "forcerange", "tendon force units")
         cls._limit(spec)
+        cls._friction(spec)
         try:
             make_law(spec.params.get("command", 0.0))
         except ModelError as exc:
@@ -242,6 +269,7 @@ class FixedTendon(ForceType):
             row[CTRL_LO:CTRL_HI + 1] = _range(spec, "ctrlrange", "")
             row[FORCE_LO:FORCE_HI + 1] = _range(spec, "forcerange", "")
             row[LIM_LO:LIM_C + 1] = cls._limit(spec)
+            row[FRIC:V_EPS + 1] = cls._friction(spec)
             joints = _joints(spec, ctx.builder)
             row[N_JOINTS] = len(joints)
             for m, (joint, c, kind) in enumerate(joints):

@@ -411,22 +411,24 @@ class JointElements:
         return None
 
     def _tendon_spring(self, t, tname):
-        """Add the stiffness, damping and limit of fixed tendon t as a ``fixed_tendon`` force;
-        return what of the tendon is left out (its friction loss, armature, a dead band). The
-        limit's soft constraint (solref_lim, solimp_lim) becomes a linear stop as a joint's
-        does (:func:`soft_spring`), on the tendon's own inertia 1 / tendon_invweight0."""
+        """Add the stiffness, damping, limit and friction loss of fixed tendon t as a
+        ``fixed_tendon`` force; return what of the tendon is left out (its armature, a dead
+        band). The limit's soft constraint (solref_lim, solimp_lim) becomes a linear stop and the
+        friction loss regularized Coulomb friction as a joint's do (:func:`soft_spring`,
+        :func:`creep_velocity`), on the tendon's own inertia 1 / tendon_invweight0."""
         m = self.m
         rest = [float(x) for x in m.tendon_lengthspring[t]]
         k = 0.0 if _disabled(self.mujoco, m, "mjDSBL_SPRING") else float(m.tendon_stiffness[t])
         c = 0.0 if _disabled(self.mujoco, m, "mjDSBL_DAMPER") else float(m.tendon_damping[t])
         limited = bool(m.tendon_limited[t]) and not _disabled(self.mujoco, m, "mjDSBL_LIMIT")
+        level = 0.0 if _disabled(self.mujoco, m, "mjDSBL_FRICTIONLOSS") \
+            else float(m.tendon_frictionloss[t])
         left = [what for what, on in (
-            ("frictionloss", m.tendon_frictionloss[t] != 0),
             ("armature", float(getattr(m, "tendon_armature", np.zeros(m.ntendon))[t]) != 0),
             ("spring dead band", k != 0 and rest[0] != rest[1])) if on]
         if "spring dead band" in left:
             k = c = 0.0
-        if k == 0 and c == 0 and not limited:
+        if k == 0 and c == 0 and not limited and level == 0:
             return left
         tendon = self.fixed_tendon(t)
         if isinstance(tendon, str):
@@ -434,12 +436,19 @@ class JointElements:
         joints, coefs, shift = tendon
         spec = dict(joints=joints, coefficients=coefs, stiffness=k, damping=c,
                     rest_length=rest[0] - shift)
+        inertia = 1.0 / float(m.tendon_invweight0[t])
+        if level:
+            v_eps = creep_velocity(self.mujoco, m, m.tendon_solref_fri[t],
+                                   m.tendon_solimp_fri[t], inertia, level)
+            spec.update(frictionloss=level, creep_velocity=v_eps)
+            self.leave("frictionloss approximation", tname, f"tendon {level:.6g}: MuJoCo's "
+                       "soft friction loss (solref, solimp) as regularized Coulomb friction, "
+                       f"creep velocity {v_eps:.6g}")
         if limited:
             lo, hi = (float(x) for x in m.tendon_range[t])
             margin = float(m.tendon_margin[t])
             stiffness, damping = soft_spring(self.mujoco, m, m.tendon_solref_lim[t],
-                                             m.tendon_solimp_lim[t],
-                                             1.0 / float(m.tendon_invweight0[t]))
+                                             m.tendon_solimp_lim[t], inertia)
             spec.update(range=[lo + margin - shift, hi - margin - shift],
                         limit_stiffness=stiffness, limit_damping=damping)
             self.leave("limit approximation", tname, f"tendon range {lo:.6g} .. {hi:.6g}: "
@@ -455,10 +464,10 @@ class JointElements:
     def add_tendons(self) -> None:
         """A fixed tendon over two single hinges/slides held by a tendon equality with one
         tendon, c_a q_a + c_b q_b - L0 = a0, is the exact coupler c_a x_a + c_b x_b = a0 (x
-        from the assembly). A fixed tendon's stiffness and damping (over 1 to 4 single hinges
-        or slides) become a ``fixed_tendon`` force, as do the actuators pulling it
-        (:meth:`_tendon_actuator`). Its limit and friction loss, spatial tendons and other
-        tendon equalities are left out."""
+        from the assembly). A fixed tendon's stiffness, damping, limit and friction loss (over
+        1 to 4 single hinges or slides) become a ``fixed_tendon`` force, as do the actuators
+        pulling it (:meth:`_tendon_actuator`). Its armature, spatial tendons and other tendon
+        equalities are left out."""
         m, OBJ, EQ = self.m, self.mujoco.mjtObj, self.mujoco.mjtEq
         coupled = set()
         for e in range(m.neq):
