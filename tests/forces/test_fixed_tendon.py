@@ -145,6 +145,8 @@ def test_tendon_actuator_accelerates_each_joint_by_its_coefficient():
      r"limit_stiffness: must be > 0"),
     (dict(joints=["j1"], coefficients=[1], limit_stiffness=10.0), r"without range has no limit"),
     (dict(joints=["j1"], coefficients=[1], frictionloss=-1.0), r"frictionloss: must be >= 0"),
+    (dict(joints=["j1"], coefficients=[1], rest_length=[0.2, 0.1]),
+     r"rest_length: lower 0.2 > upper"),
     (dict(joints=["j1"], coefficients=[1], frictionloss=1.0, creep_velocity=0),
      r"creep_velocity: must be > 0"),
 ])
@@ -250,3 +252,22 @@ def test_tendon_friction_creeps_at_the_closed_form_speed_and_stops_a_slide():
     e = res.energy()
     assert e["work_nonconservative"][-1] == pytest.approx(-0.5 * m, rel=1e-6)
     assert abs(e["error"]).max() < 1e-8
+
+
+def test_spring_dead_band_holds_no_force_inside_and_rests_at_its_edge():
+    """rest_length [a, b]: no spring force for a <= L <= b, k (L - b) above, k (L - a) below
+    (force outputs at set states); a vertical slider (load 2 m g on L = 0.5 x) hung on it
+    with damping settles at the band's lower edge stretched by the closed form 2 m g / k."""
+    model = slider(stiffness=500.0, damping=150.0, rest_length=[-0.05, 0.02])  # overdamped
+    group = model.force_groups[0]
+    for x, expect in ((0.0, 0.0), (0.03, 0.0), (0.1, -500.0 * (0.05 - 0.02)),
+                      (-0.2, -500.0 * (-0.1 + 0.05))):
+        q = np.array([[0.0, 0.0, x, 1.0, 0.0, 0.0, 0.0]])
+        F = group.details(BodyState.from_qv(q, np.zeros((1, 6)), 0.0), 0.0)[0][3]
+        assert F == pytest.approx(expect, abs=1e-12), x
+    res = simulate(model, 6.0, method="standard", integrator="rk45", rtol=1e-10, atol=1e-12,
+                   output_step=0.01)
+    L = 0.5 * res.q[-1, 0, 2]
+    assert L == pytest.approx(-0.05 - 2.0 * 2.0 * 9.81 / 500.0, abs=1e-8)
+    e = res.energy()
+    assert abs(e["error"]).max() < 1e-7

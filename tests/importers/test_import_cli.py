@@ -42,7 +42,7 @@ ARM = """<mujoco model="arm"><compiler angle="radian" meshdir="."/>
         <geom class="visual" type="mesh" mesh="tetra" rgba="0 0 1 1"/>
         <geom class="collision" type="box" pos="0.1 0 0" size="0.1 0.02 0.02"/>
       </body></body></worldbody>
-  <tendon><fixed name="tl" stiffness="5" springlength="0.1 0.2"><joint joint="elbow" coef="1"/></fixed></tendon>
+  <tendon><fixed name="tl" stiffness="5" armature="0.02"><joint joint="elbow" coef="1"/></fixed></tendon>
   <actuator><motor name="m1" tendon="tl"/>
     <general name="m2" joint="elbow" dyntype="filter" dynprm="0.1"/></actuator></mujoco>"""
 
@@ -65,7 +65,7 @@ def test_import_succeeds_by_default_with_a_short_summary(arm, tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "'m2'" not in err        # counts, not names
     assert main(["import", str(arm), "-o", str(out), "--verbose"]) == 0
     err = capsys.readouterr().err
-    for line in ("actuator 'm2'", "tendon 'tl' (its spring dead band)",
+    for line in ("actuator 'm2'", "tendon 'tl' (its armature)",
                  "joint limit 'shoulder' (range -7 .. 7 rad is a turn or more"):
         assert line in err, (line, err)
     assert main(["import", str(arm), "-o", str(out), "--lenient", "-q"]) == 0  # accepted

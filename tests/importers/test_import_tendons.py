@@ -194,3 +194,22 @@ def test_tendon_friction_loss_creeps_as_mujoco_does():
         mujoco.mj_step(m, d)
     assert d.qvel[0] < 0.0
     assert res.v[-1, 0, 2] == pytest.approx(d.qvel[0], rel=0.05)
+
+
+def test_tendon_spring_dead_band_matches_mujoco():
+    """springlength with two values (a, b): MuJoCo's spring acts only outside [a, b]; imported
+    as the fixed_tendon's rest_length [a, b] (shifted to the assembly), the run from the
+    keyframe agrees with MuJoCo's to 1e-6 m while the tendon's length passes in and out of
+    the band."""
+    from spatialmbd.outputs import force_outputs
+    xml = ROBOT.replace('springlength="0.15"', 'springlength="0.05 0.2"')
+    imported = read_mjcf(xml, keyframe="bent")
+    assert imported.left_out == [], imported.summary
+    band = imported.builder.forces["spring3_spring"].params["rest_length"]
+    assert isinstance(band, list) and band[1] - band[0] == pytest.approx(0.15)
+    err, size, res = compare(imported, 1.0, key="bent")
+    L = force_outputs(res, "spring3_spring")["length"]
+    assert (L < band[0]).any() or (L > band[1]).any()         # the spring acted
+    assert ((L >= band[0]) & (L <= band[1])).any()            # and rested in the band
+    assert size > 0.05
+    assert err < 1e-6, err

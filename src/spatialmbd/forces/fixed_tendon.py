@@ -14,7 +14,9 @@ other joints' bodies. The tendon's force is
     F = -k (L - L0) - c L' + f,   f = clamp(gain u + b0 + b1 L + b2 L', forcerange),
     u = clamp(command, ctrlrange),
 
-(k ``stiffness``, c ``damping``, L0 ``rest_length``; the actuator part as MuJoCo's affine
+(k ``stiffness``, c ``damping``, L0 ``rest_length``; ``rest_length: [a, b]`` is a dead band:
+the spring acts on L - b above b, on L - a below a, and not between (MJCF ``springlength`` with
+two values); the actuator part as MuJoCo's affine
 actuators: ``gain``, ``bias = [b0, b1, b2]``), plus, with ``range = [lo, hi]``, the tendon's
 limit: a linear stop of ``limit_stiffness`` K and ``limit_damping`` C on the penetration
 delta = lo - L (or L - hi) > 0, pushing with Q = max(K delta + C delta', 0) (it never pulls),
@@ -57,7 +59,9 @@ LIMIT = BLOCKS + MAX_JOINTS * JOINT_BLOCK
 LIM_LO, LIM_HI, LIM_K, LIM_C = LIMIT, LIMIT + 1, LIMIT + 2, LIMIT + 3
 #: the friction's columns: level F_f and creep velocity v_eps
 FRIC, V_EPS = LIMIT + 4, LIMIT + 5
-N_PARAM = LIMIT + 6
+#: the upper end b of the spring's dead band [a, b] (a in REST; b = a without a band)
+REST_HI = LIMIT + 6
+N_PARAM = LIMIT + 7
 
 
 @njit
@@ -77,7 +81,18 @@ def tendon_force(P, L, Ld, u):
     u = min(max(u, P[CTRL_LO]), P[CTRL_HI])
     f = P[GAIN] * u + P[B0] + P[B1] * L + P[B2] * Ld
     f = min(max(f, P[FORCE_LO]), P[FORCE_HI])
-    return f, f - P[STIFF] * (L - P[REST]) - P[DAMP] * Ld
+    return f, f - P[STIFF] * stretch(P, L) - P[DAMP] * Ld
+
+
+@njit
+def stretch(P, L):
+    """The spring's stretch: L - b above the dead band's upper end b, L - a below its lower a,
+    0 inside (a = b = L0 without a band)."""
+    if L > P[REST_HI]:
+        return L - P[REST_HI]
+    if L < P[REST]:
+        return L - P[REST]
+    return 0.0
 
 
 @njit
@@ -123,7 +138,7 @@ def kernel(S, G, k, g, energy, power, D):
                    tau * D[0, 4], tau * D[0, 5])
         add_wrench(g, bj, tau * D[0, 6], tau * D[0, 7], tau * D[0, 8], tau * D[0, 9],
                    tau * D[0, 10], tau * D[0, 11])
-    dL = L - P[REST]
+    dL = stretch(P, L)
     energy[k] = 0.5 * P[STIFF] * dL * dL + V_lim
     power[k] = (f - P[DAMP] * Ld + Qf) * Ld + P_lim
 
@@ -187,7 +202,7 @@ class FixedTendon(ForceType):
     n_param = N_PARAM
     required = ("joints", "coefficients")
     parameters = {"joints": "any", "coefficients": "any", "coordinates": "any",
-                  "stiffness": "number", "damping": "number", "rest_length": "number",
+                  "stiffness": "number", "damping": "number", "rest_length": "any",
                   "command": "law", "gain": "number", "bias": "any", "ctrlrange": "any",
                   "forcerange": "any", "range": "any", "limit_stiffness": "number",
                   "limit_damping": "number", "frictionloss": "number",
@@ -229,6 +244,15 @@ class FixedTendon(ForceType):
         return lo, hi, K, C
 
     @classmethod
+    def _rest(cls, spec):
+        """(a, b) of ``rest_length``: a number L0 gives (L0, L0), [a, b] a dead band."""
+        value = spec.params.get("rest_length", 0.0)
+        if isinstance(value, (list, tuple)):
+            return _range(spec, "rest_length", "tendon units: a dead band [a, b]")
+        L0 = _number(spec, "rest_length", 0.0)
+        return L0, L0
+
+    @classmethod
     def _friction(cls, spec):
         """(F_f, v_eps) of the tendon's friction."""
         level = _number(spec, "frictionloss", 0.0, nonnegative=True)
@@ -244,7 +268,7 @@ class FixedTendon(ForceType):
         _joints(spec, builder)
         for key in ("stiffness", "damping"):
             _number(spec, key, 0.0, nonnegative=True)
-        _number(spec, "rest_length", 0.0)
+        cls._rest(spec)
         _number(spec, "gain", 1.0)
         cls._bias(spec)
         _range(spec, "ctrlrange", "command units")
@@ -263,7 +287,7 @@ class FixedTendon(ForceType):
             row = np.zeros(N_PARAM)
             row[STIFF] = _number(spec, "stiffness", 0.0, nonnegative=True)
             row[DAMP] = _number(spec, "damping", 0.0, nonnegative=True)
-            row[REST] = _number(spec, "rest_length", 0.0)
+            row[REST], row[REST_HI] = cls._rest(spec)
             row[GAIN] = _number(spec, "gain", 1.0)
             row[B0:B2 + 1] = cls._bias(spec)
             row[CTRL_LO:CTRL_HI + 1] = _range(spec, "ctrlrange", "")

@@ -412,10 +412,11 @@ class JointElements:
 
     def _tendon_spring(self, t, tname):
         """Add the stiffness, damping, limit and friction loss of fixed tendon t as a
-        ``fixed_tendon`` force; return what of the tendon is left out (its armature, a dead
-        band). The limit's soft constraint (solref_lim, solimp_lim) becomes a linear stop and the
-        friction loss regularized Coulomb friction as a joint's do (:func:`soft_spring`,
-        :func:`creep_velocity`), on the tendon's own inertia 1 / tendon_invweight0."""
+        ``fixed_tendon`` force (two spring lengths: its dead band); return what of the tendon
+        is left out (its armature). The limit's soft constraint (solref_lim, solimp_lim)
+        becomes a linear stop and the friction loss regularized Coulomb friction as a joint's
+        do (:func:`soft_spring`, :func:`creep_velocity`), on the tendon's own inertia
+        1 / tendon_invweight0."""
         m = self.m
         rest = [float(x) for x in m.tendon_lengthspring[t]]
         k = 0.0 if _disabled(self.mujoco, m, "mjDSBL_SPRING") else float(m.tendon_stiffness[t])
@@ -425,17 +426,17 @@ class JointElements:
             else float(m.tendon_frictionloss[t])
         left = [what for what, on in (
             ("armature", float(getattr(m, "tendon_armature", np.zeros(m.ntendon))[t]) != 0),
-            ("spring dead band", k != 0 and rest[0] != rest[1])) if on]
-        if "spring dead band" in left:
-            k = c = 0.0
+            ) if on]
         if k == 0 and c == 0 and not limited and level == 0:
             return left
         tendon = self.fixed_tendon(t)
         if isinstance(tendon, str):
             return ["stiffness/damping/limit (" + tendon + ")"] + left
         joints, coefs, shift = tendon
+        # two spring lengths: a dead band [a, b] (no spring force between them)
         spec = dict(joints=joints, coefficients=coefs, stiffness=k, damping=c,
-                    rest_length=rest[0] - shift)
+                    rest_length=rest[0] - shift if rest[0] == rest[1]
+                    else [rest[0] - shift, rest[1] - shift])
         inertia = 1.0 / float(m.tendon_invweight0[t])
         if level:
             v_eps = creep_velocity(self.mujoco, m, m.tendon_solref_fri[t],
