@@ -182,7 +182,7 @@ from .layout import unpack_k
 from . import sparse as spc
 from ..jit import njit
 from ..jit import array_view
-from ..rotations import rotate_p_scalar
+from .projection_kernels import move_positions
 from .system import (NOT_CONVERGED, NOT_FINITE, OK, SINGULAR, _M, _R, _write_ydot,
                      add_transpose_times, body_views, cons_views, copy, copy_v, fill, finite,
                      force_views, m_all, minv_all, row_times, stage_state)  # noqa: E402
@@ -404,13 +404,7 @@ def penalty_project(t, y, F, I, W, KI, KW, mp, tol, max_it):
         if err <= tol or it == max_it:
             break
         _k_correction(M, R, co.phi, k, sym, alpha, m, bo.t6, bo.u6, co.lam_all)
-        for b in range(nb):
-            for c in range(3):
-                q[b, c] += bo.t6[6 * b + c]
-            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
-                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
-            for c in range(4):
-                q[b, 3 + c] = pn[c]
+        move_positions(q, bo.t6)
         it += 1
     copy_v(y, bo.v)
     for a in range(m):

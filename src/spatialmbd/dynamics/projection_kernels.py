@@ -41,6 +41,19 @@ def dd_solve_correction(M, R, P, rhs_rows, bs, lam, dx, use_mass, work):
     return True
 
 
+@njit(inline="always")
+def move_positions(q, dx):
+    """q (nb, 7) moved by dx (6 nb: translations, then rotation vectors in global axes), the
+    rotations applied exactly (p <- quat(dpi) (x) p)."""
+    for b in range(q.shape[0]):
+        for c in range(3):
+            q[b, c] += dx[6 * b + c]
+        pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), dx[6 * b + 3],
+                             dx[6 * b + 4], dx[6 * b + 5])
+        for c in range(4):
+            q[b, 3 + c] = pn[c]
+
+
 @njit
 def project_positions(t, y, F, I, W, tol, max_it, dx_total, use_mass=False):
     """Positions onto Phi(q, t) = 0 by Newton-Raphson, dx = -D^T (D D^T)^-1 Phi (14.12) over
@@ -69,13 +82,7 @@ def project_positions(t, y, F, I, W, tol, max_it, dx_total, use_mass=False):
             return -2, phi0, err
         if not dd_solve_correction(M, R, P, co.phi, sc.bs, co.lam, bo.t6, use_mass, bo.u6):
             return -1, phi0, err
-        for b in range(nb):
-            for c in range(3):
-                q[b, c] += bo.t6[6 * b + c]
-            pn = rotate_p_scalar((q[b, 3], q[b, 4], q[b, 5], q[b, 6]), bo.t6[6 * b + 3],
-                                 bo.t6[6 * b + 4], bo.t6[6 * b + 5])
-            for c in range(4):
-                q[b, 3 + c] = pn[c]
+        move_positions(q, bo.t6)
         for j in range(6 * nb):
             dx_total[j] += bo.t6[j]
         it += 1

@@ -5,6 +5,7 @@ Compiled (:func:`.projection_kernels.project`), with least squares (:mod:`.corre
 D D^T is singular at an instant."""
 from __future__ import annotations
 
+import abc
 from typing import Optional
 
 import numpy as np
@@ -21,9 +22,9 @@ class ProjectsState:
     ``metric``."""
     metric = "auto"
 
+    @abc.abstractmethod
     def _projection_settings(self):
         """(tolerance on max |Phi| in m, Newton iterations) of the projection."""
-        raise NotImplementedError
 
     def _projection_advice(self, iterations, tol) -> str:
         """What to do when the projection does not converge (the end of the error message)."""
